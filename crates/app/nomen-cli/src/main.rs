@@ -1,0 +1,2 @@
+//! The nomen command line: convert motion capture, evaluate results, and (later) simulate and run the engine.
+fn main() {}

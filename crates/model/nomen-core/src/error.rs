@@ -1,0 +1,90 @@
+use thiserror::Error;
+
+/// Everything that can be wrong with a value of the data model.
+///
+/// Messages name the offending field so that readers can prefix them with a source and position.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum CoreError {
+    /// A number that must be finite was NaN or infinite.
+    #[error("{field} is not finite ({value})")]
+    NotFinite {
+        /// The field, e.g. `accel_mps2[2]`.
+        field: String,
+        /// The offending value.
+        value: f64,
+    },
+    /// A number outside the physically plausible range for its unit.
+    #[error("{field} = {value} is outside the plausible range {min}..={max} {unit}")]
+    OutOfRange {
+        /// The field, e.g. `rssi_dbm`.
+        field: String,
+        /// The offending value.
+        value: f64,
+        /// Smallest plausible value.
+        min: f64,
+        /// Largest plausible value.
+        max: f64,
+        /// The unit the field is expressed in.
+        unit: &'static str,
+    },
+    /// A name that is not in a known vocabulary (joint name, joint-set name, ...).
+    #[error("unknown {what} '{name}'")]
+    Unknown {
+        /// What kind of name it is, e.g. `joint`.
+        what: &'static str,
+        /// The name that was not recognised.
+        name: String,
+    },
+    /// A structural problem, e.g. a quaternion of zero norm or a duplicated id.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Result alias of this crate.
+pub type Result<T> = std::result::Result<T, CoreError>;
+
+/// Checks that `value` is finite, naming `field` otherwise.
+pub(crate) fn check_finite(field: &str, value: f64) -> Result<()> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(CoreError::NotFinite {
+            field: field.to_owned(),
+            value,
+        })
+    }
+}
+
+/// Checks every component of a small array.
+pub(crate) fn check_finite_all(field: &str, values: &[f64]) -> Result<()> {
+    for (i, v) in values.iter().enumerate() {
+        if !v.is_finite() {
+            return Err(CoreError::NotFinite {
+                field: format!("{field}[{i}]"),
+                value: *v,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Checks that `value` is finite and in `min..=max`.
+pub(crate) fn check_range(
+    field: &str,
+    value: f64,
+    min: f64,
+    max: f64,
+    unit: &'static str,
+) -> Result<()> {
+    check_finite(field, value)?;
+    if value < min || value > max {
+        return Err(CoreError::OutOfRange {
+            field: field.to_owned(),
+            value,
+            min,
+            max,
+            unit,
+        });
+    }
+    Ok(())
+}

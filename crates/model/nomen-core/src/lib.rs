@@ -1,0 +1,31 @@
+//! Time, frames, skeletons, sensor messages and the registry: the data model every nomen crate speaks, with no I/O.
+//!
+//! Conventions that hold everywhere in nomen (see `ARCHITECTURE.md`):
+//! - time is [`SessionTime`]: integer nanoseconds on the session clock;
+//! - the world frame is Z up, the floor is the XY plane, lengths are metres;
+//! - transforms are named `target_from_source` (`world_from_camera * p_in_camera`);
+//! - angles are radians, rates rad/s, accelerations m/s², magnetic fields µT, RSSI dBm.
+//!
+//! Nothing in this crate reads files, sockets or clocks.
+
+mod error;
+pub mod frame;
+pub mod ids;
+pub mod message;
+pub mod registry;
+pub mod sensor;
+pub mod skeleton;
+pub mod time;
+
+pub use error::{CoreError, Result};
+pub use frame::RigidTransform;
+pub use ids::{AnchorId, AntennaId, CameraId, DeviceId, SubjectId, TagId, TrackId};
+pub use message::{
+    Evidence, IdentifiedSkeleton, Identity, Message, TagCorrection, TruthSkeleton, TruthTag,
+};
+pub use registry::{
+    Anchor, Antenna, Camera, CameraIntrinsics, DeviceKind, Registry, Subject, Wearable,
+};
+pub use sensor::{ImuSample, RssiRead, RtlsFix, UwbRange};
+pub use skeleton::{Joint, JointObservation, JointState, SkeletonObservation};
+pub use time::{ClockModel, SessionTime};

@@ -1,0 +1,257 @@
+//! The message vocabulary: what flows into the engine, what it outputs, and the ground truth the
+//! simulator writes for the evaluator. Recordings are sequences of these (see `nomen-recording`).
+
+use crate::error::{Result, check_finite_all, check_range};
+use crate::ids::{CameraId, DeviceId, SubjectId, TagId, TrackId};
+use crate::sensor::{ImuSample, RssiRead, RtlsFix, UwbRange};
+use crate::skeleton::{JointObservation, Joints, SkeletonObservation};
+use crate::time::SessionTime;
+use nalgebra::Point3;
+use serde::{Deserialize, Serialize};
+
+/// Who a skeleton is: a registered subject, or explicitly nobody we know.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Identity {
+    /// A registered subject.
+    Subject(SubjectId),
+    /// Not (yet) identified, or a person who wears nothing: nomen does not guess.
+    Anonymous,
+}
+
+impl Identity {
+    /// The subject, if any.
+    pub fn subject(&self) -> Option<&SubjectId> {
+        match self {
+            Identity::Subject(s) => Some(s),
+            Identity::Anonymous => None,
+        }
+    }
+}
+
+/// One piece of evidence behind an identity decision.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Evidence {
+    /// Which modality produced it: `imu`, `uwb`, `rssi`, `cnn`, ...
+    pub modality: String,
+    /// The device whose signal was compared with the skeleton.
+    pub device: DeviceId,
+    /// The modality's score for this (device, skeleton) pair; higher is more alike.
+    pub score: f64,
+}
+
+/// An engine output: a skeleton observation with the identity nomen gives it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct IdentifiedSkeleton {
+    /// Time of the underlying observation.
+    pub t: SessionTime,
+    /// The camera that saw it.
+    pub camera: CameraId,
+    /// The camera's track id of the observation.
+    pub track: TrackId,
+    /// The identity nomen gives it.
+    pub identity: Identity,
+    /// Confidence in the identity, `0..=1`.
+    pub confidence: f64,
+    /// Evidence used for the decision.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub evidence: Vec<Evidence>,
+    /// The (possibly refined) joints; may be omitted to keep results small.
+    #[serde(default, skip_serializing_if = "Joints::is_empty")]
+    pub joints: Joints<JointObservation>,
+}
+
+/// An engine output: a tag position corrected with the skeleton it was fused with.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TagCorrection {
+    /// Time of the tag fix.
+    pub t: SessionTime,
+    /// The tag.
+    pub tag: TagId,
+    /// The fix as the location system reported it, world frame, metres.
+    pub raw_position_m: Point3<f64>,
+    /// nomen's corrected position, world frame, metres.
+    pub corrected_position_m: Point3<f64>,
+}
+
+/// Ground truth for one skeleton observation (written by the simulator, read by the evaluator).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthSkeleton {
+    /// Time of the observation.
+    pub t: SessionTime,
+    /// The camera that reported it.
+    pub camera: CameraId,
+    /// The track id the camera gave it.
+    pub track: TrackId,
+    /// The physical person, stable over the whole scene (also for people who wear nothing).
+    pub person: String,
+    /// The registered subject this person is, or `None` for someone who wears nothing and should
+    /// stay anonymous.
+    #[serde(default)]
+    pub subject: Option<SubjectId>,
+    /// True joint positions in the world frame, metres (optional).
+    #[serde(default, skip_serializing_if = "Joints::is_empty")]
+    pub joints_world_m: Joints<Point3<f64>>,
+}
+
+/// Ground truth for a tag at the time of one of its fixes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthTag {
+    /// Time of the fix.
+    pub t: SessionTime,
+    /// The tag.
+    pub tag: TagId,
+    /// True position, world frame, metres.
+    pub position_m: Point3<f64>,
+}
+
+/// Every message nomen reads or writes, tagged by `type` in files.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Message {
+    /// A camera skeleton.
+    Skeleton(SkeletonObservation),
+    /// An IMU sample.
+    Imu(ImuSample),
+    /// An RTLS position fix.
+    RtlsFix(RtlsFix),
+    /// A raw UWB range.
+    UwbRange(UwbRange),
+    /// An RSSI read.
+    Rssi(RssiRead),
+    /// Engine output: an identified skeleton.
+    Identified(IdentifiedSkeleton),
+    /// Engine output: a corrected tag position.
+    TagCorrection(TagCorrection),
+    /// Ground truth for a skeleton observation.
+    TruthSkeleton(TruthSkeleton),
+    /// Ground truth for a tag fix.
+    TruthTag(TruthTag),
+}
+
+impl Message {
+    /// The message's time on the session clock.
+    pub fn t(&self) -> SessionTime {
+        match self {
+            Message::Skeleton(m) => m.t,
+            Message::Imu(m) => m.t,
+            Message::RtlsFix(m) => m.t,
+            Message::UwbRange(m) => m.t,
+            Message::Rssi(m) => m.t,
+            Message::Identified(m) => m.t,
+            Message::TagCorrection(m) => m.t,
+            Message::TruthSkeleton(m) => m.t,
+            Message::TruthTag(m) => m.t,
+        }
+    }
+
+    /// The `type` tag as written in files.
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            Message::Skeleton(_) => "skeleton",
+            Message::Imu(_) => "imu",
+            Message::RtlsFix(_) => "rtls_fix",
+            Message::UwbRange(_) => "uwb_range",
+            Message::Rssi(_) => "rssi",
+            Message::Identified(_) => "identified",
+            Message::TagCorrection(_) => "tag_correction",
+            Message::TruthSkeleton(_) => "truth_skeleton",
+            Message::TruthTag(_) => "truth_tag",
+        }
+    }
+
+    /// Checks the message's own values (finiteness, units sanity). Cross-message checks (known
+    /// ids, monotonic time) belong to readers.
+    pub fn validate(&self) -> Result<()> {
+        match self {
+            Message::Skeleton(m) => m.validate(),
+            Message::Imu(m) => m.validate(),
+            Message::RtlsFix(m) => m.validate(),
+            Message::UwbRange(m) => m.validate(),
+            Message::Rssi(m) => m.validate(),
+            Message::Identified(m) => {
+                check_range("confidence", m.confidence, 0.0, 1.0, "")?;
+                for (i, e) in m.evidence.iter().enumerate() {
+                    check_finite_all(&format!("evidence[{i}].score"), &[e.score])?;
+                }
+                Ok(())
+            }
+            Message::TagCorrection(m) => {
+                check_finite_all("raw_position_m", m.raw_position_m.coords.as_slice())?;
+                check_finite_all(
+                    "corrected_position_m",
+                    m.corrected_position_m.coords.as_slice(),
+                )
+            }
+            Message::TruthSkeleton(m) => {
+                for (j, p) in m.joints_world_m.iter() {
+                    check_finite_all(&format!("joints_world_m.{j}"), p.coords.as_slice())?;
+                }
+                Ok(())
+            }
+            Message::TruthTag(m) => check_finite_all("position_m", m.position_m.coords.as_slice()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::skeleton::Joint;
+    use nalgebra::Vector3;
+
+    #[test]
+    fn messages_are_type_tagged_and_round_trip() {
+        let mut joints = Joints::new();
+        joints.insert(
+            Joint::RightWrist,
+            JointObservation::tracked(Point3::new(0.1, 0.2, 1.0)),
+        );
+        let msgs = vec![
+            Message::Skeleton(SkeletonObservation {
+                t: SessionTime(33_000_000),
+                camera: CameraId::new("kinect"),
+                track: TrackId(7),
+                joints,
+            }),
+            Message::Imu(ImuSample {
+                t: SessionTime(1),
+                device: DeviceId::new("band"),
+                accel_mps2: Vector3::new(0.0, 0.0, 9.81),
+                gyro_radps: Vector3::zeros(),
+                mag_ut: None,
+                orientation_wxyz: None,
+            }),
+            Message::Identified(IdentifiedSkeleton {
+                t: SessionTime(2),
+                camera: CameraId::new("kinect"),
+                track: TrackId(7),
+                identity: Identity::Anonymous,
+                confidence: 0.5,
+                evidence: vec![],
+                joints: Joints::new(),
+            }),
+        ];
+        for m in &msgs {
+            let line = serde_json::to_string(m).unwrap();
+            assert!(
+                line.starts_with(&format!("{{\"type\":\"{}\"", m.type_name())),
+                "{line}"
+            );
+            let back: Message = serde_json::from_str(&line).unwrap();
+            assert_eq!(&back, m);
+        }
+        let s = serde_json::to_string(&msgs[0]).unwrap();
+        assert!(
+            s.contains(r#""right_wrist":{"position_m":[0.1,0.2,1.0]"#),
+            "{s}"
+        );
+        let id = serde_json::to_string(&Identity::Subject(SubjectId::new("ana"))).unwrap();
+        assert_eq!(id, r#"{"subject":"ana"}"#);
+        assert_eq!(
+            serde_json::to_string(&Identity::Anonymous).unwrap(),
+            r#""anonymous""#
+        );
+    }
+}

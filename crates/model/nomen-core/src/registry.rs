@@ -1,0 +1,299 @@
+//! The registry: who exists, what they wear and where, and where the fixed infrastructure is.
+
+use crate::error::{CoreError, Result, check_finite_all, check_range};
+use crate::frame::RigidTransform;
+use crate::ids::{AnchorId, AntennaId, CameraId, DeviceId, SubjectId};
+use crate::skeleton::Joint;
+use crate::time::ClockModel;
+use nalgebra::{Point3, Vector3};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeSet;
+
+/// What kind of wearable a device is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DeviceKind {
+    /// An inertial measurement unit (band, watch, body-area-network node).
+    Imu,
+    /// A UWB (or other RTLS) location tag that yields position fixes or ranges.
+    UwbTag,
+    /// A passive UHF RFID tag read by reader antennas.
+    RfidTag,
+    /// A BLE beacon heard by BLE anchors (RSSI).
+    BleTag,
+}
+
+/// A device worn by a subject at a body site.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Wearable {
+    /// The device.
+    pub device: DeviceId,
+    /// Its kind.
+    pub kind: DeviceKind,
+    /// The canonical joint nearest to where it is worn (the *key joint* for a location tag).
+    pub site: Joint,
+    /// How the device clock maps to the session clock (estimated; zero if unknown).
+    #[serde(default)]
+    pub clock: ClockModel,
+}
+
+/// A person known to the system.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Subject {
+    /// Stable id (what nomen names skeletons with).
+    pub id: SubjectId,
+    /// Human-readable name, optional.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Devices the subject wears; may be empty (a known person without wearables).
+    #[serde(default)]
+    pub wears: Vec<Wearable>,
+}
+
+/// Pinhole intrinsics of a camera.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CameraIntrinsics {
+    /// Image width, pixels.
+    pub width_px: u32,
+    /// Image height, pixels.
+    pub height_px: u32,
+    /// Focal length along x, pixels.
+    pub fx_px: f64,
+    /// Focal length along y, pixels.
+    pub fy_px: f64,
+    /// Principal point x, pixels.
+    pub cx_px: f64,
+    /// Principal point y, pixels.
+    pub cy_px: f64,
+}
+
+/// A camera (or a calibrated multi-camera system) that reports skeletons.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Camera {
+    /// The camera id used by skeleton messages.
+    pub id: CameraId,
+    /// The camera's pose: maps camera-frame points into the world frame.
+    #[serde(default)]
+    pub world_from_camera: RigidTransform,
+    /// Pinhole intrinsics, if known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intrinsics: Option<CameraIntrinsics>,
+    /// Nominal skeleton rate, Hz, if known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fps_hz: Option<f64>,
+    /// How the camera clock maps to the session clock.
+    #[serde(default)]
+    pub clock: ClockModel,
+}
+
+/// A fixed UWB anchor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Anchor {
+    /// Anchor id used by range messages.
+    pub id: AnchorId,
+    /// Position in the world frame, metres.
+    pub position_m: Point3<f64>,
+}
+
+/// A fixed RSSI antenna.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Antenna {
+    /// Antenna id used by RSSI messages.
+    pub id: AntennaId,
+    /// Position in the world frame, metres.
+    pub position_m: Point3<f64>,
+    /// Boresight direction in the world frame (need not be normalised); `None` for an
+    /// omnidirectional antenna.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub boresight: Option<Vector3<f64>>,
+}
+
+/// Everything static a session knows: subjects and their wearables, cameras, anchors, antennas.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Registry {
+    /// Known people.
+    #[serde(default)]
+    pub subjects: Vec<Subject>,
+    /// Cameras.
+    #[serde(default)]
+    pub cameras: Vec<Camera>,
+    /// UWB anchors.
+    #[serde(default)]
+    pub anchors: Vec<Anchor>,
+    /// RSSI antennas.
+    #[serde(default)]
+    pub antennas: Vec<Antenna>,
+}
+
+impl Registry {
+    /// Checks ids are unique, numbers finite, and every device is worn by one subject only.
+    pub fn validate(&self) -> Result<()> {
+        let mut subjects = BTreeSet::new();
+        let mut devices = BTreeSet::new();
+        for s in &self.subjects {
+            if !subjects.insert(&s.id) {
+                return Err(CoreError::Invalid(format!(
+                    "subject '{}' is listed twice",
+                    s.id
+                )));
+            }
+            for w in &s.wears {
+                if !devices.insert(&w.device) {
+                    return Err(CoreError::Invalid(format!(
+                        "device '{}' is worn twice (second time by subject '{}')",
+                        w.device, s.id
+                    )));
+                }
+                check_finite_all(&format!("clock of '{}'", w.device), &[w.clock.drift_ppm])?;
+            }
+        }
+        let mut cameras = BTreeSet::new();
+        for c in &self.cameras {
+            if !cameras.insert(&c.id) {
+                return Err(CoreError::Invalid(format!(
+                    "camera '{}' is listed twice",
+                    c.id
+                )));
+            }
+            c.world_from_camera
+                .validate(&format!("camera '{}'.world_from_camera", c.id))?;
+            if let Some(fps) = c.fps_hz {
+                check_range(
+                    &format!("camera '{}'.fps_hz", c.id),
+                    fps,
+                    0.1,
+                    10_000.0,
+                    "Hz",
+                )?;
+            }
+            if let Some(k) = &c.intrinsics {
+                check_finite_all(
+                    &format!("camera '{}'.intrinsics", c.id),
+                    &[k.fx_px, k.fy_px, k.cx_px, k.cy_px],
+                )?;
+                if k.fx_px <= 0.0 || k.fy_px <= 0.0 {
+                    return Err(CoreError::Invalid(format!(
+                        "camera '{}' has a non-positive focal length",
+                        c.id
+                    )));
+                }
+            }
+        }
+        let mut anchors = BTreeSet::new();
+        for a in &self.anchors {
+            if !anchors.insert(&a.id) {
+                return Err(CoreError::Invalid(format!(
+                    "anchor '{}' is listed twice",
+                    a.id
+                )));
+            }
+            check_finite_all(
+                &format!("anchor '{}'.position_m", a.id),
+                a.position_m.coords.as_slice(),
+            )?;
+        }
+        let mut antennas = BTreeSet::new();
+        for a in &self.antennas {
+            if !antennas.insert(&a.id) {
+                return Err(CoreError::Invalid(format!(
+                    "antenna '{}' is listed twice",
+                    a.id
+                )));
+            }
+            check_finite_all(
+                &format!("antenna '{}'.position_m", a.id),
+                a.position_m.coords.as_slice(),
+            )?;
+            if let Some(b) = &a.boresight {
+                check_finite_all(&format!("antenna '{}'.boresight", a.id), b.as_slice())?;
+                if b.norm() < 1e-9 {
+                    return Err(CoreError::Invalid(format!(
+                        "antenna '{}' has a zero boresight",
+                        a.id
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The subject wearing `device`, and how.
+    pub fn wearer(&self, device: &DeviceId) -> Option<(&Subject, &Wearable)> {
+        self.subjects
+            .iter()
+            .find_map(|s| s.wears.iter().find(|w| &w.device == device).map(|w| (s, w)))
+    }
+
+    /// The subject with id `id`.
+    pub fn subject(&self, id: &SubjectId) -> Option<&Subject> {
+        self.subjects.iter().find(|s| &s.id == id)
+    }
+
+    /// The camera with id `id`.
+    pub fn camera(&self, id: &CameraId) -> Option<&Camera> {
+        self.cameras.iter().find(|c| &c.id == id)
+    }
+
+    /// Whether an anchor with this id is registered.
+    pub fn has_anchor(&self, id: &AnchorId) -> bool {
+        self.anchors.iter().any(|a| &a.id == id)
+    }
+
+    /// Whether an antenna with this id is registered.
+    pub fn has_antenna(&self, id: &AntennaId) -> bool {
+        self.antennas.iter().any(|a| &a.id == id)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wearable(id: &str) -> Wearable {
+        Wearable {
+            device: DeviceId::new(id),
+            kind: DeviceKind::Imu,
+            site: Joint::LeftWrist,
+            clock: ClockModel::default(),
+        }
+    }
+
+    #[test]
+    fn a_device_worn_by_two_subjects_is_rejected() {
+        let reg = Registry {
+            subjects: vec![
+                Subject {
+                    id: "ana".into(),
+                    name: None,
+                    wears: vec![wearable("imu1")],
+                },
+                Subject {
+                    id: "ben".into(),
+                    name: None,
+                    wears: vec![wearable("imu1")],
+                },
+            ],
+            ..Default::default()
+        };
+        let err = reg.validate().unwrap_err().to_string();
+        assert!(err.contains("imu1") && err.contains("ben"), "{err}");
+    }
+
+    #[test]
+    fn wearer_is_found_by_device() {
+        let reg = Registry {
+            subjects: vec![Subject {
+                id: "ana".into(),
+                name: None,
+                wears: vec![wearable("imu1")],
+            }],
+            ..Default::default()
+        };
+        assert!(reg.validate().is_ok());
+        assert_eq!(
+            reg.wearer(&DeviceId::new("imu1")).unwrap().0.id.as_str(),
+            "ana"
+        );
+        assert!(reg.wearer(&DeviceId::new("imu2")).is_none());
+    }
+}

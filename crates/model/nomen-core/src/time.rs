@@ -1,0 +1,129 @@
+//! Time on the session clock.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::ops::{Add, Sub};
+
+/// A time on the session clock, in integer nanoseconds since the session's origin.
+///
+/// Every timestamp inside nomen is a `SessionTime`. Devices with their own clocks are mapped onto
+/// the session clock at ingest by a [`ClockModel`].
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default, Serialize, Deserialize,
+)]
+#[serde(transparent)]
+pub struct SessionTime(pub i64);
+
+impl SessionTime {
+    /// The session origin.
+    pub const ZERO: Self = Self(0);
+
+    /// From integer nanoseconds.
+    pub const fn from_ns(ns: i64) -> Self {
+        Self(ns)
+    }
+
+    /// From seconds, rounded to the nearest nanosecond. Returns `None` for non-finite input or
+    /// values outside ±292 years.
+    pub fn from_secs_f64(s: f64) -> Option<Self> {
+        let ns = (s * 1e9).round();
+        if ns.is_finite() && ns.abs() < 9.2e18 {
+            Some(Self(ns as i64))
+        } else {
+            None
+        }
+    }
+
+    /// Nanoseconds since the origin.
+    pub const fn as_ns(self) -> i64 {
+        self.0
+    }
+
+    /// Seconds since the origin.
+    pub fn as_secs_f64(self) -> f64 {
+        self.0 as f64 * 1e-9
+    }
+
+    /// Signed difference `self - earlier` in seconds.
+    pub fn secs_since(self, earlier: Self) -> f64 {
+        (self.0 - earlier.0) as f64 * 1e-9
+    }
+}
+
+impl Add<i64> for SessionTime {
+    type Output = Self;
+    fn add(self, ns: i64) -> Self {
+        Self(self.0.saturating_add(ns))
+    }
+}
+
+impl Sub<i64> for SessionTime {
+    type Output = Self;
+    fn sub(self, ns: i64) -> Self {
+        Self(self.0.saturating_sub(ns))
+    }
+}
+
+impl Sub for SessionTime {
+    /// Difference in nanoseconds.
+    type Output = i64;
+    fn sub(self, other: Self) -> i64 {
+        self.0.saturating_sub(other.0)
+    }
+}
+
+impl fmt::Display for SessionTime {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:.6} s", self.as_secs_f64())
+    }
+}
+
+/// How a device's own clock maps onto the session clock:
+/// `session_ns = device_ns + offset_ns + drift_ppm · 1e-6 · device_ns`.
+///
+/// The offset and drift are *estimates*; they start at zero and are refined by calibration or by
+/// the engine's clock-offset estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ClockModel {
+    /// Constant offset added to device time, nanoseconds.
+    #[serde(default)]
+    pub offset_ns: i64,
+    /// Rate error of the device clock, parts per million (positive: device clock runs slow).
+    #[serde(default)]
+    pub drift_ppm: f64,
+}
+
+impl ClockModel {
+    /// Maps a device timestamp (ns) onto the session clock.
+    pub fn to_session(&self, device_ns: i64) -> SessionTime {
+        let drift = (self.drift_ppm * 1e-6 * device_ns as f64).round() as i64;
+        SessionTime(
+            device_ns
+                .saturating_add(self.offset_ns)
+                .saturating_add(drift),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seconds_round_trip_to_the_nanosecond() {
+        let t = SessionTime::from_secs_f64(1.234_567_891).unwrap();
+        assert_eq!(t.as_ns(), 1_234_567_891);
+        assert!(SessionTime::from_secs_f64(f64::NAN).is_none());
+        assert!(SessionTime::from_secs_f64(1e12).is_none());
+    }
+
+    #[test]
+    fn clock_offset_and_drift_shift_device_time() {
+        let clock = ClockModel {
+            offset_ns: -500_000_000,
+            drift_ppm: 100.0,
+        };
+        // 10 s of device time: -0.5 s offset, +1 ms drift.
+        assert_eq!(clock.to_session(10_000_000_000).as_ns(), 9_501_000_000);
+    }
+}
