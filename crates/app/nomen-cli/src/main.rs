@@ -1,2 +1,55 @@
 //! The nomen command line: convert motion capture, evaluate results, and (later) simulate and run the engine.
-fn main() {}
+//!
+//! This binary is the edge of the system: it opens files, prints to the terminal and turns library
+//! errors into messages. Everything it calls is sans-IO library code.
+
+// The command line talks to a terminal by design.
+#![allow(clippy::print_stdout)]
+
+mod cmd;
+mod io;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// nomen gives names to anonymous human poses by fusing camera skeletons with what people wear.
+#[derive(Debug, Parser)]
+#[command(name = "nomen", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Motion capture tools (BVH → skeleton recordings).
+    #[command(subcommand)]
+    Mocap(cmd::mocap::MocapCommand),
+    /// Check a recording line by line and summarise it.
+    Validate(cmd::validate::ValidateArgs),
+    /// Evaluate an engine result against ground truth (or MOTChallenge files with `eval mot`).
+    Eval(cmd::eval::EvalArgs),
+    /// Fit sensor noise models to real recordings (IMU, UWB ranging, RSSI path loss).
+    #[command(subcommand)]
+    Fit(cmd::fit::FitCommand),
+    /// Run the end-to-end demonstration on the default data, with no hardware and no server.
+    Demo(cmd::demo::DemoArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let outcome = match cli.command {
+        Command::Mocap(c) => cmd::mocap::run(c),
+        Command::Validate(a) => cmd::validate::run(a),
+        Command::Eval(a) => cmd::eval::run(a),
+        Command::Fit(c) => cmd::fit::run(c),
+        Command::Demo(a) => cmd::demo::run(a),
+    };
+    match outcome {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -95,6 +95,34 @@ pub enum EvalError {
         previous: i64,
     },
 
+    /// The same id appears twice among one frame's objects or hypotheses.
+    #[error("frame {frame}: duplicate {role} id {id}")]
+    DuplicateId {
+        /// The frame id passed to `update`.
+        frame: i64,
+        /// `"object"` or `"hypothesis"`.
+        role: &'static str,
+        /// The repeated id, `Debug`-formatted.
+        id: String,
+    },
+
+    /// The same (frame, id) pair appears on two lines of a MOTChallenge input.
+    #[error(
+        "{source_name}:{line}: duplicate id {id} in frame {frame}, first seen on line {first_line}"
+    )]
+    DuplicateRow {
+        /// Name of the input (usually its path).
+        source_name: String,
+        /// 1-based line number of the repetition.
+        line: usize,
+        /// 1-based line number of the first occurrence.
+        first_line: usize,
+        /// Frame number.
+        frame: i64,
+        /// The repeated id.
+        id: i64,
+    },
+
     /// The distance matrix does not have one entry per (object, hypothesis) pair.
     #[error(
         "frame {frame}: distance matrix has {found} entries, expected {num_objects} objects x {num_hypotheses} hypotheses"
@@ -121,6 +149,31 @@ pub enum EvalError {
         /// What was being assigned, e.g. `frame 12` or `id global assignment`.
         context: String,
         /// The solver's message.
+        message: String,
+    },
+
+    /// Two scenes given to the identity evaluator have the same name.
+    #[error("scene `{name}` is given twice: scene names must be unique")]
+    DuplicateScene {
+        /// The repeated name.
+        name: String,
+    },
+
+    /// A plot could not be drawn or encoded (plotters or PNG encoder error).
+    #[error("plot `{plot}`: {message}")]
+    Plot {
+        /// The plot's file name.
+        plot: String,
+        /// What went wrong.
+        message: String,
+    },
+
+    /// A plot file or its directory could not be written.
+    #[error("{path}: {message}")]
+    PlotIo {
+        /// The file.
+        path: String,
+        /// The I/O error.
         message: String,
     },
 }

@@ -1,1 +1,57 @@
 //! BVH motion capture parsing and exact forward kinematics into nomen's canonical skeleton.
+//!
+//! Three steps, each usable alone:
+//!
+//! 1. [`parse_bvh`] (sans-IO: text in) → [`Bvh`]: hierarchy and channel values as written
+//!    (file units, Y up, degrees). [`read_bvh_file`] is the same with the file read for you.
+//! 2. [`forward_kinematics`] → a [`JointPose`] per BVH node: exact FK
+//!    (`R_joint = R_parent · R_ch1 · R_ch2 · R_ch3` in channel order,
+//!    `p_joint = p_parent + R_parent · OFFSET`), lengths scaled to metres, then turned once from
+//!    BVH's Y up to nomen's Z up for both positions and rotations. See [`fk`] for what
+//!    `world_from_joint` means.
+//! 3. [`convert`] / [`convert_pair`] → [`MocapClip`]: the 20 canonical joints per frame (naming
+//!    variant detected, see [`mapping`]), the frame rate and scale actually used (headers lie:
+//!    override them with [`ConvertOptions`]) and plausibility warnings for wrong units.
+//!    [`MocapClip::to_skeletons`] turns a clip into camera-style skeleton observations.
+//!
+//! Nothing is re-centred; vertical grounding happens only when asked for ([`Grounding`]).
+//!
+//! ```no_run
+//! use nomen_mocap::{ConvertOptions, convert, read_bvh_file};
+//! use nomen_core::{CameraId, SessionTime, TrackId};
+//!
+//! let bvh = read_bvh_file("02_01.bvh".as_ref())?;
+//! let options = ConvertOptions { scale: Some(0.0564444), ..Default::default() };
+//! let clip = convert(&bvh, &options)?;
+//! for w in &clip.warnings {
+//!     eprintln!("{}: warning: {w}", clip.source);
+//! }
+//! let skeletons = clip.to_skeletons(CameraId::new("mocap"), TrackId(1), SessionTime::ZERO);
+//! # Ok::<(), nomen_mocap::MocapError>(())
+//! ```
+
+pub mod bvh;
+pub mod clip;
+mod error;
+pub mod fk;
+pub mod mapping;
+
+pub use bvh::{Bvh, BvhNode, Channel, parse_bvh};
+pub use clip::{
+    ConvertOptions, Grounding, MocapClip, MocapWarning, convert, convert_pair, rest_stature_m,
+};
+pub use error::{MocapError, Result};
+pub use fk::{JointPose, forward_kinematics};
+pub use mapping::{JointMapping, SkeletonVariant, map_joints};
+
+use std::path::Path;
+
+/// Reads and parses a BVH file; errors name the file by its path.
+pub fn read_bvh_file(path: &Path) -> Result<Bvh> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|io| MocapError::Io {
+        path: name.clone(),
+        io,
+    })?;
+    parse_bvh(&text, &name)
+}

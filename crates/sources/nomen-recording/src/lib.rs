@@ -1,1 +1,51 @@
 //! The nomen recording format: a validating streaming JSON Lines reader and writer, plus CSV import.
+//!
+//! A recording is JSON Lines: a header line (format, version, the [`nomen_core::Registry`] the
+//! messages refer to, free-form metadata) followed by one [`nomen_core::Message`] per line in
+//! time order. `FORMAT.md` in this crate is the specification.
+//!
+//! - [`RecordingReader`] streams messages from any `BufRead`, checking every line: JSON syntax,
+//!   message shape, [`nomen_core::Message::validate`], ids against the registry and time order.
+//!   Errors read `FILE:LINE: what is wrong`. [`ErrorPolicy`] chooses between stopping at the first
+//!   bad line and skipping and counting bad lines ([`ReadStats`]).
+//! - [`RecordingWriter`] applies the same checks before writing, so what it writes the reader
+//!   accepts; [`sort_for_writing`] puts messages generated per source into file order.
+//! - [`csv`] imports IMU samples, tag fixes and skeletons from CSV files whose columns name
+//!   their units (or a spec that does).
+//!
+//! ```
+//! use nomen_recording::{Header, RecordingReader, RecordingWriter};
+//! use nomen_core::{Message, RtlsFix, SessionTime, TagId};
+//!
+//! let mut writer = RecordingWriter::new(Vec::new(), &Header::without_registry()).unwrap();
+//! writer
+//!     .write(&Message::RtlsFix(RtlsFix {
+//!         t: SessionTime::from_ns(1_000_000),
+//!         tag: TagId::new("tag1"),
+//!         position_m: [1.0, 2.0, 0.5].into(),
+//!         quality: None,
+//!         covariance_m2: None,
+//!     }))
+//!     .unwrap();
+//! let bytes = writer.finish().unwrap();
+//! let messages: Vec<Message> = RecordingReader::new(bytes.as_slice(), "mem.jsonl")
+//!     .unwrap()
+//!     .collect::<Result<_, _>>()
+//!     .unwrap();
+//! assert_eq!(messages.len(), 1);
+//! ```
+
+mod check;
+pub mod csv;
+mod error;
+mod header;
+mod reader;
+mod writer;
+
+pub use check::{DEFAULT_GLOBAL_TOLERANCE_NS, IdCheck};
+pub use error::{ErrorKind, Pos, RecordingError, Result};
+pub use header::{FORMAT_NAME, FORMAT_VERSION, Header};
+pub use reader::{
+    ErrorPolicy, MESSAGE_TYPES, ReadOptions, ReadStats, Recording, RecordingReader, read_file,
+};
+pub use writer::{RecordingWriter, WriteOptions, sort_for_writing};

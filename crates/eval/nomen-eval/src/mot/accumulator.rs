@@ -1,6 +1,7 @@
 //! Frame-by-frame event accumulation, following py-motmetrics' `MOTAccumulator.update`.
 
 use std::collections::BTreeMap;
+use std::fmt::Debug;
 
 use serde::{Deserialize, Serialize};
 
@@ -100,8 +101,8 @@ pub struct MotAccumulatorConfig {
 ///    `TRANSFER` (preceded by `MIGRATE` if the object was never matched);
 /// 3. unpaired objects are `MISS`, unpaired hypotheses `FP`.
 ///
-/// Ids may be any ordered type (`i64` for MOTChallenge files). Frame ids must be strictly
-/// increasing.
+/// Ids may be any `Clone + Ord + Debug` type (`i64` for MOTChallenge files, `&str`, ...).
+/// Frame ids must be strictly increasing.
 #[derive(Debug, Clone)]
 pub struct MotAccumulator<I> {
     config: MotAccumulatorConfig,
@@ -124,13 +125,13 @@ pub struct MotAccumulator<I> {
     kept: Vec<(usize, usize)>,
 }
 
-impl<I: Clone + Ord> Default for MotAccumulator<I> {
+impl<I: Clone + Ord + Debug> Default for MotAccumulator<I> {
     fn default() -> Self {
         Self::new(MotAccumulatorConfig::default())
     }
 }
 
-impl<I: Clone + Ord> MotAccumulator<I> {
+impl<I: Clone + Ord + Debug> MotAccumulator<I> {
     /// An empty accumulator.
     pub fn new(config: MotAccumulatorConfig) -> Self {
         Self {
@@ -182,8 +183,10 @@ impl<I: Clone + Ord> MotAccumulator<I> {
     ///
     /// # Errors
     /// [`EvalError::FrameOrder`] if `frame` is not greater than the previous frame,
-    /// [`EvalError::DistanceShape`] if `distances` has the wrong length. The accumulator is
-    /// unchanged on error.
+    /// [`EvalError::DistanceShape`] if `distances` has the wrong length,
+    /// [`EvalError::DuplicateId`] if an id appears twice in `oids` or in `hids` (py-motmetrics
+    /// accepts that and then reports identity metrics above 1; MOTChallenge's devkit and
+    /// TrackEval reject it). The accumulator is unchanged on error.
     pub fn update(&mut self, frame: i64, oids: &[I], hids: &[I], distances: &[f64]) -> Result<()> {
         if let Some(previous) = self.last_frame
             && frame <= previous
@@ -199,6 +202,8 @@ impl<I: Clone + Ord> MotAccumulator<I> {
                 found: distances.len(),
             });
         }
+        check_unique(frame, "object", oids)?;
+        check_unique(frame, "hypothesis", hids)?;
         // Everything that can fail happens before any state changes.
         self.is_oid_matched.clear();
         self.is_oid_matched.resize(no, false);
@@ -339,8 +344,11 @@ impl<I: Clone + Ord> MotAccumulator<I> {
         for i in 0..no {
             for j in 0..nh {
                 let is_kept = self.is_oid_matched[i] || self.is_hid_matched[j];
-                self.costs
-                    .push(if is_kept { f64::NAN } else { distances[i * nh + j] });
+                self.costs.push(if is_kept {
+                    f64::NAN
+                } else {
+                    distances[i * nh + j]
+                });
             }
         }
         solve_gated(no, nh, &self.costs).map_err(|message| EvalError::Assignment {
@@ -396,5 +404,18 @@ impl<I: Clone + Ord> MotAccumulator<I> {
             hid: Some(hid.clone()),
             distance: Some(distance),
         });
+    }
+}
+
+fn check_unique<I: Ord + Debug>(frame: i64, role: &'static str, ids: &[I]) -> Result<()> {
+    let mut sorted: Vec<&I> = ids.iter().collect();
+    sorted.sort_unstable();
+    match sorted.windows(2).find(|w| w[0] == w[1]) {
+        Some(w) => Err(EvalError::DuplicateId {
+            frame,
+            role,
+            id: format!("{:?}", w[0]),
+        }),
+        None => Ok(()),
     }
 }

@@ -1,0 +1,8 @@
+//! One module per subcommand.
+
+pub mod demo;
+pub mod eval;
+pub mod eval_identity;
+pub mod fit;
+pub mod mocap;
+pub mod validate;

@@ -1,0 +1,76 @@
+//! `nomen validate`: read a recording line by line, check everything, and summarise it.
+
+use anyhow::{Result, bail};
+use clap::Args;
+use nomen_core::{Message, SessionTime};
+use nomen_recording::{ErrorPolicy, ReadOptions, RecordingReader};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+/// Arguments of `nomen validate`.
+#[derive(Debug, Args)]
+pub struct ValidateArgs {
+    /// The recording (`-` for stdin).
+    pub file: PathBuf,
+    /// Skip bad lines and count them instead of stopping at the first one.
+    #[arg(long)]
+    pub skip_bad: bool,
+}
+
+/// Per-type count and time span of a recording.
+#[derive(Debug, Default)]
+pub struct Summary {
+    /// Messages per `type`.
+    pub per_type: BTreeMap<&'static str, u64>,
+    /// First and last message time.
+    pub span: Option<(SessionTime, SessionTime)>,
+}
+
+impl Summary {
+    /// Adds one message.
+    pub fn add(&mut self, m: &Message) {
+        *self.per_type.entry(m.type_name()).or_default() += 1;
+        let t = m.t();
+        self.span = Some(match self.span {
+            None => (t, t),
+            Some((a, b)) => (a.min(t), b.max(t)),
+        });
+    }
+}
+
+/// Runs `nomen validate`.
+pub fn run(args: ValidateArgs) -> Result<()> {
+    let policy = if args.skip_bad {
+        ErrorPolicy::SkipAndCount
+    } else {
+        ErrorPolicy::Stop
+    };
+    let mut reader =
+        RecordingReader::open_with_options(&args.file, ReadOptions::with_policy(policy))?;
+    let mut summary = Summary::default();
+    let mut first_error = None;
+    for m in reader.by_ref() {
+        match m {
+            Ok(m) => summary.add(&m),
+            Err(e) => {
+                first_error = Some(e);
+                break;
+            }
+        }
+    }
+    let stats = reader.into_stats();
+    println!("{}: {stats}", crate::io::source_name(&args.file));
+    for (kind, n) in &summary.per_type {
+        println!("  {kind:<16} {n:>10}");
+    }
+    if let Some((a, b)) = summary.span {
+        println!("  time span        {a} .. {b} ({:.3} s)", b.secs_since(a));
+    }
+    for e in &stats.first_errors {
+        println!("  skipped: {e}");
+    }
+    if let Some(e) = first_error {
+        bail!("{e}");
+    }
+    Ok(())
+}

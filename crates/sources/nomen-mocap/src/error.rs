@@ -1,0 +1,180 @@
+//! The crate's error type.
+
+use thiserror::Error;
+
+/// Everything that can go wrong while reading a BVH file or converting it to the canonical
+/// skeleton.
+///
+/// Messages are lower-case and start with `file:line` where a line is known (lines count from 1).
+#[derive(Debug, Error)]
+pub enum MocapError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {io}")]
+    Io {
+        /// The path that was opened.
+        path: String,
+        /// The operating system's error.
+        #[source]
+        io: std::io::Error,
+    },
+    /// The text ended where more was required.
+    #[error("{file}:{line}: unexpected end of file, expected {expected}")]
+    UnexpectedEof {
+        /// Source name (file name).
+        file: String,
+        /// The last line of the text.
+        line: usize,
+        /// What the parser was looking for.
+        expected: String,
+    },
+    /// A token that does not fit the BVH grammar here.
+    #[error("{file}:{line}: expected {expected}, found '{found}'")]
+    Unexpected {
+        /// Source name (file name).
+        file: String,
+        /// Line of the offending token.
+        line: usize,
+        /// What the parser was looking for.
+        expected: String,
+        /// The token found instead.
+        found: String,
+    },
+    /// `{` and `}` do not pair up.
+    #[error("{file}:{line}: unbalanced braces: {detail}")]
+    UnbalancedBraces {
+        /// Source name (file name).
+        file: String,
+        /// Line where the imbalance shows.
+        line: usize,
+        /// Which brace is unmatched.
+        detail: String,
+    },
+    /// A `CHANNELS` line whose count does not match the names listed.
+    #[error("{file}:{line}: CHANNELS declares {declared} channels but lists {listed}")]
+    ChannelCount {
+        /// Source name (file name).
+        file: String,
+        /// Line of the `CHANNELS` keyword.
+        line: usize,
+        /// The number written after `CHANNELS`.
+        declared: usize,
+        /// The number of channel names on the line.
+        listed: usize,
+    },
+    /// A channel name other than `X/Y/Z` + `position`/`rotation`.
+    #[error(
+        "{file}:{line}: unknown channel name '{name}' (expected Xposition, Yposition, Zposition, Xrotation, Yrotation or Zrotation)"
+    )]
+    UnknownChannel {
+        /// Source name (file name).
+        file: String,
+        /// Line of the channel name.
+        line: usize,
+        /// The unrecognised name.
+        name: String,
+    },
+    /// A token that should be a number but does not parse as one.
+    #[error("{file}:{line}: {what} '{token}' is not a number")]
+    NotANumber {
+        /// Source name (file name).
+        file: String,
+        /// Line of the token.
+        line: usize,
+        /// What the number was supposed to be (`OFFSET value`, `frame value 7`, ...).
+        what: String,
+        /// The token as written.
+        token: String,
+    },
+    /// A number that parses but is NaN or infinite.
+    #[error("{file}:{line}: {what} is {value}, expected a finite number")]
+    NotFinite {
+        /// Source name (file name).
+        file: String,
+        /// Line of the value.
+        line: usize,
+        /// What the number was supposed to be.
+        what: String,
+        /// The value read.
+        value: f64,
+    },
+    /// A frame line with more or fewer values than the hierarchy has channels.
+    #[error("{file}:{line}: frame line has {found} values, expected {expected} (one per channel)")]
+    WrongValueCount {
+        /// Source name (file name).
+        file: String,
+        /// Line of the frame.
+        line: usize,
+        /// Total number of channels in the hierarchy.
+        expected: usize,
+        /// Number of values on the line.
+        found: usize,
+    },
+    /// Fewer frame lines than `Frames:` declares.
+    #[error(
+        "{file}:{line}: truncated motion data: 'Frames: {declared}' but only {found} frame lines"
+    )]
+    Truncated {
+        /// Source name (file name).
+        file: String,
+        /// The last line of the text.
+        line: usize,
+        /// The count in the header.
+        declared: usize,
+        /// Frame lines present.
+        found: usize,
+    },
+    /// More frame lines than `Frames:` declares.
+    #[error(
+        "{file}:{line}: frame count mismatch: 'Frames: {declared}' but frame line {found} starts here"
+    )]
+    TooManyFrames {
+        /// Source name (file name).
+        file: String,
+        /// Line of the first frame beyond the declared count.
+        line: usize,
+        /// The count in the header.
+        declared: usize,
+        /// The 1-based index of the extra frame.
+        found: usize,
+    },
+    /// `Frame Time:` is zero or negative.
+    #[error("{file}:{line}: frame time {value} s must be positive")]
+    BadFrameTime {
+        /// Source name (file name).
+        file: String,
+        /// Line of `Frame Time:`.
+        line: usize,
+        /// The value read.
+        value: f64,
+    },
+    /// Some canonical joints have no BVH joint in any known naming variant.
+    #[error(
+        "{file}: cannot map to the canonical skeleton: no joint found for {missing} (closest naming variant: {variant}, which names them {expected})"
+    )]
+    MissingJoints {
+        /// Source name (file name).
+        file: String,
+        /// The canonical joints that could not be found, comma-separated.
+        missing: String,
+        /// The naming variant that matched best.
+        variant: String,
+        /// The BVH names that variant looks for, comma-separated.
+        expected: String,
+    },
+    /// A conversion option out of range.
+    #[error("invalid option: {0}")]
+    InvalidOption(String),
+    /// Two clips that should share a clock do not.
+    #[error("{first} and {second} cannot share a clock: {detail}")]
+    PairMismatch {
+        /// Source name of the first clip.
+        first: String,
+        /// Source name of the second clip.
+        second: String,
+        /// What differs.
+        detail: String,
+    },
+}
+
+/// Result alias of this crate.
+pub type Result<T> = std::result::Result<T, MocapError>;

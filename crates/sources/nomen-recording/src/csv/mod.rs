@@ -1,0 +1,218 @@
+//! CSV import for the common simple cases: IMU samples, tag fixes and skeleton joints.
+//!
+//! Every importer is sans-IO over any `Read` (pass `text.as_bytes()` for a `&str`) plus a source
+//! name for errors, which read `FILE:LINE: what is wrong` (line 1 is the row of column names).
+//! Units are never guessed: they come from the column names (`Time (s)`, `t_ms`, `x [mm]`,
+//! `Accelerometer X (g)`) or from an explicit spec. Every imported message passes
+//! [`nomen_core::Message::validate`] and per-source strict time order (the same rules as the
+//! recording reader, without registry checks and without a global order requirement, since CSV
+//! files are often grouped per device); use [`crate::sort_for_writing`] before writing.
+
+mod imu;
+mod skeleton;
+mod units;
+
+pub use imu::{ImuColumn, ImuCsvSpec, ImuQuantity, import_imu, import_imu_auto};
+pub use skeleton::{FixCsvSpec, SkeletonCsvSpec, SkeletonLayout, import_fixes, import_skeletons};
+pub use units::{AccelUnit, GyroUnit, LengthUnit, MagUnit, STANDARD_GRAVITY_MPS2, TimeUnit};
+
+use crate::check::Checker;
+use crate::error::{Pos, RecordingError, Result};
+use csv::StringRecord;
+use nomen_core::Message;
+use std::io::Read;
+use std::sync::Arc;
+
+/// A CSV file being imported: the reader, the source name and the column names.
+pub(crate) struct CsvInput<R> {
+    reader: csv::Reader<R>,
+    pub(crate) file: Arc<str>,
+    pub(crate) headers: Vec<String>,
+    /// Validates imported messages and checks per-source time order.
+    checker: Checker,
+}
+
+impl<R: Read> CsvInput<R> {
+    pub(crate) fn new(input: R, source: &str) -> Result<Self> {
+        let file: Arc<str> = Arc::from(source);
+        let mut reader = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .from_reader(input);
+        let headers = reader
+            .headers()
+            .map_err(|e| csv_error(&file, &e))?
+            .iter()
+            .map(str::to_owned)
+            .collect::<Vec<_>>();
+        if headers.iter().all(String::is_empty) {
+            return Err(error_at(
+                &file,
+                1,
+                "empty csv file: expected a row of column names",
+            ));
+        }
+        Ok(Self {
+            reader,
+            file,
+            headers,
+            checker: Checker::new(None, i64::MAX),
+        })
+    }
+
+    /// Reads the next row into `record`; returns its line number, or `None` at the end.
+    pub(crate) fn next_row(&mut self, record: &mut StringRecord) -> Result<Option<u64>> {
+        match self.reader.read_record(record) {
+            Ok(true) => Ok(Some(record.position().map_or(0, |p| p.line()))),
+            Ok(false) => Ok(None),
+            Err(e) => Err(csv_error(&self.file, &e)),
+        }
+    }
+
+    /// Finds the column whose base name (unit removed, lower case) is one of `bases`.
+    pub(crate) fn find(
+        &self,
+        bases: &[&str],
+        is_unit: impl Fn(&str) -> bool + Copy,
+    ) -> Option<(usize, Option<String>)> {
+        self.headers.iter().enumerate().find_map(|(i, h)| {
+            let (base, unit) = units::split_unit(h, is_unit);
+            bases
+                .contains(&base.as_str())
+                .then(|| (i, unit.map(str::to_owned)))
+        })
+    }
+
+    /// Like [`CsvInput::find`], but a missing column is an error on line 1.
+    pub(crate) fn require(
+        &self,
+        bases: &[&str],
+        is_unit: impl Fn(&str) -> bool + Copy,
+    ) -> Result<(usize, Option<String>)> {
+        self.find(bases, is_unit).ok_or_else(|| {
+            error_at(
+                &self.file,
+                1,
+                &format!(
+                    "missing column '{}' (columns are: {})",
+                    bases.first().copied().unwrap_or_default(),
+                    self.headers.join(", ")
+                ),
+            )
+        })
+    }
+
+    /// Checks an imported message (values and per-source order) at `line`.
+    pub(crate) fn check(&mut self, msg: &Message, line: u64) -> Result<()> {
+        self.checker.check(msg, &self.file, line)
+    }
+
+    pub(crate) fn error(&self, line: u64, detail: &str) -> RecordingError {
+        error_at(&self.file, line, detail)
+    }
+
+    /// Parses the number in column `col` of `record`.
+    pub(crate) fn number(&self, record: &StringRecord, col: usize, line: u64) -> Result<f64> {
+        let cell = record.get(col).unwrap_or_default();
+        cell.parse::<f64>().map_err(|_| {
+            self.error(
+                line,
+                &format!(
+                    "column '{}': cannot read '{cell}' as a number",
+                    self.header(col)
+                ),
+            )
+        })
+    }
+
+    /// Parses an optional number: an empty cell is `None`.
+    pub(crate) fn optional_number(
+        &self,
+        record: &StringRecord,
+        col: usize,
+        line: u64,
+    ) -> Result<Option<f64>> {
+        if record.get(col).unwrap_or_default().is_empty() {
+            Ok(None)
+        } else {
+            self.number(record, col, line).map(Some)
+        }
+    }
+
+    /// Parses the time in column `col` with `unit`, adding `offset_ns`.
+    pub(crate) fn time(
+        &self,
+        record: &StringRecord,
+        col: usize,
+        unit: TimeUnit,
+        offset_ns: i64,
+        line: u64,
+    ) -> Result<nomen_core::SessionTime> {
+        let cell = record.get(col).unwrap_or_default();
+        unit.cell_to_ns(cell)
+            .and_then(|ns| ns.checked_add(offset_ns))
+            .map(nomen_core::SessionTime::from_ns)
+            .ok_or_else(|| {
+                self.error(
+                    line,
+                    &format!(
+                        "column '{}': cannot read '{cell}' as a time",
+                        self.header(col)
+                    ),
+                )
+            })
+    }
+
+    pub(crate) fn header(&self, col: usize) -> &str {
+        self.headers.get(col).map_or("?", String::as_str)
+    }
+
+    /// The unit of a column: from its name, else from the spec, else an error on line 1.
+    pub(crate) fn unit<U>(
+        &self,
+        col: usize,
+        from_name: Option<&str>,
+        parse: impl Fn(&str) -> Option<U>,
+        from_spec: Option<U>,
+        example: &str,
+    ) -> Result<U> {
+        match from_name {
+            Some(u) => parse(u).ok_or_else(|| {
+                self.error(
+                    1,
+                    &format!("column '{}': unknown unit '{u}'", self.header(col)),
+                )
+            }),
+            None => from_spec.ok_or_else(|| {
+                self.error(
+                    1,
+                    &format!(
+                        "column '{}' has no unit: name it like '{example}' or give the unit in the spec",
+                        self.header(col)
+                    ),
+                )
+            }),
+        }
+    }
+}
+
+pub(crate) fn error_at(file: &Arc<str>, line: u64, detail: &str) -> RecordingError {
+    RecordingError::Csv {
+        at: Pos::new(file, line),
+        detail: detail.to_owned(),
+    }
+}
+
+fn csv_error(file: &Arc<str>, e: &csv::Error) -> RecordingError {
+    let line = e.position().map_or(1, |p| p.line());
+    let detail = match e.kind() {
+        csv::ErrorKind::UnequalLengths {
+            expected_len, len, ..
+        } => {
+            format!("row has {len} fields, expected {expected_len}")
+        }
+        csv::ErrorKind::Utf8 { err, .. } => format!("invalid utf-8 ({err})"),
+        csv::ErrorKind::Io(err) => format!("i/o error: {err}"),
+        _ => e.to_string().to_lowercase(),
+    };
+    error_at(file, line, &detail)
+}

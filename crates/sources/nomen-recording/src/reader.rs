@@ -1,0 +1,351 @@
+//! The validating streaming reader.
+
+use crate::check::{Checker, DEFAULT_GLOBAL_TOLERANCE_NS, IdCheck};
+use crate::error::{ErrorKind, Pos, RecordingError, Result, json_detail};
+use crate::header::Header;
+use nomen_core::Message;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::fmt;
+use std::fs::File;
+use std::io::{self, BufRead, BufReader};
+use std::path::Path;
+use std::sync::Arc;
+
+/// What a reader does with a bad message line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ErrorPolicy {
+    /// Yield every good message up to the first bad line, then that line's error, then end.
+    #[default]
+    Stop,
+    /// Skip bad lines, count them per [`ErrorKind`] in [`ReadStats`] and go on. I/O errors and a
+    /// bad header still end the stream with an error.
+    SkipAndCount,
+}
+
+/// Options of a [`RecordingReader`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReadOptions {
+    /// What to do with bad lines.
+    pub policy: ErrorPolicy,
+    /// Which registry ids are checked against.
+    pub id_check: IdCheck,
+    /// How far a message may lag behind the latest message so far, nanoseconds
+    /// ([`DEFAULT_GLOBAL_TOLERANCE_NS`]; 0 demands global non-decreasing order).
+    pub global_tolerance_ns: i64,
+    /// How many errors [`ReadStats::first_errors`] keeps under [`ErrorPolicy::SkipAndCount`].
+    pub max_errors_kept: usize,
+}
+
+impl Default for ReadOptions {
+    fn default() -> Self {
+        Self {
+            policy: ErrorPolicy::Stop,
+            id_check: IdCheck::Header,
+            global_tolerance_ns: DEFAULT_GLOBAL_TOLERANCE_NS,
+            max_errors_kept: 10,
+        }
+    }
+}
+
+impl ReadOptions {
+    /// The default options with another error policy.
+    pub fn with_policy(policy: ErrorPolicy) -> Self {
+        Self {
+            policy,
+            ..Self::default()
+        }
+    }
+}
+
+/// What a reader has seen so far.
+#[derive(Debug, Default)]
+pub struct ReadStats {
+    /// Lines read, header and blank lines included.
+    pub num_lines: u64,
+    /// Bytes read, newlines included.
+    pub num_bytes: u64,
+    /// Messages that passed every check and were yielded.
+    pub num_accepted: u64,
+    /// Skipped lines per error kind (only under [`ErrorPolicy::SkipAndCount`]).
+    pub skipped: BTreeMap<ErrorKind, u64>,
+    /// The first few errors, in file order (up to [`ReadOptions::max_errors_kept`]).
+    pub first_errors: Vec<RecordingError>,
+}
+
+impl ReadStats {
+    /// Total number of skipped lines.
+    pub fn num_skipped(&self) -> u64 {
+        self.skipped.values().sum()
+    }
+}
+
+impl fmt::Display for ReadStats {
+    /// One-line summary, e.g. `120 lines, 117 messages accepted, 2 skipped (invalid json: 1, unknown id: 1)`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} lines, {} messages accepted, {} skipped",
+            self.num_lines,
+            self.num_accepted,
+            self.num_skipped()
+        )?;
+        if !self.skipped.is_empty() {
+            f.write_str(" (")?;
+            for (i, (kind, n)) in self.skipped.iter().enumerate() {
+                if i > 0 {
+                    f.write_str(", ")?;
+                }
+                write!(f, "{kind}: {n}")?;
+            }
+            f.write_str(")")?;
+        }
+        Ok(())
+    }
+}
+
+/// Reads a recording line by line, validating each message, without loading the file.
+///
+/// Iterate it: each item is a message that passed every check, or (under
+/// [`ErrorPolicy::Stop`], or for an I/O error) the error that ended the stream.
+///
+/// ```
+/// use nomen_recording::{Header, RecordingReader};
+/// let file = format!("{}\n", Header::without_registry().to_json_line());
+/// let mut reader = RecordingReader::new(file.as_bytes(), "mem.jsonl").unwrap();
+/// assert!(reader.next().is_none());
+/// ```
+pub struct RecordingReader<R> {
+    input: R,
+    file: Arc<str>,
+    header: Header,
+    options: ReadOptions,
+    checker: Checker,
+    stats: ReadStats,
+    buf: Vec<u8>,
+    is_done: bool,
+}
+
+impl<R: BufRead> RecordingReader<R> {
+    /// Reads the header of `input` with default options ([`ErrorPolicy::Stop`], ids checked
+    /// against the header's registry). `source` names the input in errors (a path, or `-`).
+    pub fn new(input: R, source: &str) -> Result<Self> {
+        Self::with_options(input, source, ReadOptions::default())
+    }
+
+    /// Reads the header of `input` with `options`.
+    pub fn with_options(mut input: R, source: &str, options: ReadOptions) -> Result<Self> {
+        let file: Arc<str> = Arc::from(source);
+        let mut buf = Vec::with_capacity(4096);
+        let at = Pos::new(&file, 1);
+        let n = input
+            .read_until(b'\n', &mut buf)
+            .map_err(|source| RecordingError::Io {
+                at: at.clone(),
+                source,
+            })?;
+        if n == 0 {
+            return Err(RecordingError::Header {
+                at,
+                problem: "empty file: expected a header line".to_owned(),
+            });
+        }
+        let header = Header::parse(&buf, &at)?;
+        let checker = match &options.id_check {
+            IdCheck::Header => Checker::new(header.registry.as_ref(), options.global_tolerance_ns),
+            IdCheck::Off => Checker::new(None, options.global_tolerance_ns),
+            IdCheck::Registry(r) => Checker::new(Some(r), options.global_tolerance_ns),
+        };
+        let stats = ReadStats {
+            num_lines: 1,
+            num_bytes: n as u64,
+            ..ReadStats::default()
+        };
+        Ok(Self {
+            input,
+            file,
+            header,
+            options,
+            checker,
+            stats,
+            buf,
+            is_done: false,
+        })
+    }
+
+    /// The header.
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// The source name used in errors.
+    pub fn source(&self) -> &str {
+        &self.file
+    }
+
+    /// Counts so far.
+    pub fn stats(&self) -> &ReadStats {
+        &self.stats
+    }
+
+    /// The counts, consuming the reader.
+    pub fn into_stats(self) -> ReadStats {
+        self.stats
+    }
+
+    /// The next good message, the error that ends the stream, or `None` at the end.
+    pub fn next_message(&mut self) -> Option<Result<Message>> {
+        while !self.is_done {
+            self.buf.clear();
+            let line = self.stats.num_lines + 1;
+            let n = match self.input.read_until(b'\n', &mut self.buf) {
+                Ok(n) => n,
+                Err(source) => {
+                    self.is_done = true;
+                    return Some(Err(RecordingError::Io {
+                        at: Pos::new(&self.file, line),
+                        source,
+                    }));
+                }
+            };
+            if n == 0 {
+                self.is_done = true;
+                return None;
+            }
+            self.stats.num_lines = line;
+            self.stats.num_bytes += n as u64;
+            if self.buf.iter().all(u8::is_ascii_whitespace) {
+                continue;
+            }
+            match self.parse_line(line) {
+                Ok(msg) => {
+                    self.stats.num_accepted += 1;
+                    return Some(Ok(msg));
+                }
+                Err(err) => match self.options.policy {
+                    ErrorPolicy::Stop => {
+                        self.is_done = true;
+                        return Some(Err(err));
+                    }
+                    ErrorPolicy::SkipAndCount => {
+                        *self.stats.skipped.entry(err.kind()).or_insert(0) += 1;
+                        if self.stats.first_errors.len() < self.options.max_errors_kept {
+                            self.stats.first_errors.push(err);
+                        }
+                    }
+                },
+            }
+        }
+        None
+    }
+
+    fn parse_line(&mut self, line: u64) -> Result<Message> {
+        // Without its line ending, a line cut off inside a string reads as truncated.
+        let mut text = self.buf.as_slice();
+        while let Some((b'\n' | b'\r', rest)) = text.split_last() {
+            text = rest;
+        }
+        let msg = match serde_json::from_slice::<Message>(text) {
+            Ok(msg) => msg,
+            Err(err) => return Err(diagnose(text, &err, &Pos::new(&self.file, line))),
+        };
+        self.checker.check(&msg, &self.file, line)?;
+        Ok(msg)
+    }
+}
+
+impl<R: BufRead> Iterator for RecordingReader<R> {
+    type Item = Result<Message>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        self.next_message()
+    }
+}
+
+impl RecordingReader<Box<dyn BufRead>> {
+    /// Opens a file (or stdin for `-`) with default options.
+    pub fn open(path: impl AsRef<Path>) -> Result<Self> {
+        Self::open_with_options(path, ReadOptions::default())
+    }
+
+    /// Opens a file (or stdin for `-`) with `options`.
+    pub fn open_with_options(path: impl AsRef<Path>, options: ReadOptions) -> Result<Self> {
+        let path = path.as_ref();
+        let name = path.display().to_string();
+        let input: Box<dyn BufRead> = if path == Path::new("-") {
+            Box::new(io::stdin().lock())
+        } else {
+            let f = File::open(path).map_err(|source| RecordingError::Io {
+                at: Pos::new(&Arc::from(name.as_str()), 1),
+                source,
+            })?;
+            Box::new(BufReader::with_capacity(1 << 16, f))
+        };
+        Self::with_options(input, &name, options)
+    }
+}
+
+/// A whole recording in memory.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recording {
+    /// The header.
+    pub header: Header,
+    /// Every message, in file order.
+    pub messages: Vec<Message>,
+}
+
+/// Reads a whole file (or stdin for `-`) into memory, stopping at the first error.
+pub fn read_file(path: impl AsRef<Path>) -> Result<Recording> {
+    let mut reader = RecordingReader::open(path)?;
+    let messages = reader.by_ref().collect::<Result<Vec<_>>>()?;
+    Ok(Recording {
+        header: reader.header,
+        messages,
+    })
+}
+
+/// Works out why a line failed to parse as a message (slow path, only for bad lines).
+fn diagnose(line: &[u8], err: &serde_json::Error, at: &Pos) -> RecordingError {
+    use serde_json::error::Category;
+    let at = at.clone();
+    // A syntax problem shows up when parsing the line as any JSON value.
+    let value = match serde_json::from_slice::<Value>(line) {
+        Ok(v) => v,
+        Err(e) if e.classify() == Category::Eof => return RecordingError::Truncated { at },
+        Err(e) => {
+            return RecordingError::Json {
+                at,
+                detail: json_detail(&e),
+            };
+        }
+    };
+    match value.get("type").and_then(Value::as_str) {
+        None => RecordingError::MissingType { at },
+        Some(name) if !is_message_type(name) => RecordingError::UnknownType {
+            at,
+            name: name.to_owned(),
+        },
+        Some(name) => RecordingError::Shape {
+            at,
+            msg_type: name.to_owned(),
+            detail: json_detail(err),
+        },
+    }
+}
+
+/// Every `type` tag of [`Message`].
+pub const MESSAGE_TYPES: [&str; 9] = [
+    "skeleton",
+    "imu",
+    "rtls_fix",
+    "uwb_range",
+    "rssi",
+    "identified",
+    "tag_correction",
+    "truth_skeleton",
+    "truth_tag",
+];
+
+fn is_message_type(name: &str) -> bool {
+    MESSAGE_TYPES.contains(&name)
+}

@@ -1,0 +1,423 @@
+//! Bad input: every error names file and line precisely, and nothing panics.
+// Test helpers outside #[test] functions unwrap too: a failure is a test failure.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use common::*;
+use nomen_core::Message;
+use nomen_recording::{ErrorKind, ErrorPolicy, Header, IdCheck, ReadOptions, RecordingReader};
+
+/// A line of `msg` with one JSON fragment replaced.
+fn edited(msg: &Message, from: &str, to: &str) -> String {
+    let l = line(msg);
+    assert!(l.contains(from), "{l} does not contain {from}");
+    l.replacen(from, to, 1)
+}
+
+#[test]
+fn truncated_last_line_is_reported_after_the_good_messages() {
+    let full = line(&imu(2 * S, "band1"));
+    let mut text = file(&[line(&imu(S, "band1"))]);
+    text.push_str(&full[..full.len() - 10]); // cut off mid-number, no newline
+    let (good, err) = read_stop(&text);
+    assert_eq!(good, vec![imu(S, "band1")]);
+    assert_eq!(
+        err.unwrap(),
+        "rec.jsonl:3: truncated line (no closing brace / unexpected end of file)"
+    );
+}
+
+#[test]
+fn nan_token_is_invalid_json_with_its_column() {
+    let l = edited(&imu(S, "band1"), "[0.1,", "[NaN,");
+    let column = l.find("NaN").unwrap() + 1;
+    assert_eq!(
+        error_of(&file(&[l])),
+        format!("rec.jsonl:2: invalid json: expected value (column {column})")
+    );
+}
+
+#[test]
+fn number_beyond_f64_is_invalid_json() {
+    let l = edited(&imu(S, "band1"), "9.81", "1e400");
+    let err = error_of(&file(&[l]));
+    assert!(
+        err.starts_with("rec.jsonl:2: invalid json: number out of range (column "),
+        "{err}"
+    );
+}
+
+#[test]
+fn implausible_value_names_the_field_and_unit() {
+    // cm/s² written where m/s² belongs.
+    let l = edited(&imu(S, "band1"), "9.81", "981.0");
+    assert_eq!(
+        error_of(&file(&[l])),
+        "rec.jsonl:2: accel_mps2[2] = 981 is outside the plausible range -313.92..=313.92 m/s²"
+    );
+}
+
+#[test]
+fn unknown_message_type_is_named() {
+    let text = file(&[r#"{"type":"lidar","t":1,"points":[]}"#.to_owned()]);
+    assert_eq!(error_of(&text), "rec.jsonl:2: unknown message type 'lidar'");
+    let text = file(&[r#"{"t":1}"#.to_owned()]);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:2: message has no string 'type' field"
+    );
+}
+
+#[test]
+fn missing_field_and_wrong_type_carry_serde_detail() {
+    let l = edited(&imu(S, "band1"), r#""device":"band1","#, "");
+    let err = error_of(&file(&[l]));
+    assert!(
+        err.starts_with("rec.jsonl:2: bad imu message: missing field `device`"),
+        "{err}"
+    );
+    let l = edited(&imu(S, "band1"), r#""t":1000000000"#, r#""t":"soon""#);
+    let err = error_of(&file(&[l]));
+    assert!(
+        err.starts_with(
+            r#"rec.jsonl:2: bad imu message: invalid type: string "soon", expected i64"#
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn out_of_order_time_for_one_device_is_refused() {
+    let text = file(&[line(&imu(2 * S, "band1")), line(&imu(S, "band1"))]);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:3: time 1.000000 s is not after the previous imu sample of 'band1' at 2.000000 s (out of order)"
+    );
+}
+
+#[test]
+fn duplicate_timestamp_for_one_source_is_refused() {
+    let text = file(&[
+        line(&imu(S, "band1")),
+        line(&imu(S, "band2")), // another device at the same time is fine
+        line(&imu(S, "band1")),
+    ]);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:4: time 1.000000 s is not after the previous imu sample of 'band1' at 1.000000 s (duplicate timestamp)"
+    );
+    let text = file(&[line(&range(S, "a1")), line(&range(S, "a1"))]);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:3: time 1.000000 s is not after the previous uwb range of tag 'tag1' to anchor 'a1' at 1.000000 s (duplicate timestamp)"
+    );
+    let text = file(&[line(&skeleton(S, 4)), line(&skeleton(S, 4))]);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:3: time 1.000000 s is not after the previous skeleton of camera 'kinect' track 4 at 1.000000 s (duplicate timestamp)"
+    );
+}
+
+#[test]
+fn one_camera_frame_may_hold_several_tracks_but_camera_time_never_goes_back() {
+    let (good, err) = read_stop(&file(&[line(&skeleton(S, 1)), line(&skeleton(S, 2))]));
+    assert_eq!((good.len(), err), (2, None));
+    let text = file(&[line(&skeleton(S, 1)), line(&skeleton(S - 10_000_000, 2))]);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:3: time 0.990000 s is before the previous skeleton of camera 'kinect' at 1.000000 s (camera time went backwards)"
+    );
+}
+
+#[test]
+fn global_order_allows_the_tolerance_and_no_more() {
+    let lag_ok = 2 * S - 100_000_000;
+    let (good, err) = read_stop(&file(&[
+        line(&imu(2 * S, "band1")),
+        line(&imu(lag_ok, "band2")),
+    ]));
+    assert_eq!((good.len(), err), (2, None));
+    let text = file(&[line(&imu(2 * S, "band1")), line(&imu(lag_ok - 1, "band2"))]);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:3: time 1.900000 s is 0.100000001 s before the latest message at 2.000000 s, more than the global order tolerance of 0.100000 s"
+    );
+    let strict = ReadOptions {
+        global_tolerance_ns: 0,
+        ..ReadOptions::default()
+    };
+    let (_, err) = read_with(
+        &file(&[line(&imu(2 * S, "band1")), line(&imu(lag_ok, "band2"))]),
+        strict,
+    );
+    assert!(
+        err.unwrap()
+            .contains("global order tolerance of 0.000000 s")
+    );
+}
+
+#[test]
+fn unknown_ids_are_refused_per_kind() {
+    let cases = [
+        (
+            line(&imu(S, "band9")),
+            "imu device 'band9' is not in the registry",
+        ),
+        (
+            edited(&skeleton(S, 1), "kinect", "zed"),
+            "camera 'zed' is not in the registry",
+        ),
+        (
+            line(&range(S, "a9")),
+            "uwb anchor 'a9' is not in the registry",
+        ),
+        (
+            line(&rssi(S, "ant9", -60.0)),
+            "rssi antenna 'ant9' is not in the registry",
+        ),
+        (
+            line(&fix(S, "tag9")),
+            "rtls tag 'tag9' is not in the registry",
+        ),
+        (
+            line(&imu(S, "tag1")),
+            "imu device 'tag1' is registered as a uwb_tag device, expected imu",
+        ),
+        (
+            line(&fix(S, "rfid1")),
+            "rtls tag 'rfid1' is registered as a rfid_tag device, expected uwb_tag",
+        ),
+    ];
+    for (l, expected) in cases {
+        assert_eq!(error_of(&file(&[l])), format!("rec.jsonl:2: {expected}"));
+    }
+    let identified = every_kind()
+        .into_iter()
+        .find(|m| m.type_name() == "identified")
+        .unwrap();
+    let l = edited(&identified, r#"{"subject":"ana"}"#, r#"{"subject":"zoe"}"#);
+    assert_eq!(
+        error_of(&file(&[l])),
+        "rec.jsonl:2: subject 'zoe' is not in the registry"
+    );
+}
+
+#[test]
+fn rssi_in_centi_dbm_is_out_of_range() {
+    let text = file(&[line(&rssi(S, "ant1", -6500.0))]);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:2: rssi_dbm = -6500 is outside the plausible range -150..=30 dBm"
+    );
+}
+
+#[test]
+fn missing_header_is_an_error_on_line_1() {
+    let text = format!("{}\n", line(&imu(S, "band1")));
+    let err = error_of(&text);
+    assert!(
+        err.starts_with(
+            "rec.jsonl:1: missing header: line 1 is a 'imu' message; expected a header line"
+        ),
+        "{err}"
+    );
+    let err = error_of("hello\n");
+    assert!(
+        err.starts_with("rec.jsonl:1: missing header: line 1 is not json"),
+        "{err}"
+    );
+    let err = error_of(r#"{"type":"header","format":"csv","version":1}"#);
+    assert_eq!(
+        err,
+        r#"rec.jsonl:1: not a nomen recording: header format is "csv", expected "nomen-recording""#
+    );
+}
+
+#[test]
+fn wrong_format_version_is_refused() {
+    let text = header_line().replace(r#""version":1"#, r#""version":2"#);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:1: unsupported format version 2 (this reader reads version 1)"
+    );
+}
+
+#[test]
+fn invalid_registry_in_header_is_refused() {
+    let text = header_line().replace(r#""id":"ben""#, r#""id":"ana""#);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:1: invalid registry in header: subject 'ana' is listed twice"
+    );
+}
+
+#[test]
+fn empty_file_is_an_error_on_line_1() {
+    assert_eq!(
+        error_of(""),
+        "rec.jsonl:1: empty file: expected a header line"
+    );
+}
+
+#[test]
+fn blank_lines_are_skipped_and_counted_as_lines() {
+    let text = file(&[
+        String::new(),
+        line(&imu(S, "band1")),
+        "   \r".to_owned(),
+        line(&imu(2 * S, "band1")),
+    ]);
+    let mut reader = RecordingReader::new(text.as_bytes(), "rec.jsonl").unwrap();
+    assert_eq!(reader.by_ref().count(), 2);
+    assert_eq!(reader.stats().num_lines, 5);
+}
+
+#[test]
+fn stop_yields_every_good_message_before_the_bad_line_then_ends() {
+    let text = file(&[
+        line(&imu(S, "band1")),
+        line(&skeleton(S, 1)),
+        line(&imu(2 * S, "band9")),
+        line(&imu(3 * S, "band1")),
+    ]);
+    let mut reader = RecordingReader::new(text.as_bytes(), "rec.jsonl").unwrap();
+    assert_eq!(reader.next().unwrap().unwrap(), imu(S, "band1"));
+    assert_eq!(reader.next().unwrap().unwrap(), skeleton(S, 1));
+    let err = reader.next().unwrap().unwrap_err();
+    assert_eq!(err.kind(), ErrorKind::UnknownId);
+    assert_eq!(err.pos().line, 4);
+    assert!(reader.next().is_none());
+    assert!(reader.next().is_none());
+}
+
+#[test]
+fn skip_and_count_keeps_going_and_counts_per_kind() {
+    let mut truncated = line(&imu(9 * S, "band1"));
+    truncated.truncate(30);
+    let text = file(&[
+        line(&imu(S, "band1")),                 // 2 ok
+        line(&imu(S, "band1")),                 // 3 duplicate
+        "{not json".to_owned(),                 // 4 json
+        line(&rssi(S, "ant1", -6500.0)),        // 5 invalid
+        line(&imu(2 * S, "band9")),             // 6 unknown id
+        r#"{"type":"lidar","t":1}"#.to_owned(), // 7 unknown type
+        line(&imu(2 * S, "band1")),             // 8 ok
+        line(&rssi(2 * S, "ant1", -70.0)),      // 9 ok
+        line(&imu(2 * S, "band9")),             // 10 unknown id
+        truncated,                              // 11 truncated
+    ]);
+    let mut reader = RecordingReader::with_options(
+        text.as_bytes(),
+        "rec.jsonl",
+        ReadOptions {
+            max_errors_kept: 3,
+            ..skip_options()
+        },
+    )
+    .unwrap();
+    let good: Vec<Message> = reader.by_ref().map(Result::unwrap).collect();
+    assert_eq!(
+        good,
+        vec![
+            imu(S, "band1"),
+            imu(2 * S, "band1"),
+            rssi(2 * S, "ant1", -70.0)
+        ]
+    );
+    let stats = reader.into_stats();
+    assert_eq!(stats.num_lines, 11);
+    assert_eq!(stats.num_accepted, 3);
+    assert_eq!(stats.num_skipped(), 7);
+    let counts: Vec<(ErrorKind, u64)> = stats.skipped.iter().map(|(k, n)| (*k, *n)).collect();
+    assert_eq!(
+        counts,
+        vec![
+            (ErrorKind::Json, 1),
+            (ErrorKind::Truncated, 1),
+            (ErrorKind::UnknownType, 1),
+            (ErrorKind::Invalid, 1),
+            (ErrorKind::UnknownId, 2),
+            (ErrorKind::SourceOrder, 1),
+        ]
+    );
+    let lines: Vec<u64> = stats.first_errors.iter().map(|e| e.pos().line).collect();
+    assert_eq!(lines, vec![3, 4, 5]);
+    assert_eq!(
+        stats.to_string(),
+        "11 lines, 3 messages accepted, 7 skipped (invalid json: 1, truncated: 1, unknown type: 1, invalid value: 1, unknown id: 2, source time order: 1)"
+    );
+}
+
+#[test]
+fn skip_and_count_still_fails_on_a_bad_header() {
+    let (good, err) = read_with("{}\n", skip_options());
+    assert!(good.is_empty());
+    assert!(err.unwrap().starts_with("rec.jsonl:1: missing header"));
+}
+
+#[test]
+fn a_header_without_registry_turns_id_checks_off() {
+    let header = Header::without_registry().with_meta("kind", "result");
+    let text = format!(
+        "{}\n{}\n{}\n",
+        header.to_json_line(),
+        line(&imu(S, "anything")),
+        line(&imu(S, "anything"))
+    );
+    assert!(header.to_json_line().contains(r#""registry":null"#));
+    let (good, err) = read_stop(&text);
+    assert_eq!(good.len(), 1);
+    // Order is still checked.
+    assert!(err.unwrap().ends_with("(duplicate timestamp)"));
+}
+
+#[test]
+fn id_checks_can_be_switched_off_or_pointed_at_another_registry() {
+    let text = file(&[line(&imu(S, "band9"))]);
+    let off = ReadOptions {
+        id_check: IdCheck::Off,
+        ..ReadOptions::default()
+    };
+    assert_eq!(read_with(&text, off).0.len(), 1);
+
+    let bare = format!(
+        "{}\n{}\n",
+        Header::without_registry().to_json_line(),
+        line(&imu(S, "band9"))
+    );
+    let against = ReadOptions {
+        id_check: IdCheck::Registry(registry()),
+        policy: ErrorPolicy::Stop,
+        ..ReadOptions::default()
+    };
+    assert_eq!(
+        read_with(&bare, against).1.unwrap(),
+        "rec.jsonl:2: imu device 'band9' is not in the registry"
+    );
+}
+
+#[test]
+fn garbage_bytes_never_panic() {
+    let header = header_line();
+    let samples: [&[u8]; 8] = [
+        b"\xff\xfe\x00",
+        b"[1,2,3]",
+        b"\"type\"",
+        b"{\"type\":42}",
+        b"{\"type\":\"imu\"}",
+        b"{\"type\":\"skeleton\",\"t\":1,\"camera\":\"kinect\",\"track\":-1,\"joints\":{}}",
+        b"{\"type\":\"skeleton\",\"t\":1,\"camera\":\"kinect\",\"track\":1,\"joints\":{\"tail\":{}}}",
+        b"{\"type\":\"imu\",\"t\":99999999999999999999}",
+    ];
+    for s in samples {
+        let mut text = header.clone().into_bytes();
+        text.push(b'\n');
+        text.extend_from_slice(s);
+        let reader = RecordingReader::new(text.as_slice(), "rec.jsonl").unwrap();
+        let items: Vec<_> = reader.collect();
+        assert_eq!(items.len(), 1);
+        let err = items.into_iter().next().unwrap().unwrap_err().to_string();
+        assert!(err.starts_with("rec.jsonl:2: "), "{err}");
+    }
+}
