@@ -17,7 +17,9 @@ use std::fmt;
 ///
 /// `Wrist` is the wrist joint centre (where a band is worn); `Hand` is the middle of the palm or
 /// the hand's end effector. `Ankle` is the ankle joint; `Foot` is the ball of the foot / toe base.
-/// `Chest` is the upper thorax; `Pelvis` is the midpoint of the hip joints.
+/// `Chest` is the upper thorax. `Pelvis` is the root of the body (BVH root, Kinect `SpineBase`,
+/// Azure `PELVIS`, BODY_25 `MidHip`): within about 10 cm of the hip joints' midpoint, depending on
+/// the source; COCO-17, which has no such point, gets the hips' midpoint.
 #[allow(missing_docs)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
