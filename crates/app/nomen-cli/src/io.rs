@@ -1,9 +1,9 @@
 //! File handling shared by the subcommands: `-` means stdin/stdout, paths are named in errors.
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Reads a whole text file.
 pub fn read_text(path: &Path) -> Result<String> {
@@ -30,4 +30,29 @@ pub fn source_name(path: &Path) -> String {
     } else {
         path.display().to_string()
     }
+}
+
+/// Finds the shared data folder: the flag, `$NOMEN_DATA`, `../shared/data`, or the one beside the
+/// source checkout this binary was built from.
+pub fn find_data(flag: Option<&Path>) -> Result<PathBuf> {
+    let mut candidates: Vec<PathBuf> = Vec::new();
+    if let Some(f) = flag {
+        candidates.push(f.to_owned());
+    } else {
+        if let Some(env) = std::env::var_os("NOMEN_DATA") {
+            candidates.push(env.into());
+        }
+        candidates.push("../shared/data".into());
+        candidates.push(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../../shared/data"));
+    }
+    for c in &candidates {
+        if c.join("mocap/cmu/18_01.bvh").is_file() {
+            return Ok(c.clone());
+        }
+    }
+    let tried: Vec<String> = candidates.iter().map(|c| c.display().to_string()).collect();
+    bail!(
+        "the shared data folder was not found (tried {}); pass --data DIR or set NOMEN_DATA",
+        tried.join(", ")
+    )
 }

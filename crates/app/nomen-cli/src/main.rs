@@ -1,4 +1,4 @@
-//! The nomen command line: convert motion capture, evaluate results, and (later) simulate and run the engine.
+//! The nomen command line: simulate scenes, convert motion capture, fit sensor models and evaluate results.
 //!
 //! This binary is the edge of the system: it opens files, prints to the terminal and turns library
 //! errors into messages. Everything it calls is sans-IO library code.
@@ -25,6 +25,8 @@ enum Command {
     /// Motion capture tools (BVH → skeleton recordings).
     #[command(subcommand)]
     Mocap(cmd::mocap::MocapCommand),
+    /// Simulate a scenario: people from real motion capture under cameras, wearing sensors.
+    Simulate(cmd::simulate::SimulateArgs),
     /// Check a recording line by line and summarise it.
     Validate(cmd::validate::ValidateArgs),
     /// Evaluate an engine result against ground truth (or MOTChallenge files with `eval mot`).
@@ -40,6 +42,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let outcome = match cli.command {
         Command::Mocap(c) => cmd::mocap::run(c),
+        Command::Simulate(a) => cmd::simulate::run(a),
         Command::Validate(a) => cmd::validate::run(a),
         Command::Eval(a) => cmd::eval::run(a),
         Command::Fit(c) => cmd::fit::run(c),

@@ -1,17 +1,19 @@
 //! `nomen demo`: the end-to-end demonstration on the default data, no hardware, no server.
 //!
-//! Today it exercises the foundation on real recordings: the CMU two-person handshake take is
-//! converted into a skeleton recording with ground truth, read back through the validating reader,
-//! labelled by the "everyone anonymous" baseline and evaluated; then the MOT evaluator runs on the
-//! MOTChallenge sequences that py-motmetrics ships. When the simulator and the engine land, the
-//! demo grows into simulate → run → eval.
+//! 1. simulate the embedded default scene (`scenarios/belmonte_one_without_band.toml`: two people
+//!    driven by real motion capture under a camera, one wearing a wrist IMU, one wearing nothing);
+//! 2. label it with the baseline every engine must beat — everyone anonymous — and evaluate;
+//! 3. convert the CMU two-person handshake take into a skeleton recording with ground truth;
+//! 4. run the MOT evaluator on the MOTChallenge sequences that py-motmetrics ships.
+//!
+//! When the engine lands (`nomen run`), step 2 becomes simulate → run → eval.
 
 use super::eval::{evaluate_motchallenge, mot_table};
 use super::mocap::{ConvertArgs, convert_files, load_clips, write_recording};
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
 use nomen_core::{IdentifiedSkeleton, Identity, Joint, Message};
-use nomen_eval::identity::EvalConfig;
+use nomen_eval::identity::{EvalConfig, EvalReport};
 use nomen_mocap::ConvertOptions;
 use nomen_recording::{Header, RecordingReader};
 use std::path::{Path, PathBuf};
@@ -27,15 +29,45 @@ pub struct DemoArgs {
     pub out: PathBuf,
 }
 
+/// The embedded default scene.
+const DEFAULT_SCENARIO: &str =
+    include_str!("../../../../../scenarios/belmonte_one_without_band.toml");
+
 /// CMU's unit for the cgspeed BVH exports: one file unit in metres (see the data README).
 const CMU_SCALE: f64 = 0.056_444_4;
 
 /// Runs the demo.
 pub fn run(args: DemoArgs) -> Result<()> {
-    let data = find_data(args.data.as_deref())?;
+    let data = crate::io::find_data(args.data.as_deref())?;
     println!("nomen demo — data from {}", data.display());
 
-    // 1. Real two-person motion capture → recording + truth.
+    // 1. Simulate the default scene.
+    let scene_dir = args.out.join("scene");
+    println!("\n[1/4] simulate the default scene (scenarios/belmonte_one_without_band.toml)");
+    println!(
+        "{}",
+        super::simulate::simulate_to_dir(
+            DEFAULT_SCENARIO,
+            "belmonte_one_without_band.toml",
+            &scene_dir,
+            None,
+            Some(&data),
+        )?
+    );
+
+    // 2. The anonymous baseline on it.
+    println!("\n[2/4] baseline (everyone anonymous) → eval");
+    let report = anonymous_baseline(
+        &scene_dir.join("recording.jsonl"),
+        &scene_dir.join("truth.jsonl"),
+        &scene_dir.join("baseline.jsonl"),
+    )?;
+    println!(
+        "the intruder is rightly anonymous; the band wearer is never named — the engine's job:"
+    );
+    print!("{}", report.to_table());
+
+    // 3. Real two-person motion capture → recording + truth.
     let dir = args.out.join("handshake");
     let files = vec![
         data.join("mocap/cmu/18_01.bvh"),
@@ -50,7 +82,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         out: dir.join("recording.jsonl"),
         truth: Some(dir.join("truth.jsonl")),
     };
-    println!("\n[1/3] mocap convert (CMU 18_01 + 19_01, one clock, one frame)");
+    println!("\n[3/4] mocap convert (CMU 18_01 + 19_01, one clock, one frame)");
     println!("{}", convert_files(&convert)?);
     let clips = load_clips(
         &files,
@@ -76,10 +108,37 @@ pub fn run(args: DemoArgs) -> Result<()> {
         }
     }
 
-    // 2. Read the recording back, label it with the anonymous baseline, evaluate.
-    println!("\n[2/3] validate → baseline (everyone anonymous) → eval");
-    let recording = dir.join("recording.jsonl");
-    let reader = RecordingReader::open(&recording)
+    let report = anonymous_baseline(
+        &dir.join("recording.jsonl"),
+        &dir.join("truth.jsonl"),
+        &dir.join("result.jsonl"),
+    )?;
+    println!(
+        "read back and evaluated: {} truth frames, neither person wears anything, anonymous accuracy {}",
+        report.overall.num_frames,
+        report
+            .overall
+            .id_accuracy
+            .map_or("-".to_owned(), |a| format!("{:.1}%", 100.0 * a))
+    );
+
+    // 4. MOT metrics on py-motmetrics' own sequences.
+    println!("\n[4/4] eval mot (MOTChallenge, IoU distance 0.5; py-motmetrics semantics)");
+    let mut rows = Vec::new();
+    for seq in ["TUD-Campus", "TUD-Stadtmitte"] {
+        let base = data.join("mot").join(seq);
+        let m = evaluate_motchallenge(&base.join("gt.txt"), &base.join("test.txt"), 0.5)?;
+        rows.push((seq.to_owned(), m));
+    }
+    print!("{}", mot_table(&rows));
+    println!("\nfiles in {}", args.out.display());
+    Ok(())
+}
+
+/// Reads `recording`, labels every skeleton anonymous (the baseline that uses no evidence),
+/// writes the result to `result` and evaluates it against `truth`.
+fn anonymous_baseline(recording: &Path, truth: &Path, result_path: &Path) -> Result<EvalReport> {
+    let reader = RecordingReader::open(recording)
         .with_context(|| format!("reading {}", recording.display()))?;
     let mut result = Vec::new();
     for m in reader {
@@ -95,54 +154,14 @@ pub fn run(args: DemoArgs) -> Result<()> {
             }));
         }
     }
-    let result_path = dir.join("result.jsonl");
     write_recording(
-        &result_path,
+        result_path,
         &Header::without_registry().with_meta("generator", "nomen demo: anonymous baseline"),
         &result,
     )?;
-    let report = super::eval_identity::evaluate_files(
-        &[dir.join("truth.jsonl")],
-        &[result_path],
+    super::eval_identity::evaluate_files(
+        &[truth.to_owned()],
+        &[result_path.to_owned()],
         &EvalConfig::default(),
-    )?;
-    println!("neither person wears anything, so 'anonymous' is the right answer for both:");
-    print!("{}", report.to_table());
-
-    // 3. MOT metrics on py-motmetrics' own sequences.
-    println!("\n[3/3] eval mot (MOTChallenge, IoU distance 0.5; py-motmetrics semantics)");
-    let mut rows = Vec::new();
-    for seq in ["TUD-Campus", "TUD-Stadtmitte"] {
-        let base = data.join("mot").join(seq);
-        let m = evaluate_motchallenge(&base.join("gt.txt"), &base.join("test.txt"), 0.5)?;
-        rows.push((seq.to_owned(), m));
-    }
-    print!("{}", mot_table(&rows));
-    println!("\nfiles in {}", args.out.display());
-    Ok(())
-}
-
-/// Finds the shared data folder: the flag, `$NOMEN_DATA`, `../shared/data`, or the one beside the
-/// source checkout this binary was built from.
-fn find_data(flag: Option<&Path>) -> Result<PathBuf> {
-    let mut candidates: Vec<PathBuf> = Vec::new();
-    if let Some(f) = flag {
-        candidates.push(f.to_owned());
-    } else {
-        if let Some(env) = std::env::var_os("NOMEN_DATA") {
-            candidates.push(env.into());
-        }
-        candidates.push("../shared/data".into());
-        candidates.push(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../../shared/data"));
-    }
-    for c in &candidates {
-        if c.join("mocap/cmu/18_01.bvh").is_file() {
-            return Ok(c.clone());
-        }
-    }
-    let tried: Vec<String> = candidates.iter().map(|c| c.display().to_string()).collect();
-    bail!(
-        "the shared data folder was not found (tried {}); pass --data DIR or set NOMEN_DATA",
-        tried.join(", ")
     )
 }

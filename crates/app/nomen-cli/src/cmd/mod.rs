@@ -5,4 +5,5 @@ pub mod eval;
 pub mod eval_identity;
 pub mod fit;
 pub mod mocap;
+pub mod simulate;
 pub mod validate;

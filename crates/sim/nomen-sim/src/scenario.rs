@@ -1,0 +1,272 @@
+//! Scenario files: what a scene contains, as plain data loadable from TOML.
+//!
+//! A scenario names a room with static obstacles, cameras, UWB anchors and RSSI antennas, the
+//! sensor models (each with defaults fitted to real recordings, see `docs/sensor-models.md`) and
+//! the people: which motion-capture clip each performs and where, which registered subject they
+//! are (or none: an *intruder* who wears nothing), and what they wear on which body site.
+//! `docs/scenarios.md` documents every field; `scenarios/` holds the library.
+
+use crate::camera::CameraModelConfig;
+use crate::clips::ClipDef;
+use crate::error::{Result, SimError};
+use crate::geometry::BoxObstacle;
+use crate::motion::MotionSpec;
+use crate::sensors::imu::ImuConfig;
+use crate::sensors::rssi::RssiConfig;
+use crate::sensors::uwb::{RtlsConfig, UwbRangeConfig};
+use nomen_core::registry::DeviceKind;
+use nomen_core::skeleton::Joint;
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
+
+/// A whole scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Short name, used in output metadata and evaluation tables.
+    pub name: String,
+    /// What the scene is for (free text).
+    #[serde(default)]
+    pub description: String,
+    /// Length of the scene, seconds (the session clock runs from 0 to this).
+    pub duration_s: f64,
+    /// Default random seed (the command line's `--seed` overrides it).
+    #[serde(default)]
+    pub seed: u64,
+    /// The room and its static obstacles.
+    #[serde(default)]
+    pub room: Room,
+    /// Extra clips beyond the built-in library (`nomen_sim::clips::builtin_clips`), by name.
+    #[serde(default)]
+    pub clips: BTreeMap<String, ClipDef>,
+    /// Body-tracking cameras.
+    #[serde(default)]
+    pub cameras: Vec<CameraModelConfig>,
+    /// UWB anchors (needed for raw ranges; fixes are simulated in the world frame directly).
+    #[serde(default)]
+    pub anchors: Vec<AnchorDef>,
+    /// RSSI antennas (RFID reader ports or BLE anchors).
+    #[serde(default)]
+    pub antennas: Vec<AntennaDef>,
+    /// Sensor models shared by every device of a kind.
+    #[serde(default)]
+    pub sensors: SensorModels,
+    /// The people in the scene.
+    pub people: Vec<PersonDef>,
+}
+
+/// The room: a floor rectangle from (0, 0) to `size_m` and static box obstacles.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Room {
+    /// Extent along x, y and z (height), metres; the floor is z = 0.
+    #[serde(default = "default_room")]
+    pub size_m: [f64; 3],
+    /// Static obstacles (furniture, shelves, walls of a corridor): boxes given by centre, full
+    /// side lengths and a yaw about Z.
+    #[serde(default)]
+    pub obstacles: Vec<BoxObstacle>,
+}
+
+fn default_room() -> [f64; 3] {
+    [8.0, 6.0, 3.0]
+}
+
+impl Default for Room {
+    fn default() -> Self {
+        Self {
+            size_m: default_room(),
+            obstacles: Vec::new(),
+        }
+    }
+}
+
+/// A UWB anchor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnchorDef {
+    /// Anchor id.
+    pub id: String,
+    /// Position, metres.
+    pub position_m: [f64; 3],
+}
+
+/// An RSSI antenna.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AntennaDef {
+    /// Antenna id.
+    pub id: String,
+    /// Position, metres.
+    pub position_m: [f64; 3],
+    /// Boresight direction (need not be unit); omit for an omnidirectional antenna.
+    #[serde(default)]
+    pub boresight: Option<[f64; 3]>,
+}
+
+/// Sensor models, one per kind of device.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorModels {
+    /// Inertial sensors.
+    #[serde(default)]
+    pub imu: ImuConfig,
+    /// UWB location tags: position fixes from the RTLS.
+    #[serde(default)]
+    pub rtls: RtlsConfig,
+    /// Raw UWB two-way ranges to the anchors; simulated only when this table is present (and
+    /// the scene has anchors).
+    #[serde(default)]
+    pub uwb_range: Option<UwbRangeConfig>,
+    /// RSSI tags (passive UHF RFID, BLE beacons).
+    #[serde(default)]
+    pub rssi: RssiConfig,
+}
+
+/// One person.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PersonDef {
+    /// Ground-truth person id (never shown to the engine).
+    pub id: String,
+    /// The registered subject this person is; omit for someone unknown to the system (an
+    /// intruder), who must wear nothing and should stay anonymous.
+    #[serde(default)]
+    pub subject: Option<String>,
+    /// How the person moves.
+    pub motion: MotionSpec,
+    /// Devices the person wears.
+    #[serde(default)]
+    pub wears: Vec<WearDef>,
+}
+
+/// One worn device.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WearDef {
+    /// Device id (unique in the scene).
+    pub device: String,
+    /// `imu`, `uwb_tag`, `rfid_tag` or `ble_tag`.
+    pub kind: DeviceKind,
+    /// Body site (a canonical joint name such as `left_wrist`).
+    pub site: Joint,
+}
+
+impl Scenario {
+    /// Parses a scenario from TOML text; `source` names it in errors.
+    pub fn from_toml(text: &str, source: &str) -> Result<Self> {
+        let scenario: Scenario = toml::from_str(text)
+            .map_err(|e| SimError::InvalidScenario(format!("{source}: {e}")))?;
+        scenario.validate()?;
+        Ok(scenario)
+    }
+
+    /// Every clip definition the scenario can use: the built-in library plus its own.
+    pub fn clip_library(&self) -> BTreeMap<String, ClipDef> {
+        let mut lib = crate::clips::builtin_clips();
+        lib.extend(self.clips.clone());
+        lib
+    }
+
+    /// Checks ids, ranges and references; errors name the offending field.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(SimError::InvalidScenario(m));
+        if !(self.duration_s.is_finite()
+            && self.duration_s > 0.0
+            && self.duration_s <= 24.0 * 3600.0)
+        {
+            return bad(format!(
+                "duration_s must be in (0, 86400], got {}",
+                self.duration_s
+            ));
+        }
+        for (i, v) in self.room.size_m.iter().enumerate() {
+            if !(v.is_finite() && *v > 0.0) {
+                return bad(format!("room.size_m[{i}] must be positive, got {v}"));
+            }
+        }
+        for o in &self.room.obstacles {
+            o.validate()
+                .map_err(|e| SimError::InvalidScenario(format!("obstacle '{}': {e}", o.name)))?;
+        }
+        let library = self.clip_library();
+        let mut people = BTreeSet::new();
+        let mut subjects = BTreeSet::new();
+        let mut devices = BTreeSet::new();
+        for p in &self.people {
+            if !people.insert(p.id.as_str()) {
+                return bad(format!("person '{}' is listed twice", p.id));
+            }
+            if let Some(s) = &p.subject
+                && !subjects.insert(s.as_str())
+            {
+                return bad(format!("subject '{s}' is given to two people"));
+            }
+            if p.subject.is_none() && !p.wears.is_empty() {
+                return bad(format!(
+                    "person '{}' wears devices but has no subject: devices belong to registered subjects",
+                    p.id
+                ));
+            }
+            for clip in p.motion.clip_names() {
+                if !library.contains_key(clip) {
+                    return bad(format!(
+                        "person '{}': unknown clip '{clip}' (known: {})",
+                        p.id,
+                        library.keys().cloned().collect::<Vec<_>>().join(", ")
+                    ));
+                }
+            }
+            for w in &p.wears {
+                if !devices.insert(w.device.as_str()) {
+                    return bad(format!("device '{}' is worn twice", w.device));
+                }
+                if matches!(w.kind, DeviceKind::RfidTag | DeviceKind::BleTag)
+                    && self.antennas.is_empty()
+                {
+                    return bad(format!(
+                        "device '{}' is an RSSI tag but the scene has no antennas",
+                        w.device
+                    ));
+                }
+            }
+        }
+        let mut cams = BTreeSet::new();
+        for c in &self.cameras {
+            if !cams.insert(c.id.as_str()) {
+                return bad(format!("camera '{}' is listed twice", c.id));
+            }
+        }
+        let mut ids = BTreeSet::new();
+        for a in &self.anchors {
+            if !ids.insert(a.id.as_str()) || a.position_m.iter().any(|v| !v.is_finite()) {
+                return bad(format!(
+                    "anchor '{}' is duplicated or has a non-finite position",
+                    a.id
+                ));
+            }
+        }
+        ids.clear();
+        for a in &self.antennas {
+            if !ids.insert(a.id.as_str()) || a.position_m.iter().any(|v| !v.is_finite()) {
+                return bad(format!(
+                    "antenna '{}' is duplicated or has a non-finite position",
+                    a.id
+                ));
+            }
+        }
+        self.sensors.imu.validate()?;
+        self.sensors.rtls.validate()?;
+        if let Some(r) = &self.sensors.uwb_range {
+            if self.anchors.is_empty() {
+                return bad("sensors.uwb_range is set but the scene has no anchors".to_owned());
+            }
+            r.validate()?;
+        }
+        self.sensors.rssi.validate()?;
+        for c in &self.cameras {
+            c.validate()?;
+        }
+        Ok(())
+    }
+}

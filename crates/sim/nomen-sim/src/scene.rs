@@ -1,0 +1,380 @@
+//! Running a scenario: people, cameras and wearables over the scene's duration, with ground truth.
+
+use crate::body::{BodyMotion, Mount};
+use crate::camera::{CameraModel, PersonInScene};
+use crate::clips::ClipDef;
+use crate::error::{Result, SimError};
+use crate::geometry::{BodyCapsules, BodyRadii, count_blocking_bodies, obstacles_to_obj};
+use crate::motion::{ClipUse, PersonMotion};
+use crate::rng::stream;
+use crate::scenario::Scenario;
+use crate::sensors::imu::simulate_imu;
+use crate::sensors::rssi::simulate_rssi;
+use crate::sensors::uwb::{simulate_rtls, simulate_uwb_ranges};
+use nalgebra::{Point3, UnitQuaternion, Vector3};
+use nomen_core::registry::{Anchor, Antenna, DeviceKind, Registry, Subject, Wearable};
+use nomen_core::{AnchorId, AntennaId, DeviceId, Message, SubjectId};
+use nomen_mocap::{ConvertOptions, MocapClip, convert, parse_bvh};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Parses and converts one clip of the library (sans-IO: the caller reads the file).
+pub fn load_clip(def: &ClipDef, bvh_text: &str, source: &str) -> Result<MocapClip> {
+    let bvh = parse_bvh(bvh_text, source)?;
+    let options = ConvertOptions {
+        scale: Some(def.scale),
+        fps_hz: Some(def.fps_hz),
+        ..Default::default()
+    };
+    Ok(convert(&bvh, &options)?)
+}
+
+/// What one simulated device drew: the hidden truth behind its messages.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DeviceTruth {
+    /// The device.
+    pub device: String,
+    /// Its kind.
+    pub kind: DeviceKind,
+    /// The person wearing it.
+    pub person: String,
+    /// `session − device` clock offset at device time 0, s (IMUs; 0 otherwise).
+    pub clock_offset_s: f64,
+    /// Device clock rate error, ppm (IMUs; 0 otherwise).
+    pub clock_drift_ppm: f64,
+    /// `segment_from_sensor` actually used, `[w, x, y, z]` (IMUs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub segment_from_sensor_wxyz: Option<[f64; 4]>,
+    /// Turn-on gyroscope bias, sensor frame, rad/s (IMUs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gyro_bias_radps: Option<[f64; 3]>,
+    /// Turn-on accelerometer bias, sensor frame, m/s² (IMUs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accel_bias_mps2: Option<[f64; 3]>,
+    /// Messages emitted.
+    pub num_messages: usize,
+    /// Samples, fixes, cycles or polls lost.
+    pub num_lost: usize,
+    /// IMU samples whose accelerometer / gyroscope reading hit the sensor's range (clipped).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub num_saturated: Option<[usize; 2]>,
+}
+
+/// The resolved scene, written as `scene.json` beside the recording.
+#[derive(Debug, Clone, Serialize)]
+pub struct SceneDescription {
+    /// Always `nomen-scene`.
+    pub format: &'static str,
+    /// Version of this description.
+    pub version: u32,
+    /// The seed the scene was simulated with.
+    pub seed: u64,
+    /// The scenario with every default filled in.
+    pub scenario: Scenario,
+    /// The registry the recording carries.
+    pub registry: Registry,
+    /// Per-device hidden truth (clock offsets, mounting rotations, biases).
+    pub devices: Vec<DeviceTruth>,
+    /// Time span in which each person is in the scene, s.
+    pub people_span_s: BTreeMap<String, (f64, f64)>,
+}
+
+/// Everything a simulation produces.
+#[derive(Debug, Clone)]
+pub struct SimOutput {
+    /// Sensor messages (skeletons, IMU samples, fixes, ranges, reads), unsorted.
+    pub recording: Vec<Message>,
+    /// Ground truth (`truth_skeleton`, `truth_tag`), unsorted.
+    pub truth: Vec<Message>,
+    /// The resolved scene.
+    pub scene: SceneDescription,
+    /// The static obstacles as a Wavefront OBJ mesh.
+    pub obstacles_obj: String,
+}
+
+/// Simulates `scenario` with `seed`. `clips` holds every clip the people use, by library name.
+/// `progress(stage, done_fraction)` is called as the work advances.
+pub fn simulate(
+    scenario: &Scenario,
+    clips: &BTreeMap<String, MocapClip>,
+    seed: u64,
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<SimOutput> {
+    scenario.validate()?;
+    let library = scenario.clip_library();
+    let duration_s = scenario.duration_s;
+
+    // People.
+    let mut motions: Vec<PersonMotion> = Vec::with_capacity(scenario.people.len());
+    for p in &scenario.people {
+        let clip_name = &p.motion.clip;
+        let (Some(def), Some(clip)) = (library.get(clip_name), clips.get(clip_name)) else {
+            return Err(SimError::InvalidScenario(format!(
+                "person '{}': clip '{clip_name}' was not loaded",
+                p.id
+            )));
+        };
+        let source = ClipUse {
+            clip,
+            skip_frames: def.skip_frames,
+            travels: Some(def.travels),
+        };
+        let motion = PersonMotion::new(&p.motion, source)
+            .map_err(|e| SimError::InvalidScenario(format!("person '{}': {e}", p.id)))?;
+        motions.push(motion);
+    }
+    let spans: Vec<Option<(f64, f64)>> = motions
+        .iter()
+        .map(|m| {
+            let (a, b) = m.span_s();
+            let (a, b) = (a.max(0.0), b.min(duration_s));
+            (a < b).then_some((a, b))
+        })
+        .collect();
+    progress("people", 1.0);
+
+    let registry = build_registry(scenario)?;
+    let mut recording = Vec::new();
+    let mut truth = Vec::new();
+
+    // Cameras.
+    let people: Vec<PersonInScene<'_>> = scenario
+        .people
+        .iter()
+        .zip(&motions)
+        .map(|(p, m)| {
+            PersonInScene::new(
+                p.id.clone(),
+                p.subject.as_ref().map(|s| SubjectId::new(s.clone())),
+                m as &dyn BodyMotion,
+            )
+        })
+        .collect();
+    let num_cameras = scenario.cameras.len().max(1);
+    for (i, cam) in scenario.cameras.iter().enumerate() {
+        let model = CameraModel::new(cam.clone())?;
+        let mut rng = stream(seed, &format!("camera/{}", cam.id));
+        let out = model.simulate(&people, &scenario.room.obstacles, 0.0, duration_s, &mut rng)?;
+        recording.extend(out.observations.into_iter().map(Message::Skeleton));
+        truth.extend(out.truths.into_iter().map(Message::TruthSkeleton));
+        progress("cameras", (i + 1) as f64 / num_cameras as f64);
+    }
+
+    // Wearables.
+    let anchors = registry.anchors.clone();
+    let antennas = registry.antennas.clone();
+    let radii = BodyRadii::default();
+    let blocking = |t_s: f64, tag_position: Point3<f64>, antenna: &Point3<f64>, wearer: usize| {
+        let bodies: Vec<BodyCapsules> = motions
+            .iter()
+            .zip(&spans)
+            .map(|(m, span)| match span {
+                Some((a, b)) if (*a..=*b).contains(&t_s) => {
+                    BodyCapsules::from_pose(&m.pose_at(t_s), &radii)
+                }
+                // Someone not in the scene blocks nothing: a capsule far below the floor.
+                _ => BodyCapsules::from_pose(&far_away_pose(), &radii),
+            })
+            .collect();
+        count_blocking_bodies(&bodies, &tag_position, antenna, Some(wearer))
+    };
+    let mut devices = Vec::new();
+    let num_wear: usize = scenario
+        .people
+        .iter()
+        .map(|p| p.wears.len())
+        .sum::<usize>()
+        .max(1);
+    let mut done = 0usize;
+    for (pi, (p, motion)) in scenario.people.iter().zip(&motions).enumerate() {
+        let Some(span) = spans[pi] else { continue };
+        for w in &p.wears {
+            let device = DeviceId::new(w.device.clone());
+            let mut dt = DeviceTruth {
+                device: w.device.clone(),
+                kind: w.kind,
+                person: p.id.clone(),
+                clock_offset_s: 0.0,
+                clock_drift_ppm: 0.0,
+                segment_from_sensor_wxyz: None,
+                gyro_bias_radps: None,
+                accel_bias_mps2: None,
+                num_messages: 0,
+                num_lost: 0,
+                num_saturated: None,
+            };
+            match w.kind {
+                DeviceKind::Imu => {
+                    let mut rng = stream(seed, &format!("imu/{}", w.device));
+                    let mount = Mount::at(w.site, UnitQuaternion::identity());
+                    let run = simulate_imu(
+                        motion,
+                        &device,
+                        &mount,
+                        span,
+                        &scenario.sensors.imu,
+                        &mut rng,
+                    )?;
+                    let q = run.truth.mount.segment_from_sensor.quaternion();
+                    dt.clock_offset_s = run.truth.clock.offset_s;
+                    dt.clock_drift_ppm = run.truth.clock.drift_ppm;
+                    dt.segment_from_sensor_wxyz = Some([q.w, q.i, q.j, q.k]);
+                    dt.gyro_bias_radps = Some(vec3(&run.truth.gyro_bias_radps));
+                    dt.accel_bias_mps2 = Some(vec3(&run.truth.accel_bias_mps2));
+                    dt.num_messages = run.samples.len();
+                    dt.num_lost = run.truth.num_lost;
+                    dt.num_saturated =
+                        Some([run.truth.num_accel_saturated, run.truth.num_gyro_saturated]);
+                    recording.extend(run.samples.into_iter().map(Message::Imu));
+                }
+                DeviceKind::UwbTag => {
+                    let mut rng = stream(seed, &format!("rtls/{}", w.device));
+                    let run = simulate_rtls(
+                        motion,
+                        w.site,
+                        &device,
+                        span,
+                        &scenario.sensors.rtls,
+                        &mut rng,
+                    )?;
+                    dt.num_messages = run.fixes.len();
+                    dt.num_lost = run.num_lost;
+                    recording.extend(run.fixes.into_iter().map(Message::RtlsFix));
+                    truth.extend(run.truth.into_iter().map(Message::TruthTag));
+                    if let Some(cfg) = &scenario.sensors.uwb_range {
+                        let mut rng = stream(seed, &format!("uwb_range/{}", w.device));
+                        let run = simulate_uwb_ranges(
+                            motion, w.site, &device, &anchors, span, cfg, &mut rng,
+                        )?;
+                        dt.num_messages += run.ranges.len();
+                        recording.extend(run.ranges.into_iter().map(Message::UwbRange));
+                    }
+                }
+                DeviceKind::RfidTag | DeviceKind::BleTag => {
+                    let mut rng = stream(seed, &format!("rssi/{}", w.device));
+                    let site = w.site;
+                    let count = |t_s: f64, antenna: usize| -> usize {
+                        let tag = motion.joint_at(t_s, site).position_m;
+                        antennas
+                            .get(antenna)
+                            .map_or(0, |a| blocking(t_s, tag, &a.position_m, pi))
+                    };
+                    let run = simulate_rssi(
+                        motion,
+                        w.site,
+                        &device,
+                        &antennas,
+                        span,
+                        &count,
+                        &scenario.sensors.rssi,
+                        &mut rng,
+                    )?;
+                    dt.num_messages = run.reads.len();
+                    dt.num_lost = run.num_missed;
+                    recording.extend(run.reads.into_iter().map(Message::Rssi));
+                }
+            }
+            devices.push(dt);
+            done += 1;
+            progress("wearables", done as f64 / num_wear as f64);
+        }
+    }
+
+    let people_span_s = scenario
+        .people
+        .iter()
+        .zip(&spans)
+        .filter_map(|(p, s)| s.map(|s| (p.id.clone(), s)))
+        .collect();
+    let scene = SceneDescription {
+        format: "nomen-scene",
+        version: 1,
+        seed,
+        scenario: scenario.clone(),
+        registry,
+        devices,
+        people_span_s,
+    };
+    Ok(SimOutput {
+        recording,
+        truth,
+        obstacles_obj: obstacles_to_obj(&scenario.room.obstacles),
+        scene,
+    })
+}
+
+fn vec3(v: &Vector3<f64>) -> [f64; 3] {
+    [v.x, v.y, v.z]
+}
+
+/// A pose far below the floor, for people outside their span (they block nothing).
+fn far_away_pose() -> crate::body::BodyPose {
+    let mut pose = crate::body::BodyPose::new();
+    for (i, j) in nomen_core::Joint::ALL.into_iter().enumerate() {
+        pose.insert(
+            j,
+            crate::body::JointPose {
+                position_m: Point3::new(0.0, 0.0, -1000.0 - i as f64 * 0.01),
+                world_from_joint: UnitQuaternion::identity(),
+            },
+        );
+    }
+    pose
+}
+
+/// The registry the engine is told about: subjects and what they wear where, cameras, anchors,
+/// antennas. Device clocks are unknown to the engine (zero), as in a real deployment.
+pub fn build_registry(scenario: &Scenario) -> Result<Registry> {
+    let subjects = scenario
+        .people
+        .iter()
+        .filter_map(|p| {
+            p.subject.as_ref().map(|s| Subject {
+                id: SubjectId::new(s.clone()),
+                name: None,
+                wears: p
+                    .wears
+                    .iter()
+                    .map(|w| Wearable {
+                        device: DeviceId::new(w.device.clone()),
+                        kind: w.kind,
+                        site: w.site,
+                        clock: Default::default(),
+                    })
+                    .collect(),
+            })
+        })
+        .collect();
+    let cameras = scenario
+        .cameras
+        .iter()
+        .map(|c| CameraModel::new(c.clone()).map(|m| m.registry_camera()))
+        .collect::<Result<Vec<_>>>()?;
+    let anchors = scenario
+        .anchors
+        .iter()
+        .map(|a| Anchor {
+            id: AnchorId::new(a.id.clone()),
+            position_m: Point3::from(a.position_m),
+        })
+        .collect();
+    let antennas = scenario
+        .antennas
+        .iter()
+        .map(|a| Antenna {
+            id: AntennaId::new(a.id.clone()),
+            position_m: Point3::from(a.position_m),
+            boresight: a.boresight.map(Vector3::from),
+        })
+        .collect();
+    let registry = Registry {
+        subjects,
+        cameras,
+        anchors,
+        antennas,
+    };
+    registry
+        .validate()
+        .map_err(|e| SimError::InvalidScenario(format!("registry: {e}")))?;
+    Ok(registry)
+}
