@@ -27,6 +27,9 @@ enum Command {
     Mocap(cmd::mocap::MocapCommand),
     /// Simulate a scenario: people from real motion capture under cameras, wearing sensors.
     Simulate(cmd::simulate::SimulateArgs),
+    /// Import CSV files (IMU, tag fixes, skeletons) into a recording.
+    #[command(subcommand)]
+    Import(cmd::import::ImportCommand),
     /// Check a recording line by line and summarise it.
     Validate(cmd::validate::ValidateArgs),
     /// Evaluate an engine result against ground truth (or MOTChallenge files with `eval mot`).
@@ -43,6 +46,7 @@ fn main() -> ExitCode {
     let outcome = match cli.command {
         Command::Mocap(c) => cmd::mocap::run(c),
         Command::Simulate(a) => cmd::simulate::run(a),
+        Command::Import(c) => cmd::import::run(c),
         Command::Validate(a) => cmd::validate::run(a),
         Command::Eval(a) => cmd::eval::run(a),
         Command::Fit(c) => cmd::fit::run(c),
@@ -51,8 +55,26 @@ fn main() -> ExitCode {
     match outcome {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", error_chain(&err));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes joined by `: `, leaving out a cause whose text the message before it
+/// already contains (library errors often print their source themselves).
+fn error_chain(err: &anyhow::Error) -> String {
+    let mut out = String::new();
+    let mut previous = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if !previous.contains(&text) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&text);
+        }
+        previous = text;
+    }
+    out
 }

@@ -273,3 +273,68 @@ motion = { clip = "walk_131_02", path = [[5.0, 3.4], [3.0, 3.4], [3.0, 2.2]] }
         text(&o.stderr)
     );
 }
+
+#[test]
+fn csv_imports_convert_units_and_reject_bad_rows_by_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    if let Some(data) = data_dir() {
+        // The x-io file gives deg/s and g; the recording holds rad/s and m/s².
+        let out = tmp.path().join("xio.jsonl");
+        let o = nomen(&[
+            "import",
+            "imu",
+            data.join("imu/xio/sensor_data.csv").to_str().unwrap(),
+            "--device",
+            "xio",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let first = std::fs::read_to_string(&out).unwrap();
+        let sample: serde_json::Value =
+            serde_json::from_str(first.lines().nth(1).unwrap()).unwrap();
+        let a: Vec<f64> = sample["accel_mps2"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let norm = a.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!((norm - 9.81).abs() < 0.2, "still device reads {norm} m/s²");
+    }
+    let csv = tmp.path().join("fixes.csv");
+    std::fs::write(
+        &csv,
+        "t_ms,tag,x_mm,y_mm,z_mm\n0,t1,1000,2000,1000\n100,t1,1000,2000,oops\n",
+    )
+    .unwrap();
+    let o = nomen(&[
+        "import",
+        "fixes",
+        csv.to_str().unwrap(),
+        "--out",
+        tmp.path().join("f.jsonl").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let stderr = text(&o.stderr);
+    assert!(stderr.contains("fixes.csv:3"), "{stderr}");
+    // Units from the names: millimetres and milliseconds become metres and nanoseconds.
+    std::fs::write(
+        &csv,
+        "t_ms,tag,x_mm,y_mm,z_mm\n0,t1,1000,2000,1000\n100,t1,1500,2000,1000\n",
+    )
+    .unwrap();
+    let out = tmp.path().join("f.jsonl");
+    let o = nomen(&[
+        "import",
+        "fixes",
+        csv.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let rec = std::fs::read_to_string(&out).unwrap();
+    let last: serde_json::Value = serde_json::from_str(rec.lines().last().unwrap()).unwrap();
+    assert_eq!(last["t"], 100_000_000);
+    assert_eq!(last["position_m"][0], 1.5);
+}

@@ -4,6 +4,7 @@ pub mod demo;
 pub mod eval;
 pub mod eval_identity;
 pub mod fit;
+pub mod import;
 pub mod mocap;
 pub mod simulate;
 pub mod validate;
