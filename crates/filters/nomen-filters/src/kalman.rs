@@ -1,0 +1,314 @@
+//! Constant-velocity Kalman filter for one 3D joint (De Marchi et al. filter every skeleton joint
+//! before differentiating it).
+//!
+//! State `x = [p_x, p_y, p_z, v_x, v_y, v_z]` in metres and m/s; measurement `z = p + noise`.
+//! The prediction over `dt` uses the continuous white-noise-acceleration model (Bar-Shalom, Li &
+//! Kirubarajan, *Estimation with Applications to Tracking and Navigation*, §6.2.2): per axis
+//!
+//! ```text
+//! F = [1 dt; 0 1],   Q = q · [dt³/3  dt²/2; dt²/2  dt]
+//! ```
+//!
+//! with `q` the acceleration power spectral density in m²/s³. The measurement covariance `R` is
+//! given with every update, so joints the pose SDK only *inferred* can carry a larger `R`.
+//!
+//! The predict/update algebra is [`adskalman`] 0.18 (Joseph-form covariance update), which works
+//! on statically sized nalgebra 0.35 matrices — the same nalgebra as the workspace — so a step
+//! does not allocate. The filter is zero-latency: [`JointKalman::step`] predicts to the
+//! measurement time and then updates, so the estimate refers to the measurement instant.
+
+use crate::error::{FilterError, Result, check_positive};
+use adskalman::{
+    CovarianceUpdateMethod, ObservationModel, StateAndCovariance, TransitionModelLinearNoControl,
+};
+use nalgebra::{Matrix3, Matrix6, OMatrix, Point3, U3, U6, Vector3, Vector6};
+use nomen_core::SessionTime;
+use serde::{Deserialize, Serialize};
+
+/// Configuration of the constant-velocity joint filter.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ConstantVelocityConfig {
+    /// Power spectral density of the white acceleration driving each axis, m²/s³. Bar-Shalom's
+    /// rule of thumb: `q ≈ a_max² · T` for accelerations of about `a_max` over the sampling period.
+    pub accel_psd_m2ps3: f64,
+    /// Standard deviation of the initial velocity, m/s (the first measurement fixes position only).
+    pub initial_velocity_std_mps: f64,
+}
+
+impl Default for ConstantVelocityConfig {
+    /// Human joints: accelerations of a few m/s² at 30 Hz give `q ≈ 10² / 30 ≈ 3` m²/s³; an initial
+    /// velocity within ±2 m/s (walking speed).
+    fn default() -> Self {
+        Self {
+            accel_psd_m2ps3: 3.0,
+            initial_velocity_std_mps: 2.0,
+        }
+    }
+}
+
+impl ConstantVelocityConfig {
+    fn validate(&self) -> Result<()> {
+        check_positive("accel_psd_m2ps3", self.accel_psd_m2ps3)?;
+        check_positive("initial_velocity_std_mps", self.initial_velocity_std_mps)
+    }
+}
+
+/// What an update did with a measurement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UpdateOutcome {
+    /// The measurement corrected the estimate.
+    Applied,
+    /// The first valid measurement initialised the filter.
+    Initialized,
+    /// The measurement (or its covariance) was not finite: treated as missing, predict only.
+    RejectedAsMissing,
+}
+
+/// The constant-velocity transition `F(dt)` and the white-acceleration `Q(dt)` for three axes.
+pub fn constant_velocity_model(dt_s: f64, accel_psd_m2ps3: f64) -> (Matrix6<f64>, Matrix6<f64>) {
+    let mut f = Matrix6::identity();
+    let mut q = Matrix6::zeros();
+    let q_pp = accel_psd_m2ps3 * dt_s.powi(3) / 3.0;
+    let q_pv = accel_psd_m2ps3 * dt_s.powi(2) / 2.0;
+    let q_vv = accel_psd_m2ps3 * dt_s;
+    for i in 0..3 {
+        f[(i, i + 3)] = dt_s;
+        q[(i, i)] = q_pp;
+        q[(i, i + 3)] = q_pv;
+        q[(i + 3, i)] = q_pv;
+        q[(i + 3, i + 3)] = q_vv;
+    }
+    (f, q)
+}
+
+/// The position-only observation matrix `H = [I₃ 0]`.
+pub fn position_observation() -> OMatrix<f64, U3, U6> {
+    let mut h = OMatrix::<f64, U3, U6>::zeros();
+    for i in 0..3 {
+        h[(i, i)] = 1.0;
+    }
+    h
+}
+
+struct Transition {
+    f: Matrix6<f64>,
+    ft: Matrix6<f64>,
+    q: Matrix6<f64>,
+}
+
+impl TransitionModelLinearNoControl<f64, U6> for Transition {
+    fn F(&self) -> &Matrix6<f64> {
+        &self.f
+    }
+    fn FT(&self) -> &Matrix6<f64> {
+        &self.ft
+    }
+    fn Q(&self) -> &Matrix6<f64> {
+        &self.q
+    }
+}
+
+struct PositionObservation {
+    h: OMatrix<f64, U3, U6>,
+    ht: OMatrix<f64, U6, U3>,
+    r: Matrix3<f64>,
+}
+
+impl ObservationModel<f64, U6, U3> for PositionObservation {
+    fn H(&self) -> &OMatrix<f64, U3, U6> {
+        &self.h
+    }
+    fn HT(&self) -> &OMatrix<f64, U6, U3> {
+        &self.ht
+    }
+    fn R(&self) -> &Matrix3<f64> {
+        &self.r
+    }
+}
+
+/// True when `r` is finite and symmetric with a positive diagonal (a usable covariance).
+pub(crate) fn is_usable_covariance(r: &Matrix3<f64>) -> bool {
+    r.iter().all(|v| v.is_finite())
+        && (0..3).all(|i| r[(i, i)] > 0.0)
+        && (r - r.transpose()).abs().max() <= 1e-9 * (1.0 + r.abs().max())
+}
+
+/// Constant-velocity Kalman filter for one joint.
+#[derive(Debug, Clone)]
+pub struct JointKalman {
+    config: ConstantVelocityConfig,
+    estimate: Option<StateAndCovariance<f64, U6>>,
+    last_t: Option<SessionTime>,
+}
+
+impl JointKalman {
+    /// A filter with no estimate yet; the first valid measurement initialises it.
+    pub fn new(config: ConstantVelocityConfig) -> Result<Self> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            estimate: None,
+            last_t: None,
+        })
+    }
+
+    /// True once a measurement has initialised the state.
+    pub fn is_initialized(&self) -> bool {
+        self.estimate.is_some()
+    }
+
+    /// Position estimate, if initialised.
+    pub fn position(&self) -> Option<Point3<f64>> {
+        self.estimate
+            .as_ref()
+            .map(|e| Point3::from(e.state().fixed_rows::<3>(0).into_owned()))
+    }
+
+    /// Velocity estimate, if initialised.
+    pub fn velocity(&self) -> Option<Vector3<f64>> {
+        self.estimate
+            .as_ref()
+            .map(|e| e.state().fixed_rows::<3>(3).into_owned())
+    }
+
+    /// Full state `[p; v]`, if initialised.
+    pub fn state(&self) -> Option<Vector6<f64>> {
+        self.estimate.as_ref().map(|e| *e.state())
+    }
+
+    /// State covariance, if initialised.
+    pub fn covariance(&self) -> Option<Matrix6<f64>> {
+        self.estimate.as_ref().map(|e| *e.covariance())
+    }
+
+    /// Time of the last [`Self::step`], if any.
+    pub fn last_time(&self) -> Option<SessionTime> {
+        self.last_t
+    }
+
+    /// Propagates the estimate by `dt_s` seconds (`dt_s` ≥ 0 and finite). Does nothing before
+    /// initialisation.
+    pub fn predict(&mut self, dt_s: f64) -> Result<()> {
+        if !(dt_s.is_finite() && dt_s >= 0.0) {
+            return Err(FilterError::InvalidParameter {
+                name: "dt_s",
+                reason: format!("must be finite and >= 0, got {dt_s}"),
+            });
+        }
+        if let Some(estimate) = &mut self.estimate {
+            let (f, q) = constant_velocity_model(dt_s, self.config.accel_psd_m2ps3);
+            let model = Transition {
+                f,
+                ft: f.transpose(),
+                q,
+            };
+            *estimate = model.predict(estimate);
+        }
+        Ok(())
+    }
+
+    /// Corrects the estimate with a position measurement `z` of covariance `r` (m²). A
+    /// non-finite `z` or an unusable `r` is treated as a missing measurement.
+    pub fn update(&mut self, z: &Point3<f64>, r: &Matrix3<f64>) -> Result<UpdateOutcome> {
+        if !z.iter().all(|v| v.is_finite()) || !is_usable_covariance(r) {
+            return Ok(UpdateOutcome::RejectedAsMissing);
+        }
+        let Some(prior) = &self.estimate else {
+            let mut p = Matrix6::zeros();
+            p.fixed_view_mut::<3, 3>(0, 0).copy_from(r);
+            let v2 = self.config.initial_velocity_std_mps.powi(2);
+            p.fixed_view_mut::<3, 3>(3, 3)
+                .copy_from(&(Matrix3::identity() * v2));
+            let mut x = Vector6::zeros();
+            x.fixed_rows_mut::<3>(0).copy_from(&z.coords);
+            self.estimate = Some(StateAndCovariance::new(x, p));
+            return Ok(UpdateOutcome::Initialized);
+        };
+        let h = position_observation();
+        let model = PositionObservation {
+            h,
+            ht: h.transpose(),
+            r: *r,
+        };
+        let posterior = model
+            .update(prior, &z.coords, CovarianceUpdateMethod::JosephForm)
+            .map_err(|_| FilterError::Numerical("joint kalman update"))?;
+        self.estimate = Some(posterior);
+        Ok(UpdateOutcome::Applied)
+    }
+
+    /// Zero-latency step at time `t`: predicts from the previous step's time to `t`, then
+    /// updates with `measurement` (position, covariance) if there is one. `None`, a NaN position
+    /// or an unusable covariance mean "no measurement": predict only. Time must strictly increase.
+    pub fn step(
+        &mut self,
+        t: SessionTime,
+        measurement: Option<(&Point3<f64>, &Matrix3<f64>)>,
+    ) -> Result<Option<UpdateOutcome>> {
+        if let Some(last) = self.last_t {
+            if t <= last {
+                return Err(FilterError::NonIncreasingTime {
+                    index: 0,
+                    previous_ns: last.as_ns(),
+                    current_ns: t.as_ns(),
+                });
+            }
+            self.predict(t.secs_since(last))?;
+        }
+        self.last_t = Some(t);
+        match measurement {
+            Some((z, r)) => self.update(z, r).map(Some),
+            None => Ok(None),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn white_acceleration_noise_is_symmetric_and_grows_with_dt() {
+        let (_, q1) = constant_velocity_model(0.01, 3.0);
+        let (_, q2) = constant_velocity_model(0.1, 3.0);
+        assert_eq!(q1, q1.transpose());
+        assert!(q2[(0, 0)] > q1[(0, 0)] && q2[(3, 3)] > q1[(3, 3)]);
+        assert!((q2[(0, 3)] - 3.0 * 0.01 / 2.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn nan_measurement_is_treated_as_missing() {
+        let mut kf = JointKalman::new(ConstantVelocityConfig::default()).unwrap();
+        let r = Matrix3::identity() * 1e-4;
+        kf.step(
+            SessionTime::from_ns(0),
+            Some((&Point3::new(1.0, 2.0, 3.0), &r)),
+        )
+        .unwrap();
+        let out = kf
+            .step(
+                SessionTime::from_ns(33_000_000),
+                Some((&Point3::new(f64::NAN, 2.0, 3.0), &r)),
+            )
+            .unwrap();
+        assert_eq!(out, Some(UpdateOutcome::RejectedAsMissing));
+        assert!(kf.position().unwrap().iter().all(|v| v.is_finite()));
+        let bad_r = Matrix3::identity() * -1.0;
+        assert_eq!(
+            kf.update(&Point3::origin(), &bad_r).unwrap(),
+            UpdateOutcome::RejectedAsMissing
+        );
+    }
+
+    #[test]
+    fn time_going_backwards_is_an_error() {
+        let mut kf = JointKalman::new(ConstantVelocityConfig::default()).unwrap();
+        kf.step(SessionTime::from_ns(10), None).unwrap();
+        assert!(matches!(
+            kf.step(SessionTime::from_ns(10), None),
+            Err(FilterError::NonIncreasingTime { .. })
+        ));
+        assert!(kf.predict(f64::NAN).is_err());
+        assert!(kf.predict(-1.0).is_err());
+    }
+}

@@ -1,0 +1,12 @@
+//! Signal filters for wearables and skeletons: orientation (complementary, Madgwick, Mahony), Kalman and Tobit Kalman, zero-phase low-pass, derivatives, gravity removal and window synchronisation.
+
+mod error;
+pub use error::{FilterError, Result};
+pub mod orientation;
+
+pub mod derivative;
+pub mod gravity;
+pub mod kalman;
+pub mod lowpass;
+pub mod sync;
+pub mod tobit;

@@ -1,0 +1,500 @@
+//! Butterworth low-pass filters (causal and zero-phase) and a moving average.
+//!
+//! De Marchi et al. low-pass the accelerometers at 3 Hz before correlating them with skeleton
+//! joints. The filter is designed as SciPy's `butter(order, cutoff_hz, fs=fs_hz, output='sos')`
+//! does it — analog Butterworth prototype, pre-warped bilinear transform, second-order sections
+//! ordered from the pole pair farthest from the unit circle to the closest, overall gain in the
+//! first section — so the coefficients agree with SciPy to rounding (see
+//! `tests/signal_lowpass.rs`, whose golden values come from `tests/fixtures/make_scipy_golden.py`).
+//!
+//! - [`Lowpass`] is causal and streaming: one sample in, one sample out, no allocation
+//!   (transposed direct form II per section, like SciPy's `sosfilt`).
+//! - [`ZeroPhaseLowpass`] filters a whole window forward then backward like SciPy's
+//!   `sosfiltfilt`: odd (point-reflection) padding of `3 · (2 · num_sections + 1)` samples at each
+//!   end, and each pass starts from the steady state of a step of the first sample of that pass
+//!   (`sosfilt_zi · x[0]`), so the output matches SciPy's default to ~1e-12.
+//! - [`MovingAverage`] is the boxcar average over the last `len` samples.
+
+use crate::error::{FilterError, Result, check_positive};
+use nalgebra::Complex;
+use serde::{Deserialize, Serialize};
+
+/// Configuration of a Butterworth low-pass.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ButterworthConfig {
+    /// Filter order (number of poles), 1..=[`MAX_ORDER`].
+    pub order: usize,
+    /// −3 dB cut-off frequency, Hz.
+    pub cutoff_hz: f64,
+    /// Sampling rate, Hz.
+    pub sample_rate_hz: f64,
+}
+
+/// Largest supported Butterworth order.
+pub const MAX_ORDER: usize = 16;
+
+impl ButterworthConfig {
+    /// De Marchi et al.'s accelerometer filter: 4th-order Butterworth, 3 Hz cut-off.
+    pub fn de_marchi_accelerometer(sample_rate_hz: f64) -> Self {
+        Self {
+            order: 4,
+            cutoff_hz: 3.0,
+            sample_rate_hz,
+        }
+    }
+}
+
+/// One second-order section `b0 + b1 z⁻¹ + b2 z⁻² / (1 + a1 z⁻¹ + a2 z⁻²)` (`a0` = 1).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Section {
+    /// Numerator `[b0, b1, b2]`.
+    pub b: [f64; 3],
+    /// Denominator `[a1, a2]` (`a0` is 1).
+    pub a: [f64; 2],
+}
+
+impl Section {
+    /// The section as SciPy's `sos` row `[b0, b1, b2, 1, a1, a2]`.
+    pub fn as_sos_row(&self) -> [f64; 6] {
+        [self.b[0], self.b[1], self.b[2], 1.0, self.a[0], self.a[1]]
+    }
+
+    /// DC gain `Σb / Σa`.
+    fn dc_gain(&self) -> f64 {
+        (self.b[0] + self.b[1] + self.b[2]) / (1.0 + self.a[0] + self.a[1])
+    }
+
+    /// Steady-state of the two transposed-direct-form-II delays for a unit step input
+    /// (SciPy's `lfilter_zi` for one section).
+    fn step_steady_state(&self) -> [f64; 2] {
+        let g = self.dc_gain();
+        let z1 = self.b[2] - self.a[1] * g;
+        let z0 = self.b[1] - self.a[0] * g + z1;
+        [z0, z1]
+    }
+
+    /// One transposed-direct-form-II step.
+    #[inline]
+    fn step(&self, z: &mut [f64; 2], x: f64) -> f64 {
+        let y = self.b[0] * x + z[0];
+        z[0] = self.b[1] * x - self.a[0] * y + z[1];
+        z[1] = self.b[2] * x - self.a[1] * y;
+        y
+    }
+}
+
+/// Designs a digital Butterworth low-pass as second-order sections, like SciPy's
+/// `butter(order, cutoff_hz, fs=sample_rate_hz, output='sos')`.
+pub fn butterworth_lowpass_sections(config: &ButterworthConfig) -> Result<Vec<Section>> {
+    let n = config.order;
+    if n == 0 || n > MAX_ORDER {
+        return Err(FilterError::InvalidParameter {
+            name: "order",
+            reason: format!("must be in 1..={MAX_ORDER}, got {n}"),
+        });
+    }
+    check_positive("sample_rate_hz", config.sample_rate_hz)?;
+    check_positive("cutoff_hz", config.cutoff_hz)?;
+    let wn = 2.0 * config.cutoff_hz / config.sample_rate_hz;
+    if wn >= 1.0 {
+        return Err(FilterError::InvalidParameter {
+            name: "cutoff_hz",
+            reason: format!(
+                "must be below Nyquist ({} Hz), got {}",
+                config.sample_rate_hz / 2.0,
+                config.cutoff_hz
+            ),
+        });
+    }
+    // Bilinear transform with SciPy's internal fs = 2: pre-warped analog cut-off 4·tan(π·wn/2).
+    let fs2 = 4.0;
+    let warped = fs2 * (std::f64::consts::PI * wn / 2.0).tan();
+    // Analog prototype poles -exp(iπm/(2n)), m = -n+1, -n+3, ..., n-1, scaled to `warped`;
+    // digital pole (4 + p) / (4 - p); all n zeros at z = -1.
+    let to_digital = |m: i64| -> (Complex<f64>, Complex<f64>) {
+        let theta = std::f64::consts::PI * m as f64 / (2.0 * n as f64);
+        let p = -Complex::new(theta.cos(), theta.sin()) * warped;
+        (p, (fs2 + p) / (fs2 - p))
+    };
+    // Gain: k_analog = warped^n; k_digital = k_analog / Re(Π(4 - p)).
+    let mut prod = Complex::new(1.0, 0.0);
+    let mut pairs: Vec<Complex<f64>> = Vec::with_capacity(n / 2);
+    let mut real_pole = None;
+    let mut m = -(n as i64) + 1;
+    while m < n as i64 {
+        let (p_analog, p_digital) = to_digital(m);
+        prod *= fs2 - p_analog;
+        if m == 0 {
+            real_pole = Some(p_digital.re);
+        } else if m > 0 {
+            pairs.push(p_digital);
+        }
+        m += 2;
+    }
+    let gain = warped.powi(n as i32) / prod.re;
+    // Farthest from the unit circle first (SciPy's zpk2sos puts the "worst" pair last).
+    pairs.sort_by(|x, y| x.norm().total_cmp(&y.norm()));
+    let mut sections = Vec::with_capacity(n.div_ceil(2));
+    if let Some(p) = real_pole {
+        // SciPy pairs the real pole with two zeros at -1 and leaves one zero for the last section.
+        sections.push(Section {
+            b: [1.0, 2.0, 1.0],
+            a: [-p, 0.0],
+        });
+    }
+    for p in &pairs {
+        sections.push(Section {
+            b: [1.0, 2.0, 1.0],
+            a: [-2.0 * p.re, p.norm_sqr()],
+        });
+    }
+    if real_pole.is_some()
+        && let Some(last) = sections.last_mut()
+    {
+        // Odd order: n zeros over (n + 1) / 2 sections; the last one gets a single zero at -1
+        // (for order 1 that is the only section).
+        last.b = [1.0, 1.0, 0.0];
+    }
+    if let Some(first) = sections.first_mut() {
+        for b in &mut first.b {
+            *b *= gain;
+        }
+    }
+    Ok(sections)
+}
+
+/// Causal, streaming Butterworth low-pass (cascaded second-order sections).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lowpass {
+    sections: Vec<Section>,
+    state: Vec<[f64; 2]>,
+    is_primed: bool,
+}
+
+impl Lowpass {
+    /// Designs the filter; the state starts at zero (like `sosfilt` without `zi`).
+    pub fn new(config: &ButterworthConfig) -> Result<Self> {
+        Ok(Self::from_sections(butterworth_lowpass_sections(config)?))
+    }
+
+    /// A filter from explicit sections.
+    pub fn from_sections(sections: Vec<Section>) -> Self {
+        let state = vec![[0.0; 2]; sections.len()];
+        Self {
+            sections,
+            state,
+            is_primed: true,
+        }
+    }
+
+    /// Makes the next finite sample set the state to the steady state of a constant input equal
+    /// to it, avoiding the start-up transient from zero (SciPy: `sosfilt(sos, x, zi=sosfilt_zi(sos) * x[0])`).
+    pub fn start_at_first_sample(&mut self) {
+        self.is_primed = false;
+    }
+
+    /// The sections.
+    pub fn sections(&self) -> &[Section] {
+        &self.sections
+    }
+
+    /// Filters one sample. A non-finite sample is missing data: it is not fed to the filter,
+    /// the state is left untouched and `None` is returned.
+    #[inline]
+    pub fn process(&mut self, x: f64) -> Option<f64> {
+        if !x.is_finite() {
+            return None;
+        }
+        if !self.is_primed {
+            set_steady_state(&self.sections, &mut self.state, x);
+            self.is_primed = true;
+        }
+        let mut y = x;
+        for (section, z) in self.sections.iter().zip(self.state.iter_mut()) {
+            y = section.step(z, y);
+        }
+        Some(y)
+    }
+
+    /// Zeroes the state.
+    pub fn reset(&mut self) {
+        self.state.iter_mut().for_each(|z| *z = [0.0; 2]);
+    }
+}
+
+/// Sets the delays to the steady state of a constant input `x0` (SciPy's `sosfilt_zi(sos) * x0`).
+fn set_steady_state(sections: &[Section], state: &mut [[f64; 2]], x0: f64) {
+    let mut scale = x0;
+    for (section, z) in sections.iter().zip(state.iter_mut()) {
+        let zi = section.step_steady_state();
+        *z = [zi[0] * scale, zi[1] * scale];
+        scale *= section.dc_gain();
+    }
+}
+
+/// Zero-phase (forward-backward) Butterworth low-pass over a window, like SciPy's `sosfiltfilt`
+/// with its defaults. Keeps a scratch buffer so repeated windows do not allocate once it has grown.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ZeroPhaseLowpass {
+    sections: Vec<Section>,
+    state: Vec<[f64; 2]>,
+    scratch: Vec<f64>,
+}
+
+impl ZeroPhaseLowpass {
+    /// Designs the filter.
+    pub fn new(config: &ButterworthConfig) -> Result<Self> {
+        Ok(Self::from_sections(butterworth_lowpass_sections(config)?))
+    }
+
+    /// A filter from explicit sections.
+    pub fn from_sections(sections: Vec<Section>) -> Self {
+        let state = vec![[0.0; 2]; sections.len()];
+        Self {
+            sections,
+            state,
+            scratch: Vec::new(),
+        }
+    }
+
+    /// Samples of odd padding at each end: `3 · (2 · num_sections + 1)`, SciPy's default
+    /// (`ntaps` minus one per section whose `b2` and `a2` are both zero).
+    pub fn pad_len(&self) -> usize {
+        let num_first_order = self
+            .sections
+            .iter()
+            .filter(|s| s.b[2] == 0.0)
+            .count()
+            .min(self.sections.iter().filter(|s| s.a[1] == 0.0).count());
+        3 * (2 * self.sections.len() + 1 - num_first_order)
+    }
+
+    /// Filters `x` into `out` (same length). The window must be longer than [`Self::pad_len`]
+    /// (SciPy raises in that case too) and every sample finite.
+    pub fn filter(&mut self, x: &[f64], out: &mut [f64]) -> Result<()> {
+        if out.len() != x.len() {
+            return Err(FilterError::LengthMismatch {
+                what: "zero-phase low-pass output",
+                expected: x.len(),
+                got: out.len(),
+            });
+        }
+        let edge = self.pad_len();
+        if x.len() <= edge {
+            return Err(FilterError::WindowTooShort {
+                what: "zero-phase low-pass",
+                needed: edge,
+                got: x.len(),
+            });
+        }
+        if let Some(index) = x.iter().position(|v| !v.is_finite()) {
+            return Err(FilterError::NonFinite {
+                what: "zero-phase low-pass input",
+                index,
+            });
+        }
+        let (first, last) = match (x.first(), x.last()) {
+            (Some(f), Some(l)) => (*f, *l),
+            _ => return Ok(()),
+        };
+        // Odd extension: 2·x[0] - x[edge..=1], x, 2·x[n-1] - x[n-2..=n-1-edge].
+        let n = x.len();
+        self.scratch.clear();
+        self.scratch
+            .extend(x[1..=edge].iter().rev().map(|v| 2.0 * first - v));
+        self.scratch.extend_from_slice(x);
+        self.scratch
+            .extend(x[n - 1 - edge..n - 1].iter().rev().map(|v| 2.0 * last - v));
+        // Forward pass from the steady state of the first extended sample.
+        let ext = &mut self.scratch;
+        if let Some(&x0) = ext.first() {
+            set_steady_state(&self.sections, &mut self.state, x0);
+        }
+        for v in ext.iter_mut() {
+            let mut y = *v;
+            for (section, z) in self.sections.iter().zip(self.state.iter_mut()) {
+                y = section.step(z, y);
+            }
+            *v = y;
+        }
+        // Backward pass from the steady state of the last forward output.
+        if let Some(&y0) = ext.last() {
+            set_steady_state(&self.sections, &mut self.state, y0);
+        }
+        for v in ext.iter_mut().rev() {
+            let mut y = *v;
+            for (section, z) in self.sections.iter().zip(self.state.iter_mut()) {
+                y = section.step(z, y);
+            }
+            *v = y;
+        }
+        out.copy_from_slice(&ext[edge..edge + n]);
+        Ok(())
+    }
+}
+
+/// Running mean over the last `len` finite samples (a boxcar FIR).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MovingAverage {
+    buffer: Vec<f64>,
+    head: usize,
+    num_filled: usize,
+    sum: f64,
+}
+
+impl MovingAverage {
+    /// A moving average over `len` samples (`len` ≥ 1).
+    pub fn new(len: usize) -> Result<Self> {
+        if len == 0 {
+            return Err(FilterError::InvalidParameter {
+                name: "len",
+                reason: "moving average needs at least one sample".into(),
+            });
+        }
+        Ok(Self {
+            buffer: vec![0.0; len],
+            head: 0,
+            num_filled: 0,
+            sum: 0.0,
+        })
+    }
+
+    /// Adds a sample and returns the mean of the last `min(len, samples seen)` samples.
+    /// A non-finite sample is missing: ignored, and `None` returned.
+    #[inline]
+    pub fn process(&mut self, x: f64) -> Option<f64> {
+        if !x.is_finite() {
+            return None;
+        }
+        let len = self.buffer.len();
+        let slot = self.buffer.get_mut(self.head)?;
+        if self.num_filled == len {
+            self.sum -= *slot;
+        } else {
+            self.num_filled += 1;
+        }
+        *slot = x;
+        self.sum += x;
+        self.head += 1;
+        if self.head == len {
+            self.head = 0;
+            // Re-sum once per lap so rounding errors of the running sum cannot accumulate.
+            self.sum = self.buffer[..self.num_filled].iter().sum();
+        }
+        Some(self.sum / self.num_filled as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn design(order: usize, cutoff_hz: f64, fs: f64) -> Vec<[f64; 6]> {
+        butterworth_lowpass_sections(&ButterworthConfig {
+            order,
+            cutoff_hz,
+            sample_rate_hz: fs,
+        })
+        .unwrap()
+        .iter()
+        .map(Section::as_sos_row)
+        .collect()
+    }
+
+    fn assert_sos_close(got: &[[f64; 6]], want: &[[f64; 6]]) {
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(want) {
+            for (a, b) in g.iter().zip(w) {
+                assert!((a - b).abs() <= 1e-13 * (1.0 + b.abs()), "{g:?} vs {w:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn odd_order_sections_match_scipy_layout() {
+        // SciPy 1.17.1: butter(3, 3, fs=100, output='sos') and butter(5, 10, fs=100, output='sos').
+        assert_sos_close(
+            &design(3, 3.0, 100.0),
+            &[
+                [
+                    0.0006993496499010052,
+                    0.0013986992998020105,
+                    0.0006993496499010052,
+                    1.0,
+                    -0.8272719459724756,
+                    0.0,
+                ],
+                [1.0, 1.0, 0.0, 1.0, -1.7962798606327628, 0.8286706452722776],
+            ],
+        );
+        assert_sos_close(
+            &design(5, 10.0, 100.0),
+            &[
+                [
+                    0.001282581078960685,
+                    0.00256516215792137,
+                    0.001282581078960685,
+                    1.0,
+                    -0.5095254494944288,
+                    0.0,
+                ],
+                [1.0, 2.0, 1.0, 1.0, -1.0965794655679617, 0.3554467621723905],
+                [1.0, 1.0, 0.0, 1.0, -1.3693171946832927, 0.6925691353878634],
+            ],
+        );
+    }
+
+    #[test]
+    fn lowpass_passes_dc_with_unit_gain() {
+        for order in 1..=8 {
+            let mut f = Lowpass::new(&ButterworthConfig {
+                order,
+                cutoff_hz: 3.0,
+                sample_rate_hz: 100.0,
+            })
+            .unwrap();
+            let mut y = 0.0;
+            for _ in 0..5000 {
+                y = f.process(2.5).unwrap();
+            }
+            assert!((y - 2.5).abs() < 1e-9, "order {order}: {y}");
+        }
+    }
+
+    #[test]
+    fn cutoff_at_or_above_nyquist_is_rejected() {
+        let cfg = ButterworthConfig {
+            order: 4,
+            cutoff_hz: 50.0,
+            sample_rate_hz: 100.0,
+        };
+        assert!(butterworth_lowpass_sections(&cfg).is_err());
+        let cfg = ButterworthConfig { order: 0, ..cfg };
+        assert!(butterworth_lowpass_sections(&cfg).is_err());
+    }
+
+    #[test]
+    fn nan_sample_is_missing_and_leaves_state_alone() {
+        let cfg = ButterworthConfig::de_marchi_accelerometer(100.0);
+        let mut a = Lowpass::new(&cfg).unwrap();
+        let mut b = Lowpass::new(&cfg).unwrap();
+        for i in 0..50 {
+            let x = (i as f64 * 0.1).sin();
+            let ya = a.process(x);
+            assert_eq!(a.process(f64::NAN), None);
+            assert_eq!(ya, b.process(x));
+        }
+    }
+
+    #[test]
+    fn moving_average_of_a_ramp_lags_by_half_the_window() {
+        let mut ma = MovingAverage::new(5).unwrap();
+        let mut y = 0.0;
+        for i in 0..100 {
+            y = ma.process(i as f64).unwrap();
+        }
+        assert!((y - 97.0).abs() < 1e-12);
+        assert_eq!(ma.process(f64::INFINITY), None);
+        assert!(MovingAverage::new(0).is_err());
+    }
+}
