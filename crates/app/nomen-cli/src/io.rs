@@ -23,6 +23,15 @@ pub fn create_write(path: &Path) -> Result<Box<dyn Write>> {
     Ok(Box::new(BufWriter::with_capacity(1 << 16, file)))
 }
 
+/// A display name for an output path in messages (`-` is `<stdout>`).
+pub fn sink_name(path: &Path) -> String {
+    if path.as_os_str() == "-" {
+        "<stdout>".to_owned()
+    } else {
+        path.display().to_string()
+    }
+}
+
 /// A display name for a path in error messages (`-` is `<stdin>`).
 pub fn source_name(path: &Path) -> String {
     if path.as_os_str() == "-" {

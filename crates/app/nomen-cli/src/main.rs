@@ -1,4 +1,4 @@
-//! The nomen command line: simulate scenes, convert motion capture, fit sensor models and evaluate results.
+//! The nomen command line: simulate scenes, run the identity engine, convert motion capture, fit sensor models and evaluate results.
 //!
 //! This binary is the edge of the system: it opens files, prints to the terminal and turns library
 //! errors into messages. Everything it calls is sans-IO library code.
@@ -25,6 +25,8 @@ enum Command {
     /// Motion capture tools (BVH → skeleton recordings).
     #[command(subcommand)]
     Mocap(cmd::mocap::MocapCommand),
+    /// Run a recording through the identity engine (streaming; `-` for stdin/stdout).
+    Run(cmd::run::RunArgs),
     /// Simulate a scenario: people from real motion capture under cameras, wearing sensors.
     Simulate(cmd::simulate::SimulateArgs),
     /// Import CSV files (IMU, tag fixes, skeletons) into a recording.
@@ -45,6 +47,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let outcome = match cli.command {
         Command::Mocap(c) => cmd::mocap::run(c),
+        Command::Run(a) => cmd::run::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Import(c) => cmd::import::run(c),
         Command::Validate(a) => cmd::validate::run(a),

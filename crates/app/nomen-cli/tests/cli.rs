@@ -338,3 +338,69 @@ fn csv_imports_convert_units_and_reject_bad_rows_by_line() {
     assert_eq!(last["t"], 100_000_000);
     assert_eq!(last["position_m"][0], 1.5);
 }
+
+#[test]
+fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
+    let Some(data) = data_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
+    let o = nomen(&[
+        "simulate",
+        repo.join("scenarios/belmonte_one_without_band.toml")
+            .to_str()
+            .unwrap(),
+        "--out",
+        scene.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let result = scene.join("result.jsonl");
+    let o = nomen(&[
+        "run",
+        scene.join("recording.jsonl").to_str().unwrap(),
+        "--out",
+        result.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    // One decision per skeleton observation, each either a subject or explicitly anonymous.
+    let count = |path: &Path, kind: &str| {
+        std::fs::read_to_string(path)
+            .unwrap()
+            .lines()
+            .filter(|l| l.contains(&format!("\"type\":\"{kind}\"")))
+            .count()
+    };
+    let num_skeletons = count(&scene.join("recording.jsonl"), "skeleton");
+    assert!(num_skeletons > 0);
+    assert_eq!(count(&result, "identified"), num_skeletons);
+    let o = nomen(&[
+        "eval",
+        "--truth",
+        scene.join("truth.jsonl").to_str().unwrap(),
+        "--result",
+        result.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        report["num_unlabelled"], 0,
+        "every truth frame got a decision"
+    );
+    // The person who wears nothing is never given the band wearer's name.
+    assert_eq!(report["intruder_anonymous_rate"], 1.0);
+
+    // The handshake conversion has no subjects and no wearables: the engine has nothing to do,
+    // but a file without any registry cannot be run at all.
+    let bare = tmp.path().join("bare.jsonl");
+    std::fs::write(&bare, "{\"type\":\"header\",\"format\":\"nomen-recording\",\"version\":1,\"registry\":null,\"meta\":{}}\n").unwrap();
+    let o = nomen(&["run", bare.to_str().unwrap(), "--out", "-"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("no registry"),
+        "{}",
+        text(&o.stderr)
+    );
+}

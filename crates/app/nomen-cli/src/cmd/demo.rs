@@ -2,11 +2,10 @@
 //!
 //! 1. simulate the embedded default scene (`scenarios/belmonte_one_without_band.toml`: two people
 //!    driven by real motion capture under a camera, one wearing a wrist IMU, one wearing nothing);
-//! 2. label it with the baseline every engine must beat — everyone anonymous — and evaluate;
+//! 2. run the identity engine on it and evaluate the result (with the everyone-anonymous
+//!    baseline for contrast);
 //! 3. convert the CMU two-person handshake take into a skeleton recording with ground truth;
 //! 4. run the MOT evaluator on the MOTChallenge sequences that py-motmetrics ships.
-//!
-//! When the engine lands (`nomen run`), step 2 becomes simulate → run → eval.
 
 use super::eval::{evaluate_motchallenge, mot_table};
 use super::mocap::{ConvertArgs, convert_files, load_clips, write_recording};
@@ -55,17 +54,34 @@ pub fn run(args: DemoArgs) -> Result<()> {
         )?
     );
 
-    // 2. The anonymous baseline on it.
-    println!("\n[2/4] baseline (everyone anonymous) → eval");
-    let report = anonymous_baseline(
-        &scene_dir.join("recording.jsonl"),
-        &scene_dir.join("truth.jsonl"),
-        &scene_dir.join("baseline.jsonl"),
-    )?;
+    // 2. The engine on it, then the evaluation; the anonymous baseline for contrast.
+    println!("\n[2/4] run the engine → eval");
+    let recording = scene_dir.join("recording.jsonl");
+    let truth = scene_dir.join("truth.jsonl");
+    let result = scene_dir.join("result.jsonl");
     println!(
-        "the intruder is rightly anonymous; the band wearer is never named — the engine's job:"
+        "{}",
+        super::run::run_file(
+            &recording,
+            &result,
+            nomen_engine::EngineConfig::default(),
+            false
+        )?
     );
+    let report = super::eval_identity::evaluate_files(
+        std::slice::from_ref(&truth),
+        std::slice::from_ref(&result),
+        &EvalConfig::default(),
+    )?;
     print!("{}", report.to_table());
+    let baseline = anonymous_baseline(&recording, &truth, &scene_dir.join("baseline.jsonl"))?;
+    println!(
+        "for contrast, the everyone-anonymous baseline: id_accuracy {}",
+        baseline
+            .overall
+            .id_accuracy
+            .map_or("-".to_owned(), |a| format!("{:.1}%", 100.0 * a))
+    );
 
     // 3. Real two-person motion capture → recording + truth.
     let dir = args.out.join("handshake");

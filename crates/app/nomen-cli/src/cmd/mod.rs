@@ -6,5 +6,6 @@ pub mod eval_identity;
 pub mod fit;
 pub mod import;
 pub mod mocap;
+pub mod run;
 pub mod simulate;
 pub mod validate;

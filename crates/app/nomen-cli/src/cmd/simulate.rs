@@ -35,15 +35,15 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     Ok(())
 }
 
-/// Parses a scenario (TOML `text` named `source`), loads its clips, simulates it and writes the
-/// output folder; returns a summary.
-pub fn simulate_to_dir(
+/// Parses a scenario (TOML `text` named `source`), loads its clips from the data folder and
+/// simulates it; returns the scenario, the output and the seed used.
+pub fn simulate_scenario(
     text: &str,
     source: &str,
-    out: &Path,
     seed: Option<u64>,
     data: Option<&Path>,
-) -> Result<String> {
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<(Scenario, SimOutput, u64)> {
     let scenario = Scenario::from_toml(text, source)?;
     let data = crate::io::find_data(data)?;
     let library = scenario.clip_library();
@@ -63,7 +63,22 @@ pub fn simulate_to_dir(
         clips.insert(name.clone(), clip);
     }
     let seed = seed.unwrap_or(scenario.seed);
+    let mut sim = simulate(&scenario, &clips, seed, progress)
+        .with_context(|| format!("simulating {source}"))?;
+    sort_for_writing(&mut sim.recording);
+    sort_for_writing(&mut sim.truth);
+    Ok((scenario, sim, seed))
+}
 
+/// Simulates a scenario (see [`simulate_scenario`]) and writes the output folder; returns a
+/// summary.
+pub fn simulate_to_dir(
+    text: &str,
+    source: &str,
+    out: &Path,
+    seed: Option<u64>,
+    data: Option<&Path>,
+) -> Result<String> {
     let bar = if std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(100);
         bar.set_style(
@@ -77,14 +92,14 @@ pub fn simulate_to_dir(
         ProgressBar::hidden()
     };
     let started = std::time::Instant::now();
-    let mut sim = simulate(&scenario, &clips, seed, &mut |stage, fraction| {
-        bar.set_message(stage.to_owned());
-        bar.set_position((fraction * 100.0).round() as u64);
-    })
-    .with_context(|| format!("simulating {source}"))?;
+    let (scenario, sim, seed) =
+        simulate_scenario(text, source, seed, data, &mut |stage, fraction| {
+            bar.set_message(stage.to_owned());
+            bar.set_position((fraction * 100.0).round() as u64);
+        })?;
     bar.finish_and_clear();
     let elapsed = started.elapsed().as_secs_f64();
-    write_output(&mut sim, out, &scenario, seed)?;
+    write_output(&sim, out, &scenario, seed)?;
     Ok(format!(
         "{}: {:.1} s scene, seed {seed}, {} sensor messages, {} truth messages, simulated in {:.2} s ({:.0}× real time; writing not counted) → {}",
         scenario.name,
@@ -97,10 +112,8 @@ pub fn simulate_to_dir(
     ))
 }
 
-fn write_output(sim: &mut SimOutput, out: &Path, scenario: &Scenario, seed: u64) -> Result<()> {
+fn write_output(sim: &SimOutput, out: &Path, scenario: &Scenario, seed: u64) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    sort_for_writing(&mut sim.recording);
-    sort_for_writing(&mut sim.truth);
     let registry = sim.scene.registry.clone();
     let header = |kind: &str| {
         Header::new(registry.clone())

@@ -1,0 +1,313 @@
+//! Belmonte-Hernández et al.'s costs for a wrist band against a skeleton: the forearm's pitch and
+//! the body's yaw rate, compared by mean squared error (lower = more alike).
+//!
+//! **Pitch.** The skeleton's forearm pitch is the elevation of the elbow→wrist vector,
+//! `atan2(d_z, ‖d_xy‖)`. The band's pitch is the world elevation `asin((R_k e)_z)` of the sensor
+//! axis `e` that lies along the forearm. The band's mounting is not known in general, so unless
+//! [`BelmonteConfig::forearm_axis`] fixes it, every signed sensor axis (±x, ±y, ±z) is tried and
+//! the one with the lowest MSE against *this* candidate is kept. Every candidate gets the same six
+//! hypotheses, so the comparison between candidates stays fair; the axis picked is reported in
+//! [`BelmonteCosts::forearm_axis`] so the engine can fix it once it trusts a match. Using the
+//! elevation of a world-frame axis needs only the AHRS's tilt (gravity), not its heading.
+//!
+//! **Yaw rate.** The skeleton's yaw is the heading of its shoulder line (left→right shoulder,
+//! projected on the horizontal plane), falling back to the hip line where the shoulders are
+//! missing; it is unwrapped and differentiated. The band's yaw rate is the world-frame vertical
+//! component of its angular rate, `(world_from_sensor · ω)_z`. While a person turns, the band
+//! turns with the trunk; the arm's own yawing is the noise of this model.
+//!
+//! **Side.** [`Side::Unknown`] evaluates both wrists and keeps the one with the lower pitch MSE
+//! (the yaw cost does not depend on the side).
+
+use crate::signal::{Derivative, differentiate_runs, is_finite3, moving_average};
+use crate::window::{ImuWindow, SkeletonWindow};
+use nalgebra::{UnitQuaternion, Vector3};
+use nomen_core::skeleton::Joint;
+use serde::{Deserialize, Serialize};
+
+/// Which wrist a band is worn on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    /// Left wrist.
+    Left,
+    /// Right wrist.
+    Right,
+    /// Not known: both wrists are tried and the better kept.
+    #[default]
+    Unknown,
+}
+
+/// A signed sensor axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SensorAxis {
+    /// +x.
+    PosX,
+    /// −x.
+    NegX,
+    /// +y.
+    PosY,
+    /// −y.
+    NegY,
+    /// +z.
+    PosZ,
+    /// −z.
+    NegZ,
+}
+
+impl SensorAxis {
+    /// All six signed axes.
+    pub const ALL: [SensorAxis; 6] = [
+        SensorAxis::PosX,
+        SensorAxis::NegX,
+        SensorAxis::PosY,
+        SensorAxis::NegY,
+        SensorAxis::PosZ,
+        SensorAxis::NegZ,
+    ];
+
+    /// The unit vector in the sensor frame.
+    pub fn unit(self) -> Vector3<f64> {
+        match self {
+            SensorAxis::PosX => Vector3::x(),
+            SensorAxis::NegX => -Vector3::x(),
+            SensorAxis::PosY => Vector3::y(),
+            SensorAxis::NegY => -Vector3::y(),
+            SensorAxis::PosZ => Vector3::z(),
+            SensorAxis::NegZ => -Vector3::z(),
+        }
+    }
+}
+
+/// Configuration of [`belmonte_costs`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BelmonteConfig {
+    /// The sensor axis along the forearm (elbow→wrist), if the mounting is known. Default `None`:
+    /// search all six signed axes per candidate (see the module docs).
+    pub forearm_axis: Option<SensorAxis>,
+    /// Moving-average length applied to every compared signal, samples (1 = none). Default 5, as
+    /// [`crate::GeometricConfig::moving_average_len`].
+    pub moving_average_len: usize,
+    /// Fewest paired finite samples a cost needs. Default 30 (1 s at 30 Hz).
+    pub min_samples: usize,
+    /// Shortest horizontal shoulder (or hip) line that defines a heading, m. Default 0.05 m: a
+    /// tenth of a typical 0.35–0.4 m shoulder width, below which the line is vertical or a
+    /// detection error.
+    pub min_heading_line_m: f64,
+}
+
+impl Default for BelmonteConfig {
+    fn default() -> Self {
+        Self {
+            forearm_axis: None,
+            moving_average_len: 5,
+            min_samples: 30,
+            min_heading_line_m: 0.05,
+        }
+    }
+}
+
+/// Belmonte-Hernández's costs for one (band, skeleton) pair; lower is more alike.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct BelmonteCosts {
+    /// Mean squared difference of forearm pitch, rad². `None` when a signal is missing or short.
+    pub pitch_mse: Option<f64>,
+    /// Mean squared difference of yaw rate, (rad/s)². `None` when a signal is missing or short.
+    pub yaw_rate_mse: Option<f64>,
+    /// The wrist whose forearm gave `pitch_mse` (the better one for [`Side::Unknown`]).
+    pub wrist: Option<Joint>,
+    /// The sensor axis taken as the forearm for `pitch_mse`.
+    pub forearm_axis: Option<SensorAxis>,
+}
+
+/// Mean squared difference over indices where both are finite; `None` below `min_samples`.
+pub fn mse(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
+    let (mut n, mut sum) = (0usize, 0.0);
+    for (a, b) in x.iter().zip(y) {
+        if a.is_finite() && b.is_finite() {
+            n += 1;
+            sum += (a - b).powi(2);
+        }
+    }
+    (n >= min_samples.max(1)).then(|| sum / n as f64)
+}
+
+/// Belmonte-Hernández's pitch and yaw-rate costs of the band `imu` worn on the `side` wrist
+/// against the candidate skeleton `skel` (see the module docs). Never panics on bad data: a
+/// cost is `None` when its signals are missing, inconsistent or too short.
+pub fn belmonte_costs(
+    imu: &ImuWindow,
+    skel: &SkeletonWindow,
+    side: Side,
+    cfg: &BelmonteConfig,
+) -> BelmonteCosts {
+    if imu.t_s.len() != skel.t_s.len() {
+        return BelmonteCosts::default();
+    }
+    let wrists: &[Joint] = match side {
+        Side::Left => &[Joint::LeftWrist],
+        Side::Right => &[Joint::RightWrist],
+        Side::Unknown => &[Joint::LeftWrist, Joint::RightWrist],
+    };
+    let mut best: Option<(f64, Joint, SensorAxis)> = None;
+    for &wrist in wrists {
+        if let Some((cost, axis)) = pitch_cost(imu, skel, wrist, cfg)
+            && best.is_none_or(|(b, _, _)| cost < b)
+        {
+            best = Some((cost, wrist, axis));
+        }
+    }
+    let yaw_rate_mse = mse(
+        &band_yaw_rate_radps(imu, cfg),
+        &skeleton_yaw_rate_radps(skel, cfg),
+        cfg.min_samples,
+    );
+    BelmonteCosts {
+        pitch_mse: best.map(|b| b.0),
+        yaw_rate_mse,
+        wrist: best.map(|b| b.1),
+        forearm_axis: best.map(|b| b.2),
+    }
+}
+
+/// The lowest pitch MSE over the allowed sensor axes, and that axis.
+fn pitch_cost(
+    imu: &ImuWindow,
+    skel: &SkeletonWindow,
+    wrist: Joint,
+    cfg: &BelmonteConfig,
+) -> Option<(f64, SensorAxis)> {
+    let skel_pitch = forearm_pitch_rad(skel, wrist, cfg);
+    let axes: &[SensorAxis] = match &cfg.forearm_axis {
+        Some(axis) => std::slice::from_ref(axis),
+        None => &SensorAxis::ALL,
+    };
+    let mut best: Option<(f64, SensorAxis)> = None;
+    for &axis in axes {
+        let band = band_axis_pitch_rad(imu, axis, cfg);
+        if let Some(cost) = mse(&band, &skel_pitch, cfg.min_samples)
+            && best.is_none_or(|(b, _)| cost < b)
+        {
+            best = Some((cost, axis));
+        }
+    }
+    best
+}
+
+/// Elevation of the elbow→wrist vector of `wrist`'s forearm, rad, smoothed (NaN where missing).
+pub fn forearm_pitch_rad(skel: &SkeletonWindow, wrist: Joint, cfg: &BelmonteConfig) -> Vec<f64> {
+    let elbow = wrist.parent().unwrap_or(wrist);
+    let mut out: Vec<f64> = skel
+        .joints_world_m
+        .iter()
+        .map(|j| match (j.get(elbow), j.get(wrist)) {
+            (Some(e), Some(w)) => elevation_rad(&(w - e)),
+            _ => f64::NAN,
+        })
+        .collect();
+    out.resize(skel.t_s.len(), f64::NAN);
+    moving_average(&mut out, cfg.moving_average_len);
+    out
+}
+
+/// World elevation of the sensor axis `axis`, rad, smoothed (NaN where missing).
+pub fn band_axis_pitch_rad(imu: &ImuWindow, axis: SensorAxis, cfg: &BelmonteConfig) -> Vec<f64> {
+    let e = axis.unit();
+    let mut out: Vec<f64> = imu
+        .world_from_sensor
+        .iter()
+        .map(|q| elevation_rad(&(q * e)))
+        .collect();
+    out.resize(imu.t_s.len(), f64::NAN);
+    moving_average(&mut out, cfg.moving_average_len);
+    out
+}
+
+/// Elevation angle of a vector above the horizontal plane, rad (`NaN` if not finite or zero).
+fn elevation_rad(d: &Vector3<f64>) -> f64 {
+    let horizontal = d.x.hypot(d.y);
+    if is_finite3(d) && (horizontal > 0.0 || d.z != 0.0) {
+        d.z.atan2(horizontal)
+    } else {
+        f64::NAN
+    }
+}
+
+/// The band's world-frame vertical angular rate `(world_from_sensor · ω)_z`, rad/s, smoothed.
+pub fn band_yaw_rate_radps(imu: &ImuWindow, cfg: &BelmonteConfig) -> Vec<f64> {
+    let n = imu.t_s.len();
+    let mut out: Vec<f64> = imu
+        .world_from_sensor
+        .iter()
+        .zip(&imu.gyro_radps)
+        .map(|(q, w): (&UnitQuaternion<f64>, _)| {
+            let z = (q * w).z;
+            if z.is_finite() { z } else { f64::NAN }
+        })
+        .collect();
+    if out.len() != n {
+        out = vec![f64::NAN; n];
+    }
+    moving_average(&mut out, cfg.moving_average_len);
+    out
+}
+
+/// The skeleton's heading from its shoulder line (hip line where the shoulders are missing),
+/// unwrapped within each run of present samples, rad (NaN where missing).
+pub fn skeleton_heading_rad(skel: &SkeletonWindow, cfg: &BelmonteConfig) -> Vec<f64> {
+    let line = |j: &nomen_core::skeleton::Joints<nalgebra::Point3<f64>>, l: Joint, r: Joint| {
+        let d = j.get(r)? - j.get(l)?;
+        let h = d.x.hypot(d.y);
+        (h.is_finite() && h >= cfg.min_heading_line_m).then(|| d.y.atan2(d.x))
+    };
+    let mut out = Vec::with_capacity(skel.t_s.len());
+    let mut prev: Option<f64> = None;
+    for j in &skel.joints_world_m {
+        let psi = line(j, Joint::LeftShoulder, Joint::RightShoulder)
+            .or_else(|| line(j, Joint::LeftHip, Joint::RightHip));
+        match psi {
+            Some(psi) => {
+                // Unwrap: move by the wrapped difference from the previous present sample.
+                let unwrapped = match prev {
+                    Some(p) => p + wrap_pi(psi - p),
+                    None => psi,
+                };
+                prev = Some(unwrapped);
+                out.push(unwrapped);
+            }
+            None => {
+                prev = None;
+                out.push(f64::NAN);
+            }
+        }
+    }
+    out.resize(skel.t_s.len(), f64::NAN);
+    out
+}
+
+/// The skeleton's yaw rate, rad/s: derivative of [`skeleton_heading_rad`], smoothed.
+pub fn skeleton_yaw_rate_radps(skel: &SkeletonWindow, cfg: &BelmonteConfig) -> Vec<f64> {
+    let heading: Vec<Vector3<f64>> = skeleton_heading_rad(skel, cfg)
+        .into_iter()
+        .map(|psi| Vector3::new(psi, 0.0, 0.0))
+        .collect();
+    let mut out: Vec<f64> = differentiate_runs(&skel.t_s, &heading, Derivative::Velocity)
+        .iter()
+        .map(|v| v.x)
+        .collect();
+    moving_average(&mut out, cfg.moving_average_len);
+    out
+}
+
+/// An angle wrapped into `(−π, π]`.
+fn wrap_pi(a: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let w = a - tau * (a / tau).round();
+    if w <= -std::f64::consts::PI {
+        w + tau
+    } else {
+        w
+    }
+}

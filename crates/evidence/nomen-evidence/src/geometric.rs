@@ -1,0 +1,328 @@
+//! De Marchi et al.'s geometric model: correlate magnitude signals of an IMU and of the joint that
+//! carries it.
+//!
+//! For the IMU worn at `site` and the same joint on a candidate skeleton, three magnitude signals
+//! are built on the window's grid, smoothed with a causal moving average of the same length on
+//! both sides (same delay, so correlation is unaffected), and compared by Pearson correlation:
+//!
+//! | model | IMU | skeleton |
+//! |---|---|---|
+//! | acceleration | `‖world_from_sensor · f − g‖` after a zero-phase 3 Hz Butterworth on each world axis | `‖p̈‖` of the joint, through the same 3 Hz low-pass |
+//! | velocity | `‖v‖` from a leaky integral of that linear acceleration | `‖ṗ‖` passed through the *same* leak (`u_k = λ u_{k−1} + (ṗ_k − ṗ_{k−1})`, `u_0 = 0`) |
+//! | orientation | rotation angle `2·atan2(‖v‖, w)` of `q_0⁻¹ q_k` | angle between the carrying bone's direction at `k` and at `0` |
+//!
+//! **Velocity.** The IMU's integral starts at zero in every window and forgets with the leak time
+//! constant τ, so it is the velocity *relative to the window start*, high-passed at `1/(2πτ)`.
+//! Running the skeleton's velocity through the same recursion gives it exactly the same
+//! transfer function and start, so a person walking at constant speed does not add an offset to
+//! one side only.
+//!
+//! **Orientation.** A bone direction has two degrees of freedom (swing); the twist about the bone
+//! (forearm pronation) is invisible to the camera. The sensor's mounting on the segment is
+//! unknown, so its axis along the bone is unknown too. We therefore compare the IMU's full
+//! rotation angle (orientation-invariant: it does not depend on the mounting nor on the world
+//! heading reference of the AHRS) with the skeleton's swing angle. The two agree when swing
+//! dominates; twist adds to the IMU side only and lowers the correlation for everybody alike.
+//! The reference sample is the first one where each side is present.
+//!
+//! **Carrying segment** ([`carrying_segment`]): the bone from the site's parent to the site
+//! (wrist: elbow→wrist, ankle: knee→ankle, elbow: shoulder→elbow, …); the trunk for the pelvis
+//! and the chest (pelvis→chest), since the pelvis is the root and the chest's parent is the pelvis.
+
+use crate::signal::{
+    Derivative, differentiate_runs, grid_rate_hz, is_finite3, lowpass_vectors, moving_average,
+    nan3, pearson,
+};
+use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
+use nalgebra::{UnitQuaternion, Vector3};
+use nomen_core::skeleton::Joint;
+use nomen_filters::gravity::{STANDARD_GRAVITY_MPS2, remove_gravity};
+use nomen_filters::lowpass::ButterworthConfig;
+use serde::{Deserialize, Serialize};
+
+/// Configuration of the geometric model ([`geometric_scores`] and the magnitude builders).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GeometricConfig {
+    /// Low-pass cut-off for the IMU's linear acceleration and the joint positions, Hz. Default 3 Hz
+    /// (De Marchi et al.; [`ButterworthConfig::de_marchi_accelerometer`]).
+    pub lowpass_cutoff_hz: f64,
+    /// Butterworth order of that low-pass. Default 4 ([`ButterworthConfig::de_marchi_accelerometer`]).
+    pub lowpass_order: usize,
+    /// Length of the moving average applied to every magnitude signal, samples (1 = none).
+    /// Default 5 (≈ 0.17 s at 30 Hz; its first spectral zero at 6 Hz at 30 Hz keeps the 3 Hz
+    /// band). De Marchi et al. smooth with a moving average; this length is our choice.
+    pub moving_average_len: usize,
+    /// Fewest paired finite samples a correlation needs. Default 30 (1 s at 30 Hz, more than the
+    /// zero-phase filter's 15-sample padding at order 4).
+    pub min_samples: usize,
+    /// Leak time constant of the velocity integrator, s. Default 2 s
+    /// ([`nomen_filters::gravity::LeakyIntegratorConfig::default`]: corner 0.08 Hz, below human
+    /// movement frequencies).
+    pub leak_time_constant_s: f64,
+    /// Gravity removed from the specific force, m/s². Default
+    /// [`STANDARD_GRAVITY_MPS2`].
+    pub gravity_mps2: f64,
+}
+
+impl Default for GeometricConfig {
+    fn default() -> Self {
+        let butter = ButterworthConfig::de_marchi_accelerometer(1.0);
+        Self {
+            lowpass_cutoff_hz: butter.cutoff_hz,
+            lowpass_order: butter.order,
+            moving_average_len: 5,
+            min_samples: 30,
+            leak_time_constant_s: 2.0,
+            gravity_mps2: STANDARD_GRAVITY_MPS2,
+        }
+    }
+}
+
+impl GeometricConfig {
+    fn butterworth(&self, sample_rate_hz: f64) -> ButterworthConfig {
+        ButterworthConfig {
+            order: self.lowpass_order,
+            cutoff_hz: self.lowpass_cutoff_hz,
+            sample_rate_hz,
+        }
+    }
+}
+
+/// The bone `(from, to)` whose motion carries a sensor worn at `site`: `(parent, site)`, or the
+/// trunk `(Pelvis, Chest)` for the pelvis (the root).
+pub fn carrying_segment(site: Joint) -> (Joint, Joint) {
+    match site.parent() {
+        Some(parent) => (parent, site),
+        None => (Joint::Pelvis, Joint::Chest),
+    }
+}
+
+/// De Marchi's three correlations for the IMU worn at `site` and the joint `site` of a candidate
+/// skeleton (see the module docs). A model is `None` when either signal is missing, constant or
+/// shorter than [`GeometricConfig::min_samples`], or when the windows' grids differ in length.
+pub fn geometric_scores(
+    imu: &ImuWindow,
+    skel: &SkeletonWindow,
+    site: Joint,
+    cfg: &GeometricConfig,
+) -> ModelScores {
+    if imu.t_s.len() != skel.t_s.len() {
+        return ModelScores::default();
+    }
+    let corr = |a: Vec<f64>, b: Vec<f64>| pearson(&a, &b, cfg.min_samples);
+    ModelScores {
+        acc: corr(
+            imu_accel_magnitude(imu, cfg),
+            joint_accel_magnitude(skel, site, cfg),
+        ),
+        vel: corr(
+            imu_velocity_magnitude(imu, cfg),
+            joint_velocity_magnitude(skel, site, cfg),
+        ),
+        ori: corr(
+            imu_orientation_magnitude(imu, cfg),
+            segment_orientation_magnitude(skel, site, cfg),
+        ),
+    }
+}
+
+/// Whether the IMU window's series all have the grid's length.
+fn is_imu_consistent(imu: &ImuWindow) -> bool {
+    let n = imu.t_s.len();
+    imu.accel_mps2.len() == n && imu.world_from_sensor.len() == n
+}
+
+/// Linear acceleration in the world frame, low-passed (NaN where missing).
+fn imu_linear_accel_world(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<Vector3<f64>> {
+    let n = imu.t_s.len();
+    let (Some(rate), true) = (grid_rate_hz(&imu.t_s), is_imu_consistent(imu)) else {
+        return vec![nan3(); n];
+    };
+    let mut lin: Vec<Vector3<f64>> = imu
+        .world_from_sensor
+        .iter()
+        .zip(&imu.accel_mps2)
+        .map(|(q, f)| remove_gravity(q, f, cfg.gravity_mps2).map_or_else(nan3, |l| l.world_mps2))
+        .collect();
+    lowpass_vectors(&mut lin, &cfg.butterworth(rate));
+    lin
+}
+
+/// Norms of vectors, smoothed; NaN stays NaN.
+fn smoothed_norms(v: &[Vector3<f64>], cfg: &GeometricConfig) -> Vec<f64> {
+    let mut out: Vec<f64> = v
+        .iter()
+        .map(|v| if is_finite3(v) { v.norm() } else { f64::NAN })
+        .collect();
+    moving_average(&mut out, cfg.moving_average_len);
+    out
+}
+
+/// The leak factor per grid step: `e^{−dt/τ}` (per-step dt from the grid).
+fn leak(dt_s: f64, cfg: &GeometricConfig) -> f64 {
+    if cfg.leak_time_constant_s > 0.0 && dt_s.is_finite() {
+        (-dt_s / cfg.leak_time_constant_s).exp()
+    } else {
+        0.0
+    }
+}
+
+/// IMU linear-acceleration magnitude on the window's grid, m/s²: gravity removed with
+/// `world_from_sensor`, each world axis zero-phase low-passed (De Marchi's 3 Hz), norm, moving
+/// average. `NaN` where missing; all `NaN` if the window is inconsistent or too short to filter.
+pub fn imu_accel_magnitude(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<f64> {
+    smoothed_norms(&imu_linear_accel_world(imu, cfg), cfg)
+}
+
+/// IMU velocity magnitude, m/s: the low-passed world linear acceleration integrated with a leak
+/// (`v_k = e^{−dt/τ} v_{k−1} + dt·a_k`, `v_0 = 0`; a missing sample only leaks), norm, moving
+/// average. Compare with [`joint_velocity_magnitude`], which applies the same leak.
+pub fn imu_velocity_magnitude(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<f64> {
+    let lin = imu_linear_accel_world(imu, cfg);
+    let mut v = Vector3::zeros();
+    let mut out = Vec::with_capacity(lin.len());
+    let mut is_started = false;
+    for (k, a) in lin.iter().enumerate() {
+        if k > 0 {
+            let dt_s = imu.t_s[k] - imu.t_s[k - 1];
+            v *= leak(dt_s, cfg);
+            if is_started && is_finite3(a) {
+                v += a * dt_s;
+            }
+        }
+        is_started |= is_finite3(a);
+        out.push(if is_started && is_finite3(a) {
+            v
+        } else {
+            nan3()
+        });
+    }
+    smoothed_norms(&out, cfg)
+}
+
+/// IMU orientation-change magnitude, rad: the angle `2·atan2(‖v‖, w)` of `q_0⁻¹ q_k`, with `q_0`
+/// the first finite orientation of the window; moving average.
+pub fn imu_orientation_magnitude(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<f64> {
+    let n = imu.t_s.len();
+    if imu.world_from_sensor.len() != n {
+        return vec![f64::NAN; n];
+    }
+    let is_finite_q = |q: &UnitQuaternion<f64>| q.coords.iter().all(|c| c.is_finite());
+    let q0 = imu
+        .world_from_sensor
+        .iter()
+        .find(|q| is_finite_q(q))
+        .copied();
+    let mut out: Vec<f64> = imu
+        .world_from_sensor
+        .iter()
+        .map(|q| match q0 {
+            Some(q0) if is_finite_q(q) => (q0.inverse() * q).angle(),
+            _ => f64::NAN,
+        })
+        .collect();
+    moving_average(&mut out, cfg.moving_average_len);
+    out
+}
+
+/// Positions of `joint` on the window's grid (NaN where absent or non-finite).
+fn joint_positions(skel: &SkeletonWindow, joint: Joint) -> Vec<Vector3<f64>> {
+    skel.joints_world_m
+        .iter()
+        .map(|j| j.get(joint).map_or_else(nan3, |p| p.coords))
+        .map(|v| if is_finite3(&v) { v } else { nan3() })
+        .collect()
+}
+
+/// The first or second derivative of `joint`'s position, then low-passed like the IMU (NaN where
+/// missing or unfilterable). Differentiating first and filtering second is the same linear
+/// operation in the interior, but keeps the ends right: the filter's odd padding of *positions*
+/// would force zero curvature at the window's edges, while the IMU's acceleration is padded as an
+/// acceleration.
+fn filtered_joint_derivative(
+    skel: &SkeletonWindow,
+    joint: Joint,
+    which: Derivative,
+    cfg: &GeometricConfig,
+) -> Option<Vec<Vector3<f64>>> {
+    if skel.joints_world_m.len() != skel.t_s.len() {
+        return None;
+    }
+    let rate = grid_rate_hz(&skel.t_s)?;
+    let mut d = differentiate_runs(&skel.t_s, &joint_positions(skel, joint), which);
+    lowpass_vectors(&mut d, &cfg.butterworth(rate));
+    Some(d)
+}
+
+/// Joint acceleration magnitude, m/s²: second derivative of the position
+/// ([`nomen_filters::derivative::acceleration`], per run of present samples), zero-phase
+/// low-passed with the IMU's filter, norm, moving average. `NaN` where missing.
+pub fn joint_accel_magnitude(
+    skel: &SkeletonWindow,
+    joint: Joint,
+    cfg: &GeometricConfig,
+) -> Vec<f64> {
+    let Some(a) = filtered_joint_derivative(skel, joint, Derivative::Acceleration, cfg) else {
+        return vec![f64::NAN; skel.t_s.len()];
+    };
+    smoothed_norms(&a, cfg)
+}
+
+/// Joint velocity magnitude, m/s: first derivative, low-passed with the IMU's filter, then the IMU
+/// integrator's leak (`u_k = e^{−dt/τ} u_{k−1} + (ṗ_k − ṗ_{k−1})`, `u_0 = 0`; see the module
+/// docs), norm, moving average. `NaN` where missing.
+pub fn joint_velocity_magnitude(
+    skel: &SkeletonWindow,
+    joint: Joint,
+    cfg: &GeometricConfig,
+) -> Vec<f64> {
+    let Some(vel) = filtered_joint_derivative(skel, joint, Derivative::Velocity, cfg) else {
+        return vec![f64::NAN; skel.t_s.len()];
+    };
+    let mut u = Vector3::zeros();
+    let mut last: Option<Vector3<f64>> = None;
+    let mut out = Vec::with_capacity(vel.len());
+    for (k, v) in vel.iter().enumerate() {
+        if k > 0 {
+            u *= leak(skel.t_s[k] - skel.t_s[k - 1], cfg);
+        }
+        if is_finite3(v) {
+            if let Some(prev) = last {
+                u += v - prev;
+            }
+            last = Some(*v);
+            out.push(u);
+        } else {
+            out.push(nan3());
+        }
+    }
+    smoothed_norms(&out, cfg)
+}
+
+/// Orientation-change magnitude of the segment carrying a sensor at `site`
+/// ([`carrying_segment`]), rad: the angle between the bone direction at `k` and at the first
+/// sample where the bone is present; moving average. `NaN` where missing or degenerate.
+pub fn segment_orientation_magnitude(
+    skel: &SkeletonWindow,
+    site: Joint,
+    cfg: &GeometricConfig,
+) -> Vec<f64> {
+    let (from, to) = carrying_segment(site);
+    let dirs: Vec<Option<Vector3<f64>>> = joint_positions(skel, to)
+        .iter()
+        .zip(joint_positions(skel, from))
+        .map(|(b, a)| (b - a).try_normalize(1e-9).filter(is_finite3))
+        .collect();
+    let d0 = dirs.iter().flatten().next().copied();
+    let mut out: Vec<f64> = dirs
+        .iter()
+        .map(|d| match (d0, d) {
+            (Some(d0), Some(d)) => d0.angle(d),
+            _ => f64::NAN,
+        })
+        .collect();
+    out.resize(skel.t_s.len(), f64::NAN);
+    moving_average(&mut out, cfg.moving_average_len);
+    out
+}

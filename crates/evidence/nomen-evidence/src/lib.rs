@@ -1,0 +1,34 @@
+//! Evidence that a wearable and a skeleton belong to the same person: De Marchi's geometric correlations, Belmonte-Hernández's pitch and yaw-rate costs, and score fusion by voting.
+//!
+//! Everything here works on one synchronised window at a time ([`window`]): an IMU's samples and
+//! a camera track's joints on the same time grid, in the world frame. The engine builds the
+//! windows; this crate turns them into scores. Sans-IO, no clocks.
+//!
+//! - [`geometric`]: De Marchi's three correlations ([`geometric_scores`]) and the magnitude
+//!   signals behind them, public so the engine can run [`best_lag`] on longer buffers.
+//! - [`signal`]: [`pearson`] and the clock-offset search [`best_lag`].
+//! - [`belmonte`]: Belmonte-Hernández's pitch and yaw-rate costs ([`belmonte_costs`]).
+//! - [`fusion`]: [`ScoreTensor`] → [`ScoreMatrix`] by [`fuse`] (mean, max, threshold, voting).
+//!
+//! Bad data never panics or errors: a score or cost that cannot be computed is `None`.
+
+#![warn(missing_docs)]
+
+mod error;
+pub use error::{EvidenceError, Result};
+
+pub mod belmonte;
+pub mod fusion;
+pub mod geometric;
+pub mod signal;
+pub mod window;
+
+pub use belmonte::{BelmonteConfig, BelmonteCosts, SensorAxis, Side, belmonte_costs};
+pub use fusion::{Fusion, FusionConfig, Model, ScoreMatrix, ScoreTensor, fuse};
+pub use geometric::{
+    GeometricConfig, carrying_segment, geometric_scores, imu_accel_magnitude,
+    imu_orientation_magnitude, imu_velocity_magnitude, joint_accel_magnitude,
+    joint_velocity_magnitude, segment_orientation_magnitude,
+};
+pub use signal::{LagConfig, best_lag, best_lag_with, pearson};
+pub use window::{ImuWindow, ModelScores, SkeletonWindow};

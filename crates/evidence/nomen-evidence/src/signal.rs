@@ -1,0 +1,358 @@
+//! Signal helpers shared by the models: Pearson correlation over the samples both signals have,
+//! lag search, and per-run filtering of series with gaps.
+//!
+//! Missing samples are `NaN` throughout: a magnitude builder writes `NaN` where it cannot compute
+//! a value, and [`pearson`] and [`best_lag`] use only the indices where both signals are finite.
+
+use nalgebra::Vector3;
+use nomen_core::SessionTime;
+use nomen_filters::derivative;
+use nomen_filters::lowpass::{ButterworthConfig, MovingAverage, ZeroPhaseLowpass};
+use serde::{Deserialize, Serialize};
+
+/// Smallest number of paired finite samples [`pearson`] accepts by default.
+pub const MIN_PEARSON_SAMPLES: usize = 3;
+
+/// Pearson correlation of `x` and `y` over the indices where both are finite (the shorter length
+/// if they differ). `None` with fewer than `min_samples` (at least 3) such pairs, or when either
+/// signal is constant over them (relative variance below 1e-12 of its mean square).
+pub fn pearson(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
+    let mut n = 0usize;
+    let (mut sx, mut sy) = (0.0, 0.0);
+    for (a, b) in x.iter().zip(y) {
+        if a.is_finite() && b.is_finite() {
+            n += 1;
+            sx += a;
+            sy += b;
+        }
+    }
+    if n < min_samples.max(MIN_PEARSON_SAMPLES) {
+        return None;
+    }
+    let (mx, my) = (sx / n as f64, sy / n as f64);
+    let (mut sxx, mut syy, mut sxy, mut qx, mut qy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (a, b) in x.iter().zip(y) {
+        if a.is_finite() && b.is_finite() {
+            let (da, db) = (a - mx, b - my);
+            sxx += da * da;
+            syy += db * db;
+            sxy += da * db;
+            qx += a * a;
+            qy += b * b;
+        }
+    }
+    // Constant signal: its spread is rounding noise relative to its size.
+    let is_constant = |s: f64, q: f64| !(s > 1e-12 * q && s > f64::MIN_POSITIVE);
+    if is_constant(sxx, qx) || is_constant(syy, qy) {
+        return None;
+    }
+    let r = sxy / (sxx.sqrt() * syy.sqrt());
+    r.is_finite().then(|| r.clamp(-1.0, 1.0))
+}
+
+/// Configuration of [`best_lag_with`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LagConfig {
+    /// Smallest overlap, as a fraction of the shorter signal, over which a lag is scored.
+    /// Default 0.5: at ±0.5 s of lag on a ≥ 2 s buffer at least half of it still overlaps, so
+    /// every lag in Belmonte-Hernández et al.'s measured ±0.5 s offset range is scored on
+    /// comparable support.
+    pub min_overlap_fraction: f64,
+    /// Smallest number of paired finite samples over which a lag is scored. Default 10.
+    pub min_overlap_samples: usize,
+    /// Refine the best integer lag by a parabola through the correlations at its neighbours
+    /// (sub-sample estimate, clamped to ±half a sample). Default true.
+    pub is_subsample_refined: bool,
+}
+
+impl Default for LagConfig {
+    fn default() -> Self {
+        Self {
+            min_overlap_fraction: 0.5,
+            min_overlap_samples: 10,
+            is_subsample_refined: true,
+        }
+    }
+}
+
+/// [`best_lag_with`] with [`LagConfig::default`].
+pub fn best_lag(
+    imu_signal: &[f64],
+    skel_signal: &[f64],
+    dt_s: f64,
+    max_lag_s: f64,
+) -> Option<(f64, f64)> {
+    best_lag_with(
+        imu_signal,
+        skel_signal,
+        dt_s,
+        max_lag_s,
+        &LagConfig::default(),
+    )
+}
+
+/// Correlation of `imu[k]` with `skel[k − lag]` (both sampled every `dt_s` on the same grid).
+fn lagged_pearson(imu: &[f64], skel: &[f64], lag: i64, min_samples: usize) -> Option<f64> {
+    let lag_abs = usize::try_from(lag.unsigned_abs()).ok()?;
+    if lag >= 0 {
+        let a = imu.get(lag_abs..)?;
+        pearson(a, skel, min_samples)
+    } else {
+        let b = skel.get(lag_abs..)?;
+        pearson(imu, b, min_samples)
+    }
+}
+
+/// The clock offset between an IMU-derived signal and a skeleton-derived one on the same grid
+/// (step `dt_s`), searched over `−max_lag_s..=max_lag_s`: returns `(lag_s, correlation)` where
+/// `lag_s` maximises the Pearson correlation of `imu_signal[k]` with `skel_signal[k − lag]`.
+///
+/// A positive lag means the IMU's events appear `lag_s` *later* on the grid than the skeleton's
+/// (the IMU's timestamps run ahead of the truth by `lag_s`): subtract `lag_s` from the IMU's times
+/// to align. The correlation returned is the one at the best integer lag. Lags whose overlap is
+/// shorter than the configured minimum are skipped; ties go to the smaller `|lag|`. `None` when
+/// no lag can be scored (too short, constant, or non-finite `dt_s`/`max_lag_s`).
+pub fn best_lag_with(
+    imu_signal: &[f64],
+    skel_signal: &[f64],
+    dt_s: f64,
+    max_lag_s: f64,
+    cfg: &LagConfig,
+) -> Option<(f64, f64)> {
+    if !(dt_s.is_finite() && dt_s > 0.0 && max_lag_s.is_finite() && max_lag_s >= 0.0) {
+        return None;
+    }
+    let shorter = imu_signal.len().min(skel_signal.len());
+    let frac = if cfg.min_overlap_fraction.is_finite() {
+        cfg.min_overlap_fraction.clamp(0.0, 1.0)
+    } else {
+        0.5
+    };
+    let min_samples = cfg
+        .min_overlap_samples
+        .max((frac * shorter as f64).ceil() as usize)
+        .max(MIN_PEARSON_SAMPLES);
+    let max_lag = ((max_lag_s / dt_s).round() as i64).min(shorter as i64);
+    // Search from lag 0 outward so ties keep the smaller |lag|.
+    let mut best: Option<(i64, f64)> = None;
+    for step in 0..=max_lag {
+        for lag in [step, -step] {
+            if lag == -step && step == 0 {
+                continue;
+            }
+            if let Some(r) = lagged_pearson(imu_signal, skel_signal, lag, min_samples)
+                && best.is_none_or(|(_, b)| r > b)
+            {
+                best = Some((lag, r));
+            }
+        }
+    }
+    let (lag, r) = best?;
+    let mut lag_samples = lag as f64;
+    if cfg.is_subsample_refined {
+        let lo = lagged_pearson(imu_signal, skel_signal, lag - 1, min_samples);
+        let hi = lagged_pearson(imu_signal, skel_signal, lag + 1, min_samples);
+        if let (Some(lo), Some(hi)) = (lo, hi) {
+            let curvature = lo - 2.0 * r + hi;
+            if curvature < 0.0 {
+                lag_samples += (0.5 * (lo - hi) / curvature).clamp(-0.5, 0.5);
+            }
+        }
+    }
+    Some((lag_samples * dt_s, r))
+}
+
+/// The sampling rate of a strictly increasing, finite grid: `(n − 1) / (t_last − t_first)`.
+/// `None` for fewer than 2 samples or a grid that does not strictly increase.
+pub fn grid_rate_hz(t_s: &[f64]) -> Option<f64> {
+    if t_s.len() < 2 || !t_s.iter().all(|t| t.is_finite()) {
+        return None;
+    }
+    if t_s.windows(2).any(|w| w[1] <= w[0]) {
+        return None;
+    }
+    let span = t_s.last()? - t_s.first()?;
+    let rate = (t_s.len() - 1) as f64 / span;
+    (rate.is_finite() && rate > 0.0).then_some(rate)
+}
+
+/// Maximal runs `start..end` of indices where `is_present` holds.
+pub(crate) fn finite_runs(
+    len: usize,
+    is_present: impl Fn(usize) -> bool,
+) -> Vec<std::ops::Range<usize>> {
+    let mut runs = Vec::new();
+    let mut start = None;
+    for i in 0..len {
+        match (is_present(i), start) {
+            (true, None) => start = Some(i),
+            (false, Some(s)) => {
+                runs.push(s..i);
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        runs.push(s..len);
+    }
+    runs
+}
+
+/// Zero-phase low-passes each component of `x` in place, run by run; samples in runs too short
+/// for the filter (or when the filter cannot be designed) become `NaN`.
+pub(crate) fn lowpass_vectors(x: &mut [Vector3<f64>], butter: &ButterworthConfig) {
+    let Ok(mut filter) = ZeroPhaseLowpass::new(butter) else {
+        x.iter_mut().for_each(|v| *v = nan3());
+        return;
+    };
+    let runs = finite_runs(x.len(), |i| is_finite3(&x[i]));
+    let mut input = Vec::new();
+    let mut output = Vec::new();
+    let mut covered = vec![false; x.len()];
+    for run in runs {
+        let seg = &mut x[run.clone()];
+        let mut is_ok = true;
+        for axis in 0..3 {
+            input.clear();
+            input.extend(seg.iter().map(|v| v[axis]));
+            output.clear();
+            output.resize(input.len(), 0.0);
+            if filter.filter(&input, &mut output).is_err() {
+                is_ok = false;
+                break;
+            }
+            for (v, o) in seg.iter_mut().zip(&output) {
+                v[axis] = *o;
+            }
+        }
+        if is_ok {
+            covered[run].iter_mut().for_each(|c| *c = true);
+        }
+    }
+    for (v, c) in x.iter_mut().zip(covered) {
+        if !c {
+            *v = nan3();
+        }
+    }
+}
+
+/// Which derivative [`differentiate_runs`] takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Derivative {
+    Velocity,
+    Acceleration,
+}
+
+/// First or second derivative of `x` on the grid `t_s`, run by run over finite samples (runs of
+/// fewer than 3 samples give `NaN`).
+pub(crate) fn differentiate_runs(
+    t_s: &[f64],
+    x: &[Vector3<f64>],
+    which: Derivative,
+) -> Vec<Vector3<f64>> {
+    let mut out = vec![nan3(); x.len()];
+    if t_s.len() != x.len() {
+        return out;
+    }
+    let t: Option<Vec<SessionTime>> = t_s.iter().map(|&s| SessionTime::from_secs_f64(s)).collect();
+    let Some(t) = t else {
+        return out;
+    };
+    for run in finite_runs(x.len(), |i| is_finite3(&x[i])) {
+        if run.len() < 3 {
+            continue;
+        }
+        let (tr, xr, or) = (&t[run.clone()], &x[run.clone()], &mut out[run]);
+        let result = match which {
+            Derivative::Velocity => derivative::velocity(tr, xr, or),
+            Derivative::Acceleration => derivative::acceleration(tr, xr, or),
+        };
+        if result.is_err() {
+            or.iter_mut().for_each(|v| *v = nan3());
+        }
+    }
+    out
+}
+
+/// Causal moving average of `len` samples over a series with gaps; a `NaN` stays `NaN` and does not
+/// enter the average. `len` of 0 or 1 leaves the series unchanged.
+pub(crate) fn moving_average(x: &mut [f64], len: usize) {
+    if len <= 1 {
+        return;
+    }
+    let Ok(mut avg) = MovingAverage::new(len) else {
+        return;
+    };
+    for v in x.iter_mut() {
+        *v = avg.process(*v).unwrap_or(f64::NAN);
+    }
+}
+
+/// A vector of `NaN`s (missing).
+pub(crate) fn nan3() -> Vector3<f64> {
+    Vector3::repeat(f64::NAN)
+}
+
+/// Whether every component is finite.
+pub(crate) fn is_finite3(v: &Vector3<f64>) -> bool {
+    v.iter().all(|c| c.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pearson_of_affine_copy_is_one_and_of_negation_minus_one() {
+        let x: Vec<f64> = (0..50).map(|i| (i as f64 * 0.3).sin()).collect();
+        let y: Vec<f64> = x.iter().map(|v| 3.0 * v + 2.0).collect();
+        let z: Vec<f64> = x.iter().map(|v| -v).collect();
+        assert!((pearson(&x, &y, 3).unwrap() - 1.0).abs() < 1e-12);
+        assert!((pearson(&x, &z, 3).unwrap() + 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn pearson_skips_missing_pairs_and_rejects_constant_or_short() {
+        let mut x: Vec<f64> = (0..20).map(|i| i as f64).collect();
+        let y = x.clone();
+        x[5] = f64::NAN;
+        assert!((pearson(&x, &y, 3).unwrap() - 1.0).abs() < 1e-12);
+        assert!(pearson(&x, &y, 20).is_none());
+        assert!(pearson(&[1.0; 10], &y[..10], 3).is_none());
+        assert!(pearson(&[1.0, 2.0], &[1.0, 2.0], 1).is_none());
+        assert!(pearson(&[], &[], 0).is_none());
+    }
+
+    #[test]
+    fn positive_lag_means_imu_events_come_later() {
+        // A pulse at sample 40 in the skeleton, at 46 in the IMU: lag +6 samples.
+        let pulse = |c: f64| -> Vec<f64> {
+            (0..120)
+                .map(|i| (-((i as f64 - c) / 4.0).powi(2)).exp())
+                .collect()
+        };
+        let (lag_s, r) = best_lag(&pulse(46.0), &pulse(40.0), 0.01, 0.1).unwrap();
+        assert!((lag_s - 0.06).abs() < 1e-3, "{lag_s}");
+        assert!(r > 0.99);
+        let (lag_s, _) = best_lag(&pulse(40.0), &pulse(46.0), 0.01, 0.1).unwrap();
+        assert!((lag_s + 0.06).abs() < 1e-3, "{lag_s}");
+    }
+
+    #[test]
+    fn lag_search_gives_none_on_bad_input() {
+        let x: Vec<f64> = (0..50).map(|i| (i as f64).sin()).collect();
+        assert!(best_lag(&x, &x, 0.0, 0.5).is_none());
+        assert!(best_lag(&x, &x, 0.01, f64::NAN).is_none());
+        assert!(best_lag(&x[..2], &x[..2], 0.01, 0.5).is_none());
+        assert!(best_lag(&[f64::NAN; 50], &x, 0.01, 0.1).is_none());
+    }
+
+    #[test]
+    fn gaps_split_runs() {
+        let present = [true, true, false, true, false, false, true];
+        let runs = finite_runs(present.len(), |i| present[i]);
+        assert_eq!(runs, vec![0..2, 3..4, 6..7]);
+    }
+}

@@ -1,0 +1,46 @@
+//! The synchronised windows every evidence model reads.
+
+use nalgebra::{Point3, UnitQuaternion, Vector3};
+use nomen_core::skeleton::Joints;
+use nomen_core::{CameraId, DeviceId, TrackId};
+
+/// One IMU over one window, resampled by the engine onto the window's grid `t_s`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ImuWindow {
+    /// The IMU.
+    pub device: Option<DeviceId>,
+    /// Grid times, session seconds, strictly increasing (the lowest rate in the window).
+    pub t_s: Vec<f64>,
+    /// Specific force in the sensor frame, m/s² (as measured: gravity included).
+    pub accel_mps2: Vec<Vector3<f64>>,
+    /// Angular rate in the sensor frame, rad/s.
+    pub gyro_radps: Vec<Vector3<f64>>,
+    /// Orientation estimate `world_from_sensor` (e.g. Madgwick), world Z up.
+    pub world_from_sensor: Vec<UnitQuaternion<f64>>,
+}
+
+/// One camera track over one window, on the same grid as the [`ImuWindow`] it is compared with.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SkeletonWindow {
+    /// The camera.
+    pub camera: Option<CameraId>,
+    /// The camera's track id.
+    pub track: Option<TrackId>,
+    /// Grid times, session seconds (equal to the IMU window's).
+    pub t_s: Vec<f64>,
+    /// Joint positions in the world frame per grid time (filtered by the engine); a joint absent
+    /// at a time is missing there.
+    pub joints_world_m: Vec<Joints<Point3<f64>>>,
+}
+
+/// De Marchi's per-model similarity for one (IMU, skeleton joint) pair: Pearson correlations in
+/// `-1..=1` of the magnitude signals; `None` when a signal is missing or constant.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ModelScores {
+    /// Correlation of linear-acceleration magnitudes.
+    pub acc: Option<f64>,
+    /// Correlation of velocity magnitudes.
+    pub vel: Option<f64>,
+    /// Correlation of orientation-change magnitudes.
+    pub ori: Option<f64>,
+}

@@ -1,0 +1,83 @@
+//! The error type of `nomen-engine`.
+
+use nomen_core::{CameraId, CoreError, DeviceId, SessionTime};
+
+/// Everything the engine can refuse.
+///
+/// A bad message is an error *for that message only*: [`crate::Engine::push`] returns it, counts
+/// it in [`crate::EngineStats`] and the engine keeps running.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum EngineError {
+    /// A configuration value is out of range.
+    #[error("invalid engine config: {0}")]
+    InvalidConfig(String),
+    /// The registry does not validate.
+    #[error("invalid registry: {0}")]
+    Registry(CoreError),
+    /// A message failed its own validation (NaN, out of range).
+    #[error("{kind} from '{source_id}' at {t}: {error}")]
+    InvalidMessage {
+        /// Message type (`imu`, `skeleton`).
+        kind: &'static str,
+        /// Device or camera id.
+        source_id: String,
+        /// Message time.
+        t: SessionTime,
+        /// What is wrong with it.
+        error: CoreError,
+    },
+    /// An IMU sample from a device no subject wears.
+    #[error("imu sample at {t} from unknown device '{device}'")]
+    UnknownDevice {
+        /// The device.
+        device: DeviceId,
+        /// Message time.
+        t: SessionTime,
+    },
+    /// An IMU sample from a registered device that is not an IMU.
+    #[error("imu sample at {t} from device '{device}', which is not registered as an imu")]
+    NotAnImu {
+        /// The device.
+        device: DeviceId,
+        /// Message time.
+        t: SessionTime,
+    },
+    /// A skeleton from a camera the registry does not list.
+    #[error("skeleton at {t} from unknown camera '{camera}'")]
+    UnknownCamera {
+        /// The camera.
+        camera: CameraId,
+        /// Message time.
+        t: SessionTime,
+    },
+    /// A second message with the same source and timestamp.
+    #[error("duplicate {kind} from '{source_id}' at {t}")]
+    Duplicate {
+        /// Message type.
+        kind: &'static str,
+        /// Device id, or `camera/track`.
+        source_id: String,
+        /// Message time.
+        t: SessionTime,
+    },
+    /// A message older than its source's reorder window allows.
+    #[error("late {kind} from '{source_id}' at {t}: older than the reorder window")]
+    Late {
+        /// Message type.
+        kind: &'static str,
+        /// Device or camera id.
+        source_id: String,
+        /// Message time.
+        t: SessionTime,
+    },
+    /// A filter refused its configuration or input.
+    #[error("filter: {0}")]
+    Filter(#[from] nomen_filters::FilterError),
+    /// The assignment solver refused its input.
+    #[error("assignment: {0}")]
+    Assign(#[from] nomen_assign::AssignError),
+}
+
+/// Result alias of this crate.
+pub type Result<T> = std::result::Result<T, EngineError>;

@@ -1,0 +1,69 @@
+//! Counters the engine keeps while it runs.
+
+use nomen_core::DeviceId;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Messages rejected by [`crate::Engine::push`], per reason.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct RejectCounts {
+    /// Failed validation (NaN, out of range).
+    pub num_invalid: u64,
+    /// IMU sample from a device no subject wears (or that is not an IMU).
+    pub num_unknown_device: u64,
+    /// Skeleton from an unregistered camera.
+    pub num_unknown_camera: u64,
+    /// Same source and timestamp as an earlier message.
+    pub num_duplicate: u64,
+    /// Older than the source's reorder window.
+    pub num_late: u64,
+}
+
+impl RejectCounts {
+    /// All rejections.
+    pub fn total(&self) -> u64 {
+        self.num_invalid
+            + self.num_unknown_device
+            + self.num_unknown_camera
+            + self.num_duplicate
+            + self.num_late
+    }
+}
+
+/// The engine's estimate of one device's clock offset (`session = device + offset`).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ClockOffsetEstimate {
+    /// Estimated offset, ns.
+    pub offset_ns: i64,
+    /// Peak correlation of the last accepted estimate.
+    pub correlation: f64,
+    /// How many times the estimate was set or refined.
+    pub num_updates: u64,
+}
+
+/// What the engine has done so far.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct EngineStats {
+    /// Messages pushed (accepted or not).
+    pub num_messages: u64,
+    /// IMU samples accepted.
+    pub num_imu_samples: u64,
+    /// Skeleton observations accepted.
+    pub num_skeletons: u64,
+    /// Messages of types the engine does not use (radio, outputs, truth), accepted and ignored.
+    pub num_ignored: u64,
+    /// Rejections per reason.
+    pub rejected: RejectCounts,
+    /// Evidence windows processed.
+    pub num_windows: u64,
+    /// Windows processed because a source stayed silent past the timeout.
+    pub num_windows_timed_out: u64,
+    /// Identified skeletons emitted.
+    pub num_decisions: u64,
+    /// Of which with a subject.
+    pub num_identified: u64,
+    /// Times a track's label changed from one subject to another.
+    pub num_label_switches: u64,
+    /// Clock offset estimates per IMU, once made.
+    pub clock_offsets: BTreeMap<DeviceId, ClockOffsetEstimate>,
+}

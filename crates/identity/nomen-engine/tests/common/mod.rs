@@ -1,0 +1,210 @@
+//! Synthetic scenes: people standing in a row swinging their arms like pendulums, seen by one
+//! camera at 30 Hz, some wearing a left-wrist IMU at 100 Hz with exact kinematics.
+
+#![allow(dead_code, clippy::unwrap_used)]
+
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use nomen_core::skeleton::Joints;
+use nomen_core::{
+    Camera, CameraId, ClockModel, DeviceId, DeviceKind, ImuSample, Joint, JointObservation,
+    Message, Registry, RigidTransform, SessionTime, SkeletonObservation, Subject, SubjectId,
+    TrackId, Wearable,
+};
+
+pub const CAMERA: &str = "cam";
+const FOREARM_M: f64 = 0.3;
+const G: f64 = 9.81;
+
+/// One person of a synthetic scene.
+#[derive(Clone)]
+pub struct Person {
+    /// Registered subject (with a left-wrist IMU `<subject>_imu`), or `None` for an intruder.
+    pub subject: Option<&'static str>,
+    /// Arm-swing frequency, Hz.
+    pub freq_hz: f64,
+    /// Phase of the swing, rad.
+    pub phase_rad: f64,
+    /// Frequency of the swing amplitude's modulation, Hz.
+    pub mod_hz: f64,
+    /// Position along the row, m.
+    pub y_m: f64,
+    /// Camera track id, and `(time_s, new id)` when the SDK re-labels the person.
+    pub track: u64,
+    pub track_change: Option<(f64, u64)>,
+    /// IMU stops sending after this time, s.
+    pub imu_until_s: f64,
+    /// Device clock: `session = device + offset`.
+    pub imu_offset_s: f64,
+}
+
+impl Person {
+    pub fn new(subject: Option<&'static str>, freq_hz: f64, y_m: f64, track: u64) -> Self {
+        Person {
+            subject,
+            freq_hz,
+            phase_rad: y_m,
+            mod_hz: 0.11 + 0.03 * y_m,
+            y_m,
+            track,
+            track_change: None,
+            imu_until_s: f64::INFINITY,
+            imu_offset_s: 0.0,
+        }
+    }
+
+    /// Swing angle θ(t) and its first two derivatives.
+    fn theta(&self, t: f64) -> (f64, f64, f64) {
+        let w = 2.0 * std::f64::consts::PI * self.freq_hz;
+        let m = 2.0 * std::f64::consts::PI * self.mod_hz;
+        let amp = 0.5 + 0.3 * (m * t).sin();
+        let (d_amp, dd_amp) = (0.3 * m * (m * t).cos(), -0.3 * m * m * (m * t).sin());
+        let (s, c) = (w * t + self.phase_rad).sin_cos();
+        (
+            amp * s,
+            d_amp * s + amp * w * c,
+            dd_amp * s + 2.0 * d_amp * w * c - amp * w * w * s,
+        )
+    }
+
+    fn elbow(&self, side: f64) -> Point3<f64> {
+        Point3::new(1.0, self.y_m + 0.2 * side, 1.1)
+    }
+
+    /// Left wrist at `t`: elbow + forearm at angle θ in the x–z plane.
+    fn wrist(&self, t: f64, side: f64) -> Point3<f64> {
+        let (th, _, _) = self.theta(t);
+        let th = side * th;
+        self.elbow(side) + FOREARM_M * Vector3::new(th.sin(), 0.0, -th.cos())
+    }
+
+    pub fn track_at(&self, t: f64) -> TrackId {
+        match self.track_change {
+            Some((at, id)) if t >= at => TrackId(id),
+            _ => TrackId(self.track),
+        }
+    }
+}
+
+pub fn world_from_camera() -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::new(-2.0, 0.5, 1.5),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.4),
+    )
+}
+
+pub fn registry(people: &[Person]) -> Registry {
+    Registry {
+        subjects: people
+            .iter()
+            .filter_map(|p| p.subject)
+            .map(|s| Subject {
+                id: SubjectId::new(s),
+                name: None,
+                wears: vec![Wearable {
+                    device: DeviceId::new(format!("{s}_imu")),
+                    kind: DeviceKind::Imu,
+                    site: Joint::LeftWrist,
+                    clock: ClockModel::default(),
+                }],
+            })
+            .collect(),
+        cameras: vec![Camera {
+            id: CameraId::new(CAMERA),
+            world_from_camera: RigidTransform::from_isometry(&world_from_camera()),
+            intrinsics: None,
+            fps_hz: Some(30.0),
+            clock: ClockModel::default(),
+        }],
+        ..Default::default()
+    }
+}
+
+fn ns(t: f64) -> SessionTime {
+    SessionTime::from_secs_f64(t).unwrap()
+}
+
+/// The recording, time ordered (stable: skeletons before IMU samples at equal times).
+pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
+    let camera_from_world = world_from_camera().inverse();
+    let mut msgs = Vec::new();
+    let num_frames = (duration_s * 30.0) as usize;
+    for k in 0..num_frames {
+        let t = k as f64 / 30.0;
+        for p in people {
+            let mut joints = Joints::new();
+            let pelvis = Point3::new(1.0, p.y_m, 0.95);
+            let mut put = |j, pw: Point3<f64>| {
+                joints.insert(j, JointObservation::tracked(camera_from_world * pw));
+            };
+            put(Joint::Pelvis, pelvis);
+            put(Joint::LeftElbow, p.elbow(1.0));
+            put(Joint::LeftWrist, p.wrist(t, 1.0));
+            put(Joint::RightElbow, p.elbow(-1.0));
+            put(Joint::RightWrist, p.wrist(t, -1.0));
+            msgs.push(Message::Skeleton(SkeletonObservation {
+                t: ns(t),
+                camera: CameraId::new(CAMERA),
+                track: p.track_at(t),
+                joints,
+            }));
+        }
+    }
+    for p in people {
+        let Some(s) = p.subject else { continue };
+        let num = (duration_s * 100.0) as usize;
+        for k in 0..num {
+            let t = k as f64 / 100.0 + 0.003;
+            if t > p.imu_until_s {
+                break;
+            }
+            let (th, dth, ddth) = p.theta(t);
+            // Wrist acceleration in the world: second derivative of L·(sin θ, 0, −cos θ).
+            let a_world = FOREARM_M
+                * Vector3::new(
+                    ddth * th.cos() - dth * dth * th.sin(),
+                    0.0,
+                    ddth * th.sin() + dth * dth * th.cos(),
+                );
+            // world_from_sensor = Rot_y(−θ): the sensor turns with the forearm.
+            let world_from_sensor = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -th);
+            let accel = world_from_sensor.inverse() * (a_world + Vector3::z() * G);
+            let gyro = Vector3::new(0.0, -dth, 0.0);
+            msgs.push(Message::Imu(ImuSample {
+                t: ns(t - p.imu_offset_s),
+                device: DeviceId::new(format!("{s}_imu")),
+                accel_mps2: accel,
+                gyro_radps: gyro,
+                mag_ut: None,
+                orientation_wxyz: None,
+            }));
+        }
+    }
+    msgs.sort_by_key(|m| m.t());
+    msgs
+}
+
+/// Fraction of outputs after `from_s` whose label is the person's subject (or anonymous).
+pub fn accuracy(people: &[Person], out: &[Message], from_s: f64) -> f64 {
+    let (mut n, mut right) = (0, 0);
+    for m in out {
+        let Message::Identified(id) = m else { continue };
+        let t = id.t.as_secs_f64();
+        if t < from_s {
+            continue;
+        }
+        let Some(p) = people.iter().find(|p| p.track_at(t) == id.track) else {
+            continue;
+        };
+        n += 1;
+        if id.identity.subject().map(|s| s.as_str()) == p.subject {
+            right += 1;
+        }
+    }
+    right as f64 / n.max(1) as f64
+}
+
+pub fn num_skeletons(msgs: &[Message]) -> usize {
+    msgs.iter()
+        .filter(|m| matches!(m, Message::Skeleton(_)))
+        .count()
+}

@@ -1,0 +1,190 @@
+//! End-to-end behaviour of the engine on synthetic scenes (see `common`).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use common::{Person, accuracy, num_skeletons, recording, registry};
+use nomen_core::{DeviceId, Identity, ImuSample, Message, SessionTime, TrackId};
+use nomen_engine::{Engine, EngineConfig, EngineError, run_batch};
+
+fn two_people() -> Vec<Person> {
+    vec![
+        Person::new(Some("ana"), 0.9, 0.0, 1),
+        Person::new(Some("ben"), 1.3, 1.5, 2),
+    ]
+}
+
+#[test]
+fn two_people_with_wrist_imus_are_named_after_the_first_windows() {
+    let people = two_people();
+    let msgs = recording(&people, 20.0);
+    let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    assert_eq!(out.len(), num_skeletons(&msgs));
+    let acc = accuracy(&people, &out, 8.0);
+    assert!(acc > 0.98, "accuracy after 8 s {acc}, stats {stats:?}");
+    for m in &out {
+        let Message::Identified(id) = m else {
+            panic!("{m:?}")
+        };
+        assert!((0.0..=1.0).contains(&id.confidence));
+    }
+}
+
+#[test]
+fn an_intruder_stays_anonymous() {
+    let mut people = two_people();
+    people.push(Person::new(None, 1.1, 3.0, 3));
+    let msgs = recording(&people, 20.0);
+    let (out, _) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    let intruder: Vec<_> = out
+        .iter()
+        .filter_map(|m| match m {
+            Message::Identified(id) if id.track == TrackId(3) => Some(&id.identity),
+            _ => None,
+        })
+        .collect();
+    assert!(!intruder.is_empty());
+    assert!(intruder.iter().all(|i| **i == Identity::Anonymous));
+    assert!(accuracy(&people, &out, 8.0) > 0.98);
+}
+
+#[test]
+fn a_silent_imu_does_not_block_output() {
+    let mut people = two_people();
+    people[1].imu_until_s = 2.0;
+    let msgs = recording(&people, 20.0);
+    let config = EngineConfig::default();
+    let mut engine = Engine::new(registry(&people), config).unwrap();
+    let mut out = Vec::new();
+    let bound = config.latency_s() + config.silence_timeout_s + 0.1;
+    for m in &msgs {
+        engine.push(m).unwrap();
+        engine.poll(&mut out);
+        // Every skeleton older than the latency bound has its output already.
+        let now = m.t().as_secs_f64();
+        let due = msgs
+            .iter()
+            .filter(|s| matches!(s, Message::Skeleton(_)) && s.t().as_secs_f64() < now - bound)
+            .count();
+        assert!(
+            out.len() >= due,
+            "at {now} s: {} outputs, {due} due",
+            out.len()
+        );
+    }
+    engine.finish(&mut out);
+    assert_eq!(out.len(), num_skeletons(&msgs));
+    assert!(engine.stats().num_windows_timed_out > 0);
+    // Ana is still named; Ben, whose IMU died, is not given Ana's name.
+    assert!(accuracy(&people[..1], &out, 8.0) > 0.98);
+}
+
+#[test]
+fn messages_shuffled_within_the_reorder_window_give_identical_output() {
+    let mut people = two_people();
+    people.push(Person::new(None, 1.1, 3.0, 3));
+    let msgs = recording(&people, 15.0);
+    let reg = registry(&people);
+    let config = EngineConfig::default();
+    let (reference, _) = run_batch(&reg, &msgs, &config).unwrap();
+    // Deterministic shuffle: sort by t + u, u in [0, 0.2 s) from an LCG, which moves no message
+    // behind a later one of its source by more than 0.2 s (< reorder_window_s).
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut keyed: Vec<(i64, &Message)> = msgs
+        .iter()
+        .map(|m| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            let u = ((state >> 33) % 200_000_000) as i64;
+            (m.t().as_ns() + u, m)
+        })
+        .collect();
+    keyed.sort_by_key(|(k, _)| *k);
+    let shuffled: Vec<Message> = keyed.into_iter().map(|(_, m)| m.clone()).collect();
+    assert_ne!(shuffled, msgs);
+    let (out, stats) = run_batch(&reg, &shuffled, &config).unwrap();
+    assert_eq!(stats.rejected.total(), 0);
+    assert_eq!(out, reference);
+}
+
+#[test]
+fn bad_messages_are_rejected_and_counted_while_the_rest_goes_on() {
+    let people = two_people();
+    let msgs = recording(&people, 12.0);
+    let mut engine = Engine::new(registry(&people), EngineConfig::default()).unwrap();
+    let mut out = Vec::new();
+    let imu = |t_ns: i64, device: &str, x: f64| {
+        Message::Imu(ImuSample {
+            t: SessionTime::from_ns(t_ns),
+            device: DeviceId::new(device),
+            accel_mps2: nalgebra::Vector3::new(x, 0.0, 9.81),
+            gyro_radps: nalgebra::Vector3::zeros(),
+            mag_ut: None,
+            orientation_wxyz: None,
+        })
+    };
+    let mut num_dup = 0;
+    for (k, m) in msgs.iter().enumerate() {
+        engine.push(m).unwrap();
+        if k == 500 {
+            assert!(matches!(
+                engine.push(&imu(m.t().as_ns(), "ana_imu", f64::NAN)),
+                Err(EngineError::InvalidMessage { .. })
+            ));
+            assert!(matches!(
+                engine.push(&imu(m.t().as_ns(), "zoe_imu", 0.0)),
+                Err(EngineError::UnknownDevice { .. })
+            ));
+            assert!(matches!(engine.push(m), Err(EngineError::Duplicate { .. })));
+            num_dup += 1;
+        }
+        engine.poll(&mut out);
+    }
+    engine.finish(&mut out);
+    let r = engine.stats().rejected;
+    assert_eq!(
+        (r.num_invalid, r.num_unknown_device, r.num_duplicate),
+        (1, 1, num_dup)
+    );
+    assert_eq!(out.len(), num_skeletons(&msgs));
+    assert!(accuracy(&people, &out, 8.0) > 0.98);
+}
+
+#[test]
+fn a_clock_offset_of_0_4_s_is_estimated_within_two_samples() {
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.4;
+    people[1].imu_offset_s = -0.25;
+    let msgs = recording(&people, 20.0);
+    let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    let ana = stats.clock_offsets[&DeviceId::new("ana_imu")].offset_ns as f64 * 1e-9;
+    let ben = stats.clock_offsets[&DeviceId::new("ben_imu")].offset_ns as f64 * 1e-9;
+    assert!((ana - 0.4).abs() <= 0.02, "ana offset {ana}");
+    assert!((ben + 0.25).abs() <= 0.02, "ben offset {ben}");
+    assert!(accuracy(&people, &out, 12.0) > 0.98);
+}
+
+#[test]
+fn a_track_id_change_mid_walk_is_reidentified() {
+    let mut people = two_people();
+    people[0].track_change = Some((12.0, 11));
+    let msgs = recording(&people, 24.0);
+    let (out, _) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    let late_new_track: Vec<_> = out
+        .iter()
+        .filter_map(|m| match m {
+            Message::Identified(id) if id.track == TrackId(11) && id.t.as_secs_f64() > 16.0 => {
+                Some(id.identity.clone())
+            }
+            _ => None,
+        })
+        .collect();
+    assert!(!late_new_track.is_empty());
+    assert!(
+        late_new_track
+            .iter()
+            .all(|i| i.subject().map(|s| s.as_str()) == Some("ana"))
+    );
+    assert!(accuracy(&people, &out, 16.0) > 0.98);
+}
