@@ -27,7 +27,7 @@ WALKS = ["walk_02_01", "walk_131_02", "walk_02_01", "walk_131_01",
 BAN = ["left_wrist", "right_wrist", "left_ankle", "right_ankle", "pelvis"]
 
 
-def loop_path(i, n, laps=8):
+def loop_path(i, n, laps=14):
     """A rectangle inside the front camera's view, different per person, alternating direction."""
     cx, cy = 4.0, 2.8
     hx = 0.9 + 0.35 * (i % 4)

@@ -119,8 +119,12 @@ pub fn simulate(
             skip_frames: def.skip_frames,
             travels: Some(def.travels),
         };
-        let motion = PersonMotion::new(&p.motion, source)
-            .map_err(|e| SimError::InvalidScenario(format!("person '{}': {e}", p.id)))?;
+        let motion = PersonMotion::new(&p.motion, source).map_err(|e| match e {
+            SimError::InvalidScenario(why) => {
+                SimError::InvalidScenario(format!("person '{}': {why}", p.id))
+            }
+            other => other,
+        })?;
         motions.push(motion);
     }
     let spans: Vec<Option<(f64, f64)>> = motions
