@@ -36,6 +36,9 @@ enum Command {
     Validate(cmd::validate::ValidateArgs),
     /// Evaluate an engine result against ground truth (or MOTChallenge files with `eval mot`).
     Eval(cmd::eval::EvalArgs),
+    /// Regenerate a paper's table: simulate → run → eval for every cell, seeds printed.
+    #[command(subcommand)]
+    Experiment(cmd::experiment::ExperimentCommand),
     /// Fit sensor noise models to real recordings (IMU, UWB ranging, RSSI path loss).
     #[command(subcommand)]
     Fit(cmd::fit::FitCommand),
@@ -52,6 +55,7 @@ fn main() -> ExitCode {
         Command::Import(c) => cmd::import::run(c),
         Command::Validate(a) => cmd::validate::run(a),
         Command::Eval(a) => cmd::eval::run(a),
+        Command::Experiment(c) => cmd::experiment::run(c),
         Command::Fit(c) => cmd::fit::run(c),
         Command::Demo(a) => cmd::demo::run(a),
     };

@@ -1,26 +1,10 @@
 //! Engine configuration: plain data, loadable from TOML, every field optional.
 
 use crate::error::{EngineError, Result};
+use nomen_evidence::{Fusion, FusionConfig, GeometricConfig};
 use nomen_filters::kalman::ConstantVelocityConfig;
 use nomen_filters::orientation::MadgwickConfig;
 use serde::{Deserialize, Serialize};
-
-/// How the per-model IMU/skeleton similarities of one window are fused into one score.
-///
-/// Interim local enum until `nomen_evidence::Fusion` lands; the names follow De Marchi's models.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Fusion {
-    /// Correlation of linear-acceleration magnitudes only.
-    Acc,
-    /// Correlation of angular-rate magnitudes (gyro vs. the site bone's turn rate) only.
-    Ori,
-    /// Mean of the available model correlations (best on the simulated scenes).
-    #[default]
-    Mean,
-    /// The larger of the available model correlations.
-    Max,
-}
 
 /// Configuration of [`crate::Engine`]. Durations in seconds on the session clock.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -42,8 +26,20 @@ pub struct EngineConfig {
     pub decision_delay_s: f64,
     /// Fraction of the window a track must cover (first to last sample) to be scored. Default 0.5.
     pub min_window_coverage: f64,
-    /// How per-model similarities are fused.
+    /// How De Marchi's per-(joint, model) correlations of one window are fused into one score
+    /// per (track, subject) (`nomen_evidence::fuse`). Default [`Fusion::Max`]: the best mean
+    /// accuracy over the simulated wrist/BAN 2/4/8 scenes at seeds 1 and 2 (0.52 against 0.49 for
+    /// `model_vote`, 0.43 for `mean`; see the crate README). `model_vote` is better on the
+    /// 8-person body-area-network scene.
     pub fusion: Fusion,
+    /// Threshold and voting parameters of the fusion. Default: the evidence crate's, except
+    /// `min_vote_score` 0.2: a track whose best correlation in a ballot is weaker abstains
+    /// (still counted), so an intruder does not collect votes just by being the least bad match
+    /// (with 0 or 0.15 the engine's intruder test fails; 0.3 cost 5–14 points on the wrist
+    /// scenes). Chosen by measurement, not from the literature.
+    pub fusion_config: FusionConfig,
+    /// Filters and smoothing of De Marchi's magnitude signals (`nomen_evidence::geometric_scores`).
+    pub geometric: GeometricConfig,
     /// Constant-velocity Kalman filter on every world-frame joint; `None`: raw joints.
     pub joint_filter: Option<ConstantVelocityConfig>,
     /// Joint measurement noise (per axis standard deviation) for the Kalman filter, m. Default
@@ -56,19 +52,39 @@ pub struct EngineConfig {
     /// Half-life of the exponentially weighted evidence of one (track, device) pair, s.
     /// Default 4 s.
     pub evidence_half_life_s: f64,
-    /// Lowest accumulated score (correlation units) at which a track may be given a subject;
-    /// below it the track stays anonymous. Default 0.3.
+    /// Lowest accumulated score at which a track may be given a subject; below it the track stays
+    /// anonymous. In the fused score's units: a vote share for the voting fusions, a correlation
+    /// for the others. Default 0.3 (0.2 was no better across seeds on scenes without intruders,
+    /// and would name more intruders).
     pub rejection_threshold: f64,
     /// Bonus the current label of a track gets in the assignment, so another subject must beat
-    /// it by this much to take over (hysteresis), correlation units. Default 0.1.
+    /// it by this much to take over (hysteresis), in the fused score's units. Default 0.1.
     pub switch_margin: f64,
     /// Largest device clock offset searched for, s. Default 0.6 s (the simulator draws up to
     /// ±0.5 s).
     pub max_clock_offset_s: f64,
-    /// Length of the buffer over which a device's clock offset is estimated, s. Default 8 s.
+    /// Length of the buffer over which a device's clock offset is estimated, s. Default 12 s
+    /// (several gait cycles *and* several turns, so the true lag beats the lags one stride off).
     pub offset_estimation_window_s: f64,
-    /// Lowest peak correlation for an offset estimate to be accepted. Default 0.3.
+    /// Shortest stretch of a track (first to last sample in the buffer) for it to be a candidate
+    /// in the offset search, s. Default 4 s.
+    pub offset_min_track_s: f64,
+    /// How often a device without an accepted offset is searched again, s. Default 1 s.
+    pub offset_search_interval_s: f64,
+    /// Lowest peak correlation (mean over the subject's IMUs of the lag-curve peaks) for an
+    /// offset candidate. Default 0.3.
     pub offset_min_correlation: f64,
+    /// How much the best track's peak must beat the next track's (same camera) for its lag to be
+    /// a candidate, correlation units. Default 0.1.
+    pub offset_margin: f64,
+    /// Number of successive candidates that must agree within `offset_consistency_s` before an
+    /// offset is accepted. Default 3.
+    pub offset_num_consistent: usize,
+    /// How close successive candidates must be to count as consistent, s. Default 0.05 s.
+    pub offset_consistency_s: f64,
+    /// Local maxima of a lag curve within this of its highest value are near-ties; the one with
+    /// the smallest |lag| wins. Default 0.02.
+    pub offset_tie_tolerance: f64,
     /// How often an offset is re-estimated against the track its wearer is assigned to, s.
     /// Default 5 s.
     pub offset_refine_interval_s: f64,
@@ -87,7 +103,12 @@ impl Default for EngineConfig {
             silence_timeout_s: 1.0,
             decision_delay_s: 1.5,
             min_window_coverage: 0.5,
-            fusion: Fusion::default(),
+            fusion: Fusion::Max,
+            fusion_config: FusionConfig {
+                min_vote_score: 0.2,
+                ..FusionConfig::default()
+            },
+            geometric: GeometricConfig::default(),
             joint_filter: Some(ConstantVelocityConfig::default()),
             joint_noise_std_m: 0.03,
             madgwick: MadgwickConfig::default(),
@@ -96,8 +117,14 @@ impl Default for EngineConfig {
             rejection_threshold: 0.3,
             switch_margin: 0.1,
             max_clock_offset_s: 0.6,
-            offset_estimation_window_s: 8.0,
+            offset_estimation_window_s: 12.0,
+            offset_min_track_s: 4.0,
+            offset_search_interval_s: 1.0,
             offset_min_correlation: 0.3,
+            offset_margin: 0.1,
+            offset_num_consistent: 3,
+            offset_consistency_s: 0.05,
+            offset_tie_tolerance: 0.02,
             offset_refine_interval_s: 5.0,
             offset_refine_range_s: 0.1,
             track_timeout_s: 5.0,
@@ -124,6 +151,8 @@ impl EngineConfig {
                 self.offset_estimation_window_s,
             ),
             ("offset_refine_interval_s", self.offset_refine_interval_s),
+            ("offset_min_track_s", self.offset_min_track_s),
+            ("offset_search_interval_s", self.offset_search_interval_s),
             ("track_timeout_s", self.track_timeout_s),
         ];
         let non_negative = [
@@ -133,6 +162,9 @@ impl EngineConfig {
             ("switch_margin", self.switch_margin),
             ("max_clock_offset_s", self.max_clock_offset_s),
             ("offset_refine_range_s", self.offset_refine_range_s),
+            ("offset_margin", self.offset_margin),
+            ("offset_consistency_s", self.offset_consistency_s),
+            ("offset_tie_tolerance", self.offset_tie_tolerance),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -168,6 +200,11 @@ impl EngineConfig {
         if 2.0 * self.max_clock_offset_s >= self.offset_estimation_window_s {
             return Err(EngineError::InvalidConfig(
                 "offset_estimation_window_s must exceed twice max_clock_offset_s".into(),
+            ));
+        }
+        if self.offset_num_consistent == 0 {
+            return Err(EngineError::InvalidConfig(
+                "offset_num_consistent must be >= 1".into(),
             ));
         }
         self.madgwick.validate()?;

@@ -1,8 +1,8 @@
 //! The streaming engine: ingest, settle, windows, evidence, assignment, output.
 
-use crate::config::{EngineConfig, Fusion, ns};
+use crate::config::{EngineConfig, ns};
 use crate::error::{EngineError, Result};
-use crate::signal::{bin_average, pearson, site_bone, site_signals, smooth};
+use crate::signal::{ImuSeries, LagSignals, curve_peak, imu_window_on_grid, lag_curve};
 use crate::stats::EngineStats;
 use nalgebra::{Isometry3, Matrix3, Point3, UnitQuaternion, Vector3};
 use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
@@ -11,6 +11,11 @@ use nomen_core::{
     CameraId, DeviceId, DeviceKind, Evidence, IdentifiedSkeleton, Identity, ImuSample, Joint,
     Message, Registry, SessionTime, SkeletonObservation, SubjectId, TrackId,
 };
+use nomen_evidence::{
+    GeometricConfig, ImuWindow, ScoreTensor, SkeletonWindow, fuse, geometric_scores,
+    imu_accel_magnitude, imu_orientation_magnitude, joint_accel_magnitude,
+    segment_orientation_magnitude,
+};
 use nomen_filters::kalman::JointKalman;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
@@ -18,9 +23,9 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 /// Step of the coarse clock-offset search, ns (one IMU sample at 100 Hz).
 const LAG_STEP_NS: i64 = 10_000_000;
 
-/// Half width of the moving average applied to every magnitude signal on the grid before
-/// correlating, samples (3 each side: about 0.23 s at 30 Hz, below the ~1 Hz gait content).
-const SMOOTH_HALF_WIDTH: usize = 3;
+/// Longest gap between two IMU samples across which the engine interpolates, ns (a dropout of
+/// a few packets at 50–100 Hz; longer gaps are missing data).
+const MAX_IMU_GAP_NS: i64 = 60_000_000;
 
 struct CameraState {
     id: CameraId,
@@ -37,32 +42,48 @@ struct ImuState {
     pending: BTreeMap<i64, (Vector3<f64>, Vector3<f64>)>,
     /// Settled samples, device time, increasing.
     t: VecDeque<i64>,
-    /// |world_from_sensor · accel − g ẑ|, m/s².
-    acc_mag: VecDeque<f64>,
-    /// |gyro|, rad/s.
-    gyro_mag: VecDeque<f64>,
+    /// Specific force, sensor frame, m/s².
+    accel: VecDeque<Vector3<f64>>,
+    /// Angular rate, sensor frame, rad/s.
+    gyro: VecDeque<Vector3<f64>>,
+    /// Madgwick's `world_from_sensor` after each sample.
+    world_from_sensor: VecDeque<UnitQuaternion<f64>>,
     newest: Option<i64>,
     frontier: i64,
     ahrs: Option<Madgwick>,
     offset_ns: i64,
     is_offset_known: bool,
     last_refine_end: i64,
+    last_search_end: i64,
+    /// Offset candidates of the latest searches, oldest first (`None`: no clear winner).
+    candidates: VecDeque<Option<i64>>,
+    /// Lag-curve peak per track from the latest search, used before the offset is accepted.
+    pair_offsets: BTreeMap<(usize, TrackId), i64>,
 }
 
 impl ImuState {
     /// The settled samples as slices (complete after [`ImuState::make_contiguous`]).
-    fn slices(&self) -> (&[i64], &[f64], &[f64]) {
-        (
-            self.t.as_slices().0,
-            self.acc_mag.as_slices().0,
-            self.gyro_mag.as_slices().0,
-        )
+    fn series(&self) -> ImuSeries<'_> {
+        ImuSeries {
+            t_ns: self.t.as_slices().0,
+            accel_mps2: self.accel.as_slices().0,
+            gyro_radps: self.gyro.as_slices().0,
+            world_from_sensor: self.world_from_sensor.as_slices().0,
+        }
     }
 
     fn make_contiguous(&mut self) {
         self.t.make_contiguous();
-        self.acc_mag.make_contiguous();
-        self.gyro_mag.make_contiguous();
+        self.accel.make_contiguous();
+        self.gyro.make_contiguous();
+        self.world_from_sensor.make_contiguous();
+    }
+
+    fn pop_front(&mut self) {
+        self.t.pop_front();
+        self.accel.pop_front();
+        self.gyro.pop_front();
+        self.world_from_sensor.pop_front();
     }
 
     fn newest_session(&self) -> Option<i64> {
@@ -73,11 +94,10 @@ impl ImuState {
 struct TrackSample {
     t: i64,
     joints: Joints<Point3<f64>>,
-    velocities: Joints<Vector3<f64>>,
 }
 
-/// Exponentially weighted mean of one (track, device) pair's window scores.
-#[derive(Clone, Copy)]
+/// Exponentially weighted mean of one pair's window scores.
+#[derive(Clone, Copy, Default)]
 struct Accumulator {
     mean: f64,
     weight: f64,
@@ -89,7 +109,10 @@ struct TrackState {
     samples: VecDeque<TrackSample>,
     kalman: Vec<Option<JointKalman>>,
     last_t: i64,
+    /// Fused window scores per subject.
     evidence: BTreeMap<usize, Accumulator>,
+    /// Mean model score per IMU (reported as the evidence behind a label).
+    device_evidence: BTreeMap<usize, Accumulator>,
     label: Option<usize>,
     /// Scores per subject at the last decision (without the hysteresis bonus).
     subject_scores: BTreeMap<usize, f64>,
@@ -143,14 +166,18 @@ impl Engine {
                     site: w.site,
                     pending: BTreeMap::new(),
                     t: VecDeque::new(),
-                    acc_mag: VecDeque::new(),
-                    gyro_mag: VecDeque::new(),
+                    accel: VecDeque::new(),
+                    gyro: VecDeque::new(),
+                    world_from_sensor: VecDeque::new(),
                     newest: None,
                     frontier: i64::MIN,
                     ahrs: None,
                     offset_ns: w.clock.offset_ns,
                     is_offset_known: false,
                     last_refine_end: i64::MIN,
+                    last_search_end: i64::MIN,
+                    candidates: VecDeque::new(),
+                    pair_offsets: BTreeMap::new(),
                 });
             }
             subject_imus.push(mine);
@@ -336,6 +363,7 @@ impl Engine {
                 kalman: Vec::new(),
                 last_t: t,
                 evidence: BTreeMap::new(),
+                device_evidence: BTreeMap::new(),
                 label: None,
                 subject_scores: BTreeMap::new(),
             });
@@ -418,129 +446,324 @@ impl Engine {
         self.forget(end);
     }
 
-    /// Estimates (or refines) each IMU's clock offset by cross-correlating its magnitude
-    /// signals with candidate tracks over `offset_estimation_window_s`.
+    /// Clock offsets. A device without an accepted offset is searched every
+    /// `offset_search_interval_s` jointly with its wearer's identity: for every candidate track,
+    /// each of the subject's IMUs gets a lag curve over `offset_estimation_window_s`; the
+    /// subject's score for a track is the mean of its IMUs' peaks. When the best track beats the
+    /// next one of its camera by `offset_margin`, each unaccepted IMU's peak lag on that track is
+    /// a candidate; `offset_num_consistent` agreeing candidates in a row make the offset. An
+    /// accepted offset is refined every `offset_refine_interval_s` against the assigned track.
     fn update_offsets(&mut self, end: i64) {
         let max_off = ns(self.config.max_clock_offset_s);
         let span = ns(self.config.offset_estimation_window_s);
+        let hi = end - max_off;
+        let lo = hi - span;
+        let full: Vec<i64> = (-max_off / LAG_STEP_NS..=max_off / LAG_STEP_NS)
+            .map(|k| k * LAG_STEP_NS)
+            .collect();
+        let min_track = ns(self.config.offset_min_track_s);
+        let search_every = ns(self.config.offset_search_interval_s);
         let refine_every = ns(self.config.offset_refine_interval_s);
         let refine_range = ns(self.config.offset_refine_range_s);
-        let (lo, hi) = (end - span + max_off, end - max_off);
-        for i in 0..self.imus.len() {
-            let Some(imu) = self.imus.get(i) else {
+        let mut skel_cache: BTreeMap<((usize, TrackId), Joint), Option<LagSignals>> =
+            BTreeMap::new();
+        let mut scratch = Vec::new();
+        let mut curve = Vec::new();
+        for b in 0..self.subjects.len() {
+            let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
             };
-            let has_span = imu
-                .t
-                .front()
-                .is_some_and(|&f| f + imu.offset_ns <= end - span)
-                && imu.t.back().is_some_and(|&b| b + imu.offset_ns >= hi);
-            if !has_span {
+            let is_due = mine.iter().any(|&i| {
+                self.imus.get(i).is_some_and(|m| {
+                    !m.is_offset_known && end.saturating_sub(m.last_search_end) >= search_every
+                })
+            });
+            if !is_due {
                 continue;
             }
-            // Candidate tracks and the lag range.
-            let (candidates, center, range): (Vec<(usize, TrackId)>, i64, i64) =
-                if imu.is_offset_known {
-                    if end - imu.last_refine_end < refine_every {
-                        continue;
-                    }
-                    let assigned: Vec<_> = self
-                        .tracks
-                        .iter()
-                        .filter(|(_, tr)| tr.label == Some(imu.subject))
-                        .map(|(k, _)| *k)
-                        .collect();
-                    (assigned, imu.offset_ns, refine_range)
-                } else {
-                    (self.tracks.keys().copied().collect(), 0, max_off)
-                };
-            let mut best: Option<(f64, i64)> = None;
-            for key in candidates {
-                let Some(tr) = self.tracks.get_mut(&key) else {
+            let candidates: Vec<(usize, TrackId)> = self
+                .tracks
+                .iter()
+                .filter(|(_, tr)| covered_span(tr, lo, hi) >= min_track)
+                .map(|(k, _)| *k)
+                .collect();
+            // Per track: sum and count of the IMUs' peaks; per (IMU, track): the peak lag.
+            let mut track_score: BTreeMap<(usize, TrackId), (f64, usize)> = BTreeMap::new();
+            let mut peaks: BTreeMap<(usize, (usize, TrackId)), i64> = BTreeMap::new();
+            for &i in &mine {
+                let Some(imu) = self.imus.get_mut(i) else {
                     continue;
                 };
-                let Some(sig) = track_signals(tr, imu.site, lo, hi, self.config.joint_filter)
+                imu.last_search_end = end;
+                let imu = &*imu;
+                let Some(imu_sig) = imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config)
                 else {
                     continue;
                 };
-                if sig.t.len() < 3 || sig.t.last().is_some_and(|&l| l - sig.t[0] < (hi - lo) / 2) {
-                    continue;
-                }
-                if let Some(found) = lag_search(imu, &sig, center, range, self.config.fusion)
-                    && best.is_none_or(|b| found.0 > b.0)
-                {
-                    best = Some(found);
+                let offsets: Vec<i64> = if imu.is_offset_known {
+                    full.iter()
+                        .map(|o| o + imu.offset_ns)
+                        .filter(|o| (o - imu.offset_ns).abs() <= refine_range)
+                        .collect()
+                } else {
+                    full.clone()
+                };
+                for key in &candidates {
+                    let sig = skel_cache.entry((*key, imu.site)).or_insert_with(|| {
+                        self.tracks
+                            .get(key)
+                            .and_then(|tr| track_lag_signals(tr, imu.site, lo, hi, &self.config))
+                    });
+                    let Some(sig) = sig.as_ref() else {
+                        continue;
+                    };
+                    lag_curve(
+                        &imu_sig,
+                        sig,
+                        &offsets,
+                        MAX_IMU_GAP_NS,
+                        self.config.geometric.min_samples,
+                        &mut scratch,
+                        &mut curve,
+                    );
+                    let Some((offset, value)) =
+                        curve_peak(&offsets, &curve, self.config.offset_tie_tolerance)
+                    else {
+                        continue;
+                    };
+                    let e = track_score.entry(*key).or_insert((0.0, 0));
+                    e.0 += value;
+                    e.1 += 1;
+                    peaks.insert((i, *key), offset);
                 }
             }
-            let Some(imu) = self.imus.get_mut(i) else {
-                continue;
-            };
-            imu.last_refine_end = end;
-            if let Some((corr, offset)) = best
-                && corr >= self.config.offset_min_correlation
-            {
+            if std::env::var("NOMEN_DEBUG").is_ok() {
+                eprintln!(
+                    "DBG end {} subj {b} cands {} scores {:?}",
+                    end as f64 * 1e-9,
+                    candidates.len(),
+                    track_score
+                );
+            }
+            // The best track and its margin over the next one of the same camera.
+            let scores: Vec<((usize, TrackId), f64)> = track_score
+                .iter()
+                .map(|(k, (s, n))| (*k, s / *n as f64))
+                .collect();
+            let best = scores
+                .iter()
+                .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+                .copied();
+            let winner = best.and_then(|(key, top)| {
+                let second = scores
+                    .iter()
+                    .filter(|(k, _)| k.0 == key.0 && *k != key)
+                    .map(|(_, v)| *v)
+                    .fold(0.0f64, f64::max);
+                (top >= self.config.offset_min_correlation
+                    && top - second >= self.config.offset_margin)
+                    .then_some((key, top))
+            });
+            for &i in &mine {
+                let pair_offsets: BTreeMap<(usize, TrackId), i64> = peaks
+                    .range((i, (0, TrackId(0)))..)
+                    .take_while(|((j, _), _)| *j == i)
+                    .map(|((_, k), o)| (*k, *o))
+                    .collect();
+                let Some(imu) = self.imus.get_mut(i) else {
+                    continue;
+                };
+                if imu.is_offset_known {
+                    continue;
+                }
+                imu.pair_offsets = pair_offsets;
+                let candidate = winner.and_then(|(key, _)| imu.pair_offsets.get(&key).copied());
+                imu.candidates.push_back(candidate);
+                while imu.candidates.len() > self.config.offset_num_consistent {
+                    imu.candidates.pop_front();
+                }
+                let agreed: Option<Vec<i64>> = imu.candidates.iter().copied().collect();
+                let Some(mut agreed) = agreed else {
+                    continue;
+                };
+                if agreed.len() < self.config.offset_num_consistent {
+                    continue;
+                }
+                agreed.sort_unstable();
+                let (Some(&first), Some(&last)) = (agreed.first(), agreed.last()) else {
+                    continue;
+                };
+                if last - first > ns(self.config.offset_consistency_s) {
+                    continue;
+                }
+                let offset = agreed.get(agreed.len() / 2).copied().unwrap_or(last);
                 imu.offset_ns = offset;
                 imu.is_offset_known = true;
+                imu.last_refine_end = end;
                 let entry = self
                     .stats
                     .clock_offsets
                     .entry(imu.device.clone())
                     .or_default();
                 entry.offset_ns = offset;
+                entry.correlation = winner.map_or(0.0, |w| w.1);
+                entry.num_updates += 1;
+            }
+        }
+        // Refinement of accepted offsets against the track the wearer is assigned to.
+        for i in 0..self.imus.len() {
+            let Some(imu) = self.imus.get(i) else {
+                continue;
+            };
+            if !imu.is_offset_known || end.saturating_sub(imu.last_refine_end) < refine_every {
+                continue;
+            }
+            let offsets: Vec<i64> = full
+                .iter()
+                .filter(|o| o.abs() <= refine_range)
+                .map(|o| o + imu.offset_ns)
+                .collect();
+            let mut best: Option<(i64, f64)> = None;
+            if let Some(imu_sig) = imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config) {
+                for tr in self
+                    .tracks
+                    .values()
+                    .filter(|tr| tr.label == Some(imu.subject))
+                {
+                    if covered_span(tr, lo, hi) < min_track {
+                        continue;
+                    }
+                    let Some(sig) = track_lag_signals(tr, imu.site, lo, hi, &self.config) else {
+                        continue;
+                    };
+                    lag_curve(
+                        &imu_sig,
+                        &sig,
+                        &offsets,
+                        MAX_IMU_GAP_NS,
+                        self.config.geometric.min_samples,
+                        &mut scratch,
+                        &mut curve,
+                    );
+                    if let Some(found) = curve_peak(&offsets, &curve, 0.0)
+                        && best.is_none_or(|b| found.1 > b.1)
+                    {
+                        best = Some(found);
+                    }
+                }
+            }
+            let Some(imu) = self.imus.get_mut(i) else {
+                continue;
+            };
+            imu.last_refine_end = end;
+            if let Some((offset, corr)) = best
+                && corr >= self.config.offset_min_correlation
+            {
+                // Refinement never walks out of the searched range.
+                imu.offset_ns = offset.clamp(-max_off, max_off);
+                let entry = self
+                    .stats
+                    .clock_offsets
+                    .entry(imu.device.clone())
+                    .or_default();
+                entry.offset_ns = imu.offset_ns;
                 entry.correlation = corr;
                 entry.num_updates += 1;
             }
         }
     }
 
-    /// Scores every (active track, IMU with a known offset) pair on this window and
-    /// accumulates the scores.
+    /// Scores this window: per camera, a [`ScoreTensor`] of De Marchi's correlations of every
+    /// (active track, subject, site), fused by [`EngineConfig::fusion`] into one score per
+    /// (track, subject) and accumulated. An IMU without an accepted offset is compared with a
+    /// track at that pair's lag-curve peak (the max over the lag range, found on the long buffer).
     fn score_window(&mut self, end: i64) {
         let start = end - self.window_ns;
         let min_span = (self.config.min_window_coverage * self.window_ns as f64) as i64;
-        let mut grid_imu = Vec::new();
-        let mut grid_gyro = Vec::new();
-        let mut scratch = Vec::new();
-        for tr in self.tracks.values_mut() {
-            let mut by_site: BTreeMap<Joint, Option<Signals>> = BTreeMap::new();
-            for (i, imu) in self.imus.iter().enumerate() {
-                if !imu.is_offset_known {
-                    continue;
-                }
-                let sig = by_site.entry(imu.site).or_insert_with(|| {
-                    track_signals(tr, imu.site, start, end, self.config.joint_filter)
-                });
-                let Some(sig) = sig.as_ref() else {
+        let mut sites: Vec<Joint> = self.imus.iter().map(|m| m.site).collect();
+        sites.sort_unstable();
+        sites.dedup();
+        let mut imu_win = ImuWindow::default();
+        for c in 0..self.cameras.len() {
+            let keys: Vec<(usize, TrackId)> = self
+                .tracks
+                .iter()
+                .filter(|(k, tr)| {
+                    k.0 == c && {
+                        let (a, b) = sample_range(tr, start, end);
+                        b >= a + 8 && covered_span(tr, start, end) >= min_span
+                    }
+                })
+                .map(|(k, _)| *k)
+                .collect();
+            if keys.is_empty() {
+                continue;
+            }
+            let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &sites);
+            let mut device_scores: Vec<((usize, TrackId), usize, f64)> = Vec::new();
+            for (row, key) in keys.iter().enumerate() {
+                let Some(tr) = self.tracks.get(key) else {
                     continue;
                 };
-                let covers =
-                    sig.t.len() >= 8 && sig.t.last().is_some_and(|&l| l - sig.t[0] >= min_span);
-                if !covers {
-                    continue;
+                let (a, b) = sample_range(tr, start, end);
+                let grid: Vec<i64> = tr.samples.range(a..b).map(|s| s.t).collect();
+                let skel = SkeletonWindow {
+                    camera: None,
+                    track: Some(key.1),
+                    t_s: grid.iter().map(|&t| t as f64 * 1e-9).collect(),
+                    joints_world_m: tr.samples.range(a..b).map(|s| s.joints.clone()).collect(),
+                };
+                for (i, imu) in self.imus.iter().enumerate() {
+                    let offset = if imu.is_offset_known {
+                        imu.offset_ns
+                    } else if let Some(&o) = imu.pair_offsets.get(key) {
+                        o
+                    } else {
+                        continue;
+                    };
+                    // Settled samples only: device times before `end` on the current clock estimate.
+                    let until = end - imu.offset_ns;
+                    imu_window_on_grid(
+                        &imu.series(),
+                        offset,
+                        &grid,
+                        MAX_IMU_GAP_NS,
+                        until,
+                        &mut imu_win,
+                    );
+                    let scores =
+                        geometric_scores(&imu_win, &skel, imu.site, &self.config.geometric);
+                    let models = [scores.acc, scores.vel, scores.ori];
+                    let (sum, n) = models
+                        .iter()
+                        .flatten()
+                        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+                    if n > 0 {
+                        device_scores.push((*key, i, sum / n as f64));
+                    }
+                    // The indices are in range by construction; a failure only drops a score.
+                    let _ = tensor.set(row, imu.subject, imu.site, scores);
                 }
-                let (t, acc, gyro) = imu.slices();
-                bin_average(t, acc, imu.offset_ns, &sig.t, &mut grid_imu);
-                bin_average(t, gyro, imu.offset_ns, &sig.t, &mut grid_gyro);
-                let score = correlate(
-                    &mut grid_imu,
-                    &mut grid_gyro,
-                    sig,
-                    self.config.fusion,
-                    &mut scratch,
-                );
-                if let Some(s) = score {
-                    let acc = tr.evidence.entry(i).or_insert(Accumulator {
-                        mean: 0.0,
-                        weight: 0.0,
-                    });
-                    let w = acc.weight * self.decay_per_hop;
-                    acc.mean = (acc.mean * w + s) / (w + 1.0);
-                    acc.weight = w + 1.0;
+            }
+            let matrix = fuse(&tensor, self.config.fusion, &self.config.fusion_config);
+            let decay = self.decay_per_hop;
+            for (row, key) in keys.iter().enumerate() {
+                let Some(tr) = self.tracks.get_mut(key) else {
+                    continue;
+                };
+                for b in 0..self.subjects.len() {
+                    if let Some(v) = matrix.get(row, b) {
+                        accumulate(tr.evidence.entry(b).or_default(), v, decay);
+                    }
+                }
+            }
+            for (key, i, v) in device_scores {
+                if let Some(tr) = self.tracks.get_mut(&key) {
+                    accumulate(tr.device_evidence.entry(i).or_default(), v, decay);
                 }
             }
         }
     }
-
     /// Assigns subjects to the active tracks of each camera.
     fn decide(&mut self, end: i64) {
         let active_since = end - self.window_ns - self.delay_ns;
@@ -561,15 +784,10 @@ impl Engine {
                 };
                 tr.subject_scores.clear();
                 let mut row = vec![None; self.subjects.len()];
-                for (s, imus) in self.subject_imus.iter().enumerate() {
-                    let scores: Vec<f64> = imus
-                        .iter()
-                        .filter_map(|i| tr.evidence.get(i).map(|a| a.mean))
-                        .collect();
-                    if scores.is_empty() {
+                for s in 0..self.subjects.len() {
+                    let Some(mean) = tr.evidence.get(&s).map(|a| a.mean) else {
                         continue;
-                    }
-                    let mean = scores.iter().sum::<f64>() / scores.len() as f64;
+                    };
                     tr.subject_scores.insert(s, mean);
                     let bonus = if tr.label == Some(s) {
                         self.config.switch_margin
@@ -673,7 +891,7 @@ impl Engine {
             .map(|imus| {
                 imus.iter()
                     .filter_map(|i| {
-                        let acc = tr.evidence.get(i)?;
+                        let acc = tr.device_evidence.get(i)?;
                         let imu = self.imus.get(*i)?;
                         Some(Evidence {
                             modality: "imu".into(),
@@ -693,14 +911,12 @@ impl Engine {
             .config
             .window_s
             .max(self.config.offset_estimation_window_s))
-            + 2 * ns(self.config.max_clock_offset_s)
+            + 4 * ns(self.config.max_clock_offset_s)
             + self.hop_ns;
         for imu in &mut self.imus {
             let cut = end - keep - imu.offset_ns;
             while imu.t.front().is_some_and(|&t| t < cut) {
-                imu.t.pop_front();
-                imu.acc_mag.pop_front();
-                imu.gyro_mag.pop_front();
+                imu.pop_front();
             }
         }
         let timeout = ns(self.config.track_timeout_s);
@@ -718,7 +934,7 @@ impl Engine {
     }
 }
 
-/// Settles an IMU's pending samples below its frontier: orientation and magnitude signals.
+/// Settles an IMU's pending samples below its frontier: Madgwick's orientation per sample.
 fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
     while let Some(entry) = imu.pending.first_entry() {
         if *entry.key() >= imu.frontier {
@@ -734,10 +950,10 @@ fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
                 q
             }
         };
-        let linear = q * accel - Vector3::z() * config.gravity_mps2;
         imu.t.push_back(t);
-        imu.acc_mag.push_back(linear.norm());
-        imu.gyro_mag.push_back(gyro.norm());
+        imu.accel.push_back(accel);
+        imu.gyro.push_back(gyro);
+        imu.world_from_sensor.push_back(q);
     }
 }
 
@@ -752,7 +968,6 @@ fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise
         let mut sample = TrackSample {
             t,
             joints: Joints::new(),
-            velocities: Joints::new(),
         };
         match config.joint_filter {
             Some(kf_config) => {
@@ -770,10 +985,9 @@ fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise
                     let stepped = kf.step(SessionTime::from_ns(t), z.map(|p| (p, &r)));
                     if stepped.is_ok()
                         && z.is_some()
-                        && let (Some(p), Some(v)) = (kf.position(), kf.velocity())
+                        && let Some(p) = kf.position()
                     {
                         sample.joints.insert(*j, p);
-                        sample.velocities.insert(*j, v);
                     }
                 }
             }
@@ -783,128 +997,103 @@ fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise
     }
 }
 
-/// A track's site signals on its own timestamps in `[lo, hi)`.
-struct Signals {
-    t: Vec<i64>,
-    acc_mag: Vec<f64>,
-    turn_rate: Vec<f64>,
+/// Adds one window score to an exponentially weighted mean (older scores decay per hop).
+fn accumulate(acc: &mut Accumulator, score: f64, decay_per_hop: f64) {
+    let w = acc.weight * decay_per_hop;
+    acc.mean = (acc.mean * w + score) / (w + 1.0);
+    acc.weight = w + 1.0;
 }
 
-fn track_signals(
+/// Index range of a track's settled samples in `[lo, hi)`.
+fn sample_range(tr: &TrackState, lo: i64, hi: i64) -> (usize, usize) {
+    (
+        tr.samples.partition_point(|s| s.t < lo),
+        tr.samples.partition_point(|s| s.t < hi),
+    )
+}
+
+/// Time from a track's first to last sample in `[lo, hi)`, ns (0 without samples).
+fn covered_span(tr: &TrackState, lo: i64, hi: i64) -> i64 {
+    let (a, b) = sample_range(tr, lo, hi);
+    match (
+        tr.samples.get(a),
+        b.checked_sub(1).and_then(|l| tr.samples.get(l)),
+    ) {
+        (Some(first), Some(last)) if b > a => last.t - first.t,
+        _ => 0,
+    }
+}
+
+/// De Marchi's magnitude config for the lag search: no moving average (its causal delay would
+/// differ between the IMU's rate and the camera's); the zero-phase low-pass does the smoothing.
+fn lag_geometric(config: &EngineConfig) -> GeometricConfig {
+    GeometricConfig {
+        moving_average_len: 1,
+        ..config.geometric
+    }
+}
+
+/// An IMU's acceleration and orientation-change magnitudes at its own sample times (device
+/// clock) in `[lo − offset, hi − offset)`, for the lag search (`hi` at most the window's end, so
+/// only settled samples are read).
+///
+/// Acceleration gives a sharp peak but repeats every step; the orientation change over the long
+/// buffer follows the turns of the walk, which do not repeat, and picks the right step. (The
+/// velocity model, a leaky integral over 12 s, correlated worse than either on the simulated
+/// scenes. The orientation's reference is the buffer's first sample on each side, a little
+/// apart in time; that only lowers the peak.)
+fn imu_lag_signals(imu: &ImuState, lo: i64, hi: i64, config: &EngineConfig) -> Option<LagSignals> {
+    let series = imu.series();
+    let a = series.t_ns.partition_point(|&t| t < lo - imu.offset_ns);
+    let b = series.t_ns.partition_point(|&t| t < hi - imu.offset_ns);
+    if b < a + 16 {
+        return None;
+    }
+    let t_ns = series.t_ns.get(a..b)?.to_vec();
+    let window = ImuWindow {
+        device: None,
+        t_s: t_ns.iter().map(|&t| t as f64 * 1e-9).collect(),
+        accel_mps2: series.accel_mps2.get(a..b)?.to_vec(),
+        gyro_radps: series.gyro_radps.get(a..b)?.to_vec(),
+        world_from_sensor: series.world_from_sensor.get(a..b)?.to_vec(),
+    };
+    let cfg = lag_geometric(config);
+    // Device times: the lag curve shifts them by each candidate offset itself.
+    Some(LagSignals {
+        t_ns,
+        models: vec![
+            imu_accel_magnitude(&window, &cfg),
+            imu_orientation_magnitude(&window, &cfg),
+        ],
+    })
+}
+
+/// A track's acceleration and carrying-segment orientation-change magnitudes at `site` on its
+/// own times in `[lo, hi)`.
+fn track_lag_signals(
     tr: &TrackState,
     site: Joint,
     lo: i64,
     hi: i64,
-    filter: Option<nomen_filters::kalman::ConstantVelocityConfig>,
-) -> Option<Signals> {
-    let (from, to) = site_bone(site);
-    let a = tr.samples.partition_point(|s| s.t < lo);
-    let b = tr.samples.partition_point(|s| s.t < hi);
-    if b <= a + 2 {
+    config: &EngineConfig,
+) -> Option<LagSignals> {
+    let (a, b) = sample_range(tr, lo, hi);
+    if b < a + 16 {
         return None;
     }
-    let window = tr.samples.range(a..b);
-    let t: Vec<i64> = window.clone().map(|s| s.t).collect();
-    let pos: Vec<Option<Point3<f64>>> = window
-        .clone()
-        .map(|s| s.joints.get(site).copied())
-        .collect();
-    let vel: Vec<Option<Vector3<f64>>> = window
-        .clone()
-        .map(|s| s.velocities.get(site).copied())
-        .collect();
-    let bone: Vec<Option<Vector3<f64>>> = window
-        .map(|s| match (s.joints.get(from), s.joints.get(to)) {
-            (Some(p), Some(q)) => Some(q - p),
-            _ => None,
-        })
-        .collect();
-    let mut sig = site_signals(&t, &pos, filter.map(|_| vel.as_slice()), &bone);
-    let mut scratch = Vec::new();
-    smooth(&mut sig.acc_mag, SMOOTH_HALF_WIDTH, &mut scratch);
-    smooth(&mut sig.turn_rate, SMOOTH_HALF_WIDTH, &mut scratch);
-    Some(Signals {
-        t,
-        acc_mag: sig.acc_mag,
-        turn_rate: sig.turn_rate,
-    })
-}
-
-/// Smooths the four grid signals and fuses their correlations.
-fn correlate(
-    imu_acc: &mut [f64],
-    imu_gyro: &mut [f64],
-    sig: &Signals,
-    fusion: Fusion,
-    scratch: &mut Vec<f64>,
-) -> Option<f64> {
-    smooth(imu_acc, SMOOTH_HALF_WIDTH, scratch);
-    smooth(imu_gyro, SMOOTH_HALF_WIDTH, scratch);
-    fuse(
-        pearson(imu_acc, &sig.acc_mag),
-        pearson(imu_gyro, &sig.turn_rate),
-        fusion,
-    )
-}
-
-/// Fuses per-model correlations.
-fn fuse(acc: Option<f64>, ori: Option<f64>, fusion: Fusion) -> Option<f64> {
-    match fusion {
-        Fusion::Acc => acc,
-        Fusion::Ori => ori,
-        Fusion::Mean => match (acc, ori) {
-            (Some(a), Some(o)) => Some(0.5 * (a + o)),
-            (a, o) => a.or(o),
-        },
-        Fusion::Max => match (acc, ori) {
-            (Some(a), Some(o)) => Some(a.max(o)),
-            (a, o) => a.or(o),
-        },
-    }
-}
-
-/// Best (score, offset) over offsets `center ± range` in [`LAG_STEP_NS`] steps, refined by a
-/// parabola through the peak and its neighbours.
-fn lag_search(
-    imu: &ImuState,
-    sig: &Signals,
-    center: i64,
-    range: i64,
-    fusion: Fusion,
-) -> Option<(f64, i64)> {
-    let (t, acc, gyro) = imu.slices();
-    let num_steps = range / LAG_STEP_NS;
-    let mut grid_acc = Vec::with_capacity(sig.t.len());
-    let mut grid_gyro = Vec::with_capacity(sig.t.len());
-    let mut scratch = Vec::new();
-    let mut curve = Vec::with_capacity((2 * num_steps + 1) as usize);
-    for k in -num_steps..=num_steps {
-        let offset = center + k * LAG_STEP_NS;
-        bin_average(t, acc, offset, &sig.t, &mut grid_acc);
-        bin_average(t, gyro, offset, &sig.t, &mut grid_gyro);
-        let score = correlate(&mut grid_acc, &mut grid_gyro, sig, fusion, &mut scratch);
-        curve.push((offset, score.unwrap_or(f64::NAN)));
-    }
-    let (k, &(offset, peak)) = curve
-        .iter()
-        .enumerate()
-        .filter(|(_, (_, s))| s.is_finite())
-        .max_by(|a, b| a.1.1.total_cmp(&b.1.1).then(b.0.cmp(&a.0)))?;
-    let neighbours = (
-        k.checked_sub(1).and_then(|i| curve.get(i)),
-        curve.get(k + 1),
-    );
-    let refined = match neighbours {
-        (Some(&(_, y0)), Some(&(_, y2))) if y0.is_finite() && y2.is_finite() => {
-            let denom = y0 - 2.0 * peak + y2;
-            if denom < 0.0 {
-                let delta = (0.5 * (y0 - y2) / denom).clamp(-0.5, 0.5);
-                offset + (delta * LAG_STEP_NS as f64).round() as i64
-            } else {
-                offset
-            }
-        }
-        _ => offset,
+    let t_ns: Vec<i64> = tr.samples.range(a..b).map(|s| s.t).collect();
+    let skel = SkeletonWindow {
+        camera: None,
+        track: None,
+        t_s: t_ns.iter().map(|&t| t as f64 * 1e-9).collect(),
+        joints_world_m: tr.samples.range(a..b).map(|s| s.joints.clone()).collect(),
     };
-    Some((peak, refined))
+    let cfg = lag_geometric(config);
+    Some(LagSignals {
+        t_ns,
+        models: vec![
+            joint_accel_magnitude(&skel, site, &cfg),
+            segment_orientation_magnitude(&skel, site, &cfg),
+        ],
+    })
 }

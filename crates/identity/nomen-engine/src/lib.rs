@@ -13,17 +13,24 @@
 //! the hop is processed once every source has delivered past its end plus the reorder window,
 //! or once any source is [`EngineConfig::silence_timeout_s`] beyond that (a silent source
 //! never blocks output). In each window:
-//! 1. **clock offsets**: an IMU without an offset estimate is cross-correlated (magnitude
-//!    signals, lags ±[`EngineConfig::max_clock_offset_s`]) with every track over the last
-//!    [`EngineConfig::offset_estimation_window_s`]; the best peak above
-//!    [`EngineConfig::offset_min_correlation`] sets the offset. It is refined every
-//!    [`EngineConfig::offset_refine_interval_s`] against the track its wearer is assigned to;
-//! 2. **evidence**: for every (track, IMU) pair the IMU's signals are shifted by the offset and
-//!    bin-averaged onto the track's timestamps (the camera is the lowest rate), compared with the
-//!    wearable site's acceleration magnitude and bone turn rate (Pearson), fused per
-//!    [`EngineConfig::fusion`] and accumulated per pair by an exponentially weighted mean;
-//! 3. **identity**: per camera, a track × subject matrix (a subject's score is the mean over the
-//!    IMUs it wears) is solved by `nomen_assign::solve` with
+//! 1. **clock offsets**, estimated jointly with identity: a device without an accepted offset
+//!    is searched every [`EngineConfig::offset_search_interval_s`]. For every track covering
+//!    [`EngineConfig::offset_min_track_s`] of the last [`EngineConfig::offset_estimation_window_s`],
+//!    each IMU of the subject gets a lag curve (mean Pearson correlation of De Marchi's
+//!    acceleration and orientation-change magnitudes, lags ±[`EngineConfig::max_clock_offset_s`]
+//!    in 10 ms steps; near-tied peaks go to the smaller |lag|). The subject's score for a track is
+//!    the mean of its IMUs' peaks; only when the best track beats the next one of its camera by
+//!    [`EngineConfig::offset_margin`] (and reaches [`EngineConfig::offset_min_correlation`]) is
+//!    each IMU's peak lag on it a candidate, and [`EngineConfig::offset_num_consistent`]
+//!    candidates in a row within [`EngineConfig::offset_consistency_s`] make the offset. It is
+//!    refined every [`EngineConfig::offset_refine_interval_s`] against the assigned track;
+//! 2. **evidence**: per camera, a `nomen_evidence::ScoreTensor` (tracks × subjects × sites) of
+//!    `geometric_scores` (De Marchi's acc/vel/ori correlations) for every active track and every
+//!    IMU, resampled onto the track's timestamps at its offset — before the offset is accepted,
+//!    at that (track, IMU) pair's own lag-curve peak, i.e. the max over the lag range, so
+//!    identity can be found meanwhile. `nomen_evidence::fuse` with [`EngineConfig::fusion`]
+//!    gives one score per (track, subject), accumulated by an exponentially weighted mean;
+//! 3. **identity**: per camera, the accumulated track × subject matrix is solved by `nomen_assign::solve` with
 //!    [`EngineConfig::rejection_threshold`]; the track's current label gets
 //!    [`EngineConfig::switch_margin`] as a bonus (hysteresis). One subject never goes to two
 //!    tracks of one camera; a track below threshold is [`nomen_core::Identity::Anonymous`].
@@ -45,9 +52,10 @@ mod error;
 mod signal;
 mod stats;
 
-pub use config::{EngineConfig, Fusion};
+pub use config::EngineConfig;
 pub use engine::Engine;
 pub use error::{EngineError, Result};
+pub use nomen_evidence::{Fusion, FusionConfig, GeometricConfig};
 pub use stats::{ClockOffsetEstimate, EngineStats, RejectCounts};
 
 use nomen_core::{Message, Registry};

@@ -1,150 +1,194 @@
-//! Magnitude signals, resampling onto a grid, Pearson correlation and lag search.
+//! Resampling IMU samples onto a camera track's grid, and the clock-offset lag curve.
 //!
-//! Interim scoring used until `nomen_evidence::geometric_scores` lands: De Marchi's acceleration
-//! model (linear-acceleration magnitudes) and an orientation-change model (gyro magnitude
-//! against the turn rate of the bone that ends at the wearable's site).
+//! Scoring itself is `nomen_evidence::geometric_scores`; this module only builds its windows
+//! and, for the clock offset, correlates magnitude signals over many candidate offsets.
 
-use nalgebra::{Point3, Vector3};
-use nomen_core::Joint;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nomen_evidence::{ImuWindow, pearson};
 
-/// The bone whose direction a wearable at `site` turns with: `(from, to)`.
-pub(crate) fn site_bone(site: Joint) -> (Joint, Joint) {
-    match site.parent() {
-        Some(parent) => (parent, site),
-        None => (Joint::LeftHip, Joint::RightHip),
-    }
+/// Settled IMU samples on the device clock, all the same length, time increasing.
+pub(crate) struct ImuSeries<'a> {
+    pub(crate) t_ns: &'a [i64],
+    pub(crate) accel_mps2: &'a [Vector3<f64>],
+    pub(crate) gyro_radps: &'a [Vector3<f64>],
+    pub(crate) world_from_sensor: &'a [UnitQuaternion<f64>],
 }
 
-/// Central differences on uneven times (one-sided at the ends); NaN propagates.
-pub(crate) fn central_difference(t_ns: &[i64], x: &[Vector3<f64>], out: &mut Vec<Vector3<f64>>) {
-    out.clear();
-    let n = x.len().min(t_ns.len());
+/// A quaternion of `NaN`s: a missing orientation (the evidence crate skips non-finite ones).
+pub(crate) fn nan_quaternion() -> UnitQuaternion<f64> {
+    UnitQuaternion::new_unchecked(Quaternion::new(f64::NAN, f64::NAN, f64::NAN, f64::NAN))
+}
+
+/// The IMU resampled at the session times `grid_ns` (device time = session − `offset_ns`):
+/// accelerations and rates interpolated linearly, the orientation of the nearer sample. Only
+/// samples before device time `until_ns` are used (the settled ones, so the result does not
+/// depend on arrival order). A grid point whose neighbouring samples are more than `max_gap_ns`
+/// apart (a dropout) or outside the samples used is missing (`NaN`).
+pub(crate) fn imu_window_on_grid(
+    imu: &ImuSeries<'_>,
+    offset_ns: i64,
+    grid_ns: &[i64],
+    max_gap_ns: i64,
+    until_ns: i64,
+    out: &mut ImuWindow,
+) {
+    out.t_s.clear();
+    out.accel_mps2.clear();
+    out.gyro_radps.clear();
+    out.world_from_sensor.clear();
     let nan = Vector3::repeat(f64::NAN);
-    if n < 2 {
-        out.resize(n, nan);
-        return;
-    }
-    for i in 0..n {
-        let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
-        let dt = (t_ns[b] - t_ns[a]) as f64 * 1e-9;
-        out.push(if dt > 0.0 { (x[b] - x[a]) / dt } else { nan });
-    }
-}
-
-/// Skeleton signals of one site over a track's samples: acceleration magnitude (m/s²) and the
-/// bone's turn rate (rad/s). `positions[i]` holds the site and bone joints at sample `i`
-/// (`None` where missing); `velocities` the filtered site velocity when a filter ran.
-pub(crate) struct SiteSignals {
-    pub(crate) acc_mag: Vec<f64>,
-    pub(crate) turn_rate: Vec<f64>,
-}
-
-pub(crate) fn site_signals(
-    t_ns: &[i64],
-    site: &[Option<Point3<f64>>],
-    site_velocity: Option<&[Option<Vector3<f64>>]>,
-    bone: &[Option<Vector3<f64>>],
-) -> SiteSignals {
-    let nan = Vector3::repeat(f64::NAN);
-    let mut scratch = Vec::with_capacity(t_ns.len());
-    let velocity: Vec<Vector3<f64>> = match site_velocity {
-        Some(v) => v.iter().map(|v| v.unwrap_or(nan)).collect(),
-        None => {
-            let p: Vec<Vector3<f64>> = site.iter().map(|p| p.map_or(nan, |p| p.coords)).collect();
-            central_difference(t_ns, &p, &mut scratch);
-            std::mem::take(&mut scratch)
+    let n = imu
+        .t_ns
+        .len()
+        .min(imu.accel_mps2.len())
+        .min(imu.gyro_radps.len())
+        .min(imu.world_from_sensor.len());
+    let n = n.min(imu.t_ns.partition_point(|&t| t < until_ns));
+    let t = imu.t_ns.get(..n).unwrap_or(&[]);
+    let mut k = 0usize;
+    for &g in grid_ns {
+        out.t_s.push(g as f64 * 1e-9);
+        let d = g - offset_ns;
+        while k < n && t[k] < d {
+            k += 1;
         }
-    };
-    let mut acc = Vec::with_capacity(t_ns.len());
-    central_difference(t_ns, &velocity, &mut acc);
-    let dirs: Vec<Vector3<f64>> = bone
-        .iter()
-        .map(|b| {
-            b.and_then(|b| b.try_normalize(1e-6))
-                .unwrap_or(Vector3::repeat(f64::NAN))
-        })
-        .collect();
-    central_difference(t_ns, &dirs, &mut scratch);
-    SiteSignals {
-        acc_mag: acc.iter().map(|a| a.norm()).collect(),
-        turn_rate: scratch.iter().map(|d| d.norm()).collect(),
+        // Neighbours a = k − 1 (< d) and b = k (≥ d).
+        let sample = match (k.checked_sub(1), (k < n).then_some(k)) {
+            (_, Some(b)) if t[b] == d => Some((b, b, 0.0)),
+            (Some(a), Some(b)) if t[b] - t[a] <= max_gap_ns => {
+                Some((a, b, (d - t[a]) as f64 / (t[b] - t[a]) as f64))
+            }
+            _ => None,
+        };
+        match sample {
+            Some((a, b, f)) => {
+                out.accel_mps2
+                    .push(imu.accel_mps2[a] * (1.0 - f) + imu.accel_mps2[b] * f);
+                out.gyro_radps
+                    .push(imu.gyro_radps[a] * (1.0 - f) + imu.gyro_radps[b] * f);
+                out.world_from_sensor.push(if f < 0.5 {
+                    imu.world_from_sensor[a]
+                } else {
+                    imu.world_from_sensor[b]
+                });
+            }
+            None => {
+                out.accel_mps2.push(nan);
+                out.gyro_radps.push(nan);
+                out.world_from_sensor.push(nan_quaternion());
+            }
+        }
     }
 }
 
-/// Mean of `src_v` (times `src_t + shift_ns`, increasing) in each grid point's bin (bounded by
-/// the midpoints to its neighbours); NaN for an empty bin. Appends `grid.len()` values.
-pub(crate) fn bin_average(
-    src_t: &[i64],
-    src_v: &[f64],
+/// Linear interpolation of `(t_ns, v)` (increasing times) at `t_query − shift_ns` for every
+/// query time (increasing); `NaN` outside, across gaps longer than `max_gap_ns`, or next to a
+/// `NaN`.
+pub(crate) fn interpolate(
+    t_ns: &[i64],
+    v: &[f64],
     shift_ns: i64,
-    grid: &[i64],
+    t_query: &[i64],
+    max_gap_ns: i64,
     out: &mut Vec<f64>,
 ) {
     out.clear();
-    for (j, &tg) in grid.iter().enumerate() {
-        let prev = j.checked_sub(1).and_then(|i| grid.get(i)).copied();
-        let next = grid.get(j + 1).copied();
-        let half_before = prev.map(|p| (tg - p) / 2).or(next.map(|n| (n - tg) / 2));
-        let half_after = next.map(|n| (n - tg) / 2).or(half_before);
-        let lo = tg - half_before.unwrap_or(0) - shift_ns;
-        let hi = tg + half_after.unwrap_or(0) - shift_ns;
-        let a = src_t.partition_point(|&x| x < lo);
-        let b = src_t.partition_point(|&x| x < hi);
-        let vals = src_v.get(a..b).unwrap_or(&[]);
-        let (sum, n) = vals
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
-        out.push(if n > 0 { sum / n as f64 } else { f64::NAN });
+    let n = t_ns.len().min(v.len());
+    let mut k = 0usize;
+    for &q in t_query {
+        let d = q - shift_ns;
+        while k < n && t_ns[k] < d {
+            k += 1;
+        }
+        let value = match (k.checked_sub(1), (k < n).then_some(k)) {
+            (_, Some(b)) if t_ns[b] == d => v[b],
+            (Some(a), Some(b)) if t_ns[b] - t_ns[a] <= max_gap_ns => {
+                let f = (d - t_ns[a]) as f64 / (t_ns[b] - t_ns[a]) as f64;
+                v[a] * (1.0 - f) + v[b] * f
+            }
+            _ => f64::NAN,
+        };
+        out.push(value);
     }
 }
 
-/// Centred moving average over `half_width` samples each side (NaNs skipped), in place.
-pub(crate) fn smooth(x: &mut [f64], half_width: usize, scratch: &mut Vec<f64>) {
-    if half_width == 0 {
-        return;
-    }
-    scratch.clear();
-    scratch.extend_from_slice(x);
-    for (i, out) in x.iter_mut().enumerate() {
-        let lo = i.saturating_sub(half_width);
-        let hi = (i + half_width + 1).min(scratch.len());
-        let (sum, n) = scratch
-            .get(lo..hi)
-            .unwrap_or(&[])
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
-        *out = if n > 0 { sum / n as f64 } else { f64::NAN };
+/// Magnitude signals of one side for the lag search: times and one series per model.
+pub(crate) struct LagSignals {
+    pub(crate) t_ns: Vec<i64>,
+    pub(crate) models: Vec<Vec<f64>>,
+}
+
+/// The lag curve: for each candidate offset in `offsets_ns` (session = device + offset), the
+/// mean over models of the Pearson correlation between the IMU's signals (device clock, shifted
+/// by the offset and interpolated onto the track's times) and the track's. `NaN` where no model
+/// has enough pairs.
+pub(crate) fn lag_curve(
+    imu: &LagSignals,
+    track: &LagSignals,
+    offsets_ns: &[i64],
+    max_gap_ns: i64,
+    min_samples: usize,
+    scratch: &mut Vec<f64>,
+    out: &mut Vec<f64>,
+) {
+    out.clear();
+    for &offset in offsets_ns {
+        let (mut sum, mut num) = (0.0, 0usize);
+        for (a, b) in imu.models.iter().zip(&track.models) {
+            interpolate(&imu.t_ns, a, offset, &track.t_ns, max_gap_ns, scratch);
+            if let Some(r) = pearson(scratch, b, min_samples) {
+                sum += r;
+                num += 1;
+            }
+        }
+        out.push(if num > 0 { sum / num as f64 } else { f64::NAN });
     }
 }
 
-/// Minimum number of valid pairs for a correlation.
-const MIN_PAIRS: usize = 8;
-
-/// Pearson correlation over the pairs where both values are finite; `None` with fewer than
-/// [`MIN_PAIRS`] pairs or a constant signal.
-pub(crate) fn pearson(a: &[f64], b: &[f64]) -> Option<f64> {
-    let pairs = || {
-        a.iter()
-            .zip(b)
-            .filter(|(x, y)| x.is_finite() && y.is_finite())
+/// The peak of a lag curve: `(offset, value)` of the local maximum with the smallest |offset|
+/// among those within `tie_tolerance` of the highest value, refined by a parabola through its
+/// neighbours (by at most half a step). `None` if the curve has no finite value.
+pub(crate) fn curve_peak(
+    offsets_ns: &[i64],
+    curve: &[f64],
+    tie_tolerance: f64,
+) -> Option<(i64, f64)> {
+    let best = curve
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))))?;
+    let at = |i: usize| curve.get(i).copied().unwrap_or(f64::NAN);
+    let is_local_max = |i: usize| {
+        let v = at(i);
+        let left = i.checked_sub(1).map_or(f64::NEG_INFINITY, at);
+        let right = at(i + 1);
+        let is_above = |x: f64| x.partial_cmp(&v) == Some(std::cmp::Ordering::Greater);
+        v.is_finite() && !is_above(left) && !is_above(right)
     };
-    let n = pairs().count();
-    if n < MIN_PAIRS {
-        return None;
-    }
-    let (sa, sb) = pairs().fold((0.0, 0.0), |(sa, sb), (x, y)| (sa + x, sb + y));
-    let (ma, mb) = (sa / n as f64, sb / n as f64);
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in pairs() {
-        let (dx, dy) = (x - ma, y - mb);
-        sab += dx * dy;
-        saa += dx * dx;
-        sbb += dy * dy;
-    }
-    let denom = (saa * sbb).sqrt();
-    (denom > 1e-12).then(|| (sab / denom).clamp(-1.0, 1.0))
+    let (k, &offset) = offsets_ns
+        .iter()
+        .enumerate()
+        .take(curve.len())
+        .filter(|&(i, _)| is_local_max(i) && at(i) >= best - tie_tolerance)
+        .min_by_key(|&(_, o)| o.unsigned_abs())?;
+    let peak = at(k);
+    let (y0, y2) = (k.checked_sub(1).map_or(f64::NAN, at), at(k + 1));
+    let step = match (
+        k.checked_sub(1).and_then(|i| offsets_ns.get(i)),
+        offsets_ns.get(k + 1),
+    ) {
+        (Some(a), Some(b)) => (b - a) / 2,
+        _ => 0,
+    };
+    let denom = y0 - 2.0 * peak + y2;
+    let refined = if y0.is_finite() && y2.is_finite() && denom < 0.0 {
+        let delta = (0.5 * (y0 - y2) / denom).clamp(-0.5, 0.5);
+        offset + (delta * step as f64).round() as i64
+    } else {
+        offset
+    };
+    Some((refined, peak))
 }
 
 #[cfg(test)]
@@ -152,21 +196,28 @@ mod tests {
     use super::*;
 
     #[test]
-    fn pearson_of_a_line_with_itself_is_one() {
-        let a: Vec<f64> = (0..20).map(|i| i as f64).collect();
-        let b: Vec<f64> = a.iter().map(|v| 3.0 * v + 1.0).collect();
-        assert!((pearson(&a, &b).unwrap() - 1.0).abs() < 1e-12);
-        assert!(pearson(&a, &[1.0; 20]).is_none());
+    fn interpolation_between_samples_is_linear_and_gaps_are_missing() {
+        let t = [0, 10, 20, 100];
+        let v = [0.0, 1.0, 2.0, 10.0];
+        let mut out = Vec::new();
+        interpolate(&t, &v, 0, &[5, 15, 50, 200], 20, &mut out);
+        assert!((out[0] - 0.5).abs() < 1e-12);
+        assert!((out[1] - 1.5).abs() < 1e-12);
+        assert!(out[2].is_nan() && out[3].is_nan());
+        // A shift of +10 reads the sample 10 earlier.
+        interpolate(&t, &v, 10, &[20], 20, &mut out);
+        assert!((out[0] - 1.0).abs() < 1e-12);
     }
 
     #[test]
-    fn bin_average_of_a_faster_stream_is_its_local_mean() {
-        let src_t: Vec<i64> = (0..100).map(|i| i * 10).collect();
-        let src_v: Vec<f64> = (0..100).map(|i| i as f64).collect();
-        let grid = [300, 330, 360];
-        let mut out = Vec::new();
-        bin_average(&src_t, &src_v, 0, &grid, &mut out);
-        assert_eq!(out.len(), 3);
-        assert!((out[1] - 33.0).abs() < 1.0, "{out:?}");
+    fn near_tied_peaks_go_to_the_smaller_offset() {
+        let offsets = [-30, -20, -10, 0, 10, 20, 30];
+        // Two local maxima: 0.80 at +20 and 0.79 at −10.
+        let curve = [0.1, 0.5, 0.79, 0.6, 0.7, 0.8, 0.6];
+        let (o, v) = curve_peak(&offsets, &curve, 0.02).unwrap();
+        assert!((-15..=-5).contains(&o), "{o}");
+        assert!((v - 0.79).abs() < 1e-12);
+        let (o, _) = curve_peak(&offsets, &curve, 0.0).unwrap();
+        assert!((15..=25).contains(&o), "{o}");
     }
 }

@@ -75,19 +75,42 @@ fn accuracy_on_simulated_scenes() {
                 right_late += usize::from(*got == want);
             }
         }
+        // Ground truth offsets, used only to check the estimates.
+        let scene_json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(base.join("scene.json")).unwrap())
+                .unwrap();
+        let truth_offset: BTreeMap<String, f64> = scene_json["devices"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|d| {
+                Some((
+                    d["device"].as_str()?.to_string(),
+                    d["clock_offset_s"].as_f64()?,
+                ))
+            })
+            .collect();
+        let mut num_within = 0usize;
         let offsets: Vec<String> = stats
             .clock_offsets
             .iter()
-            .map(|(d, e)| format!("{d}:{:+.3}", e.offset_ns as f64 * 1e-9))
+            .map(|(d, e)| {
+                let est = e.offset_ns as f64 * 1e-9;
+                let err = truth_offset.get(d.as_str()).map_or(f64::NAN, |t| est - t);
+                num_within += usize::from(err.abs() <= 0.05);
+                format!("{d}:{est:+.3}({err:+.3})")
+            })
             .collect();
         let _ = SubjectId::new("");
         eprintln!(
-            "{scene}: accuracy {:.3} ({right}/{n}), after 10 s {:.3}, missing {missing}, switches {}, windows {}, offsets [{}]",
+            "{scene}: accuracy {:.3} ({right}/{n}), after 10 s {:.3}, missing {missing}, switches {}, windows {}, offsets within 50 ms {num_within}/{} estimated of {}",
             right as f64 / n.max(1) as f64,
             right_late as f64 / n_late.max(1) as f64,
             stats.num_label_switches,
             stats.num_windows,
-            offsets.join(" ")
+            stats.clock_offsets.len(),
+            truth_offset.len(),
         );
+        eprintln!("  offsets est(est-true) [{}]", offsets.join(" "));
     }
 }

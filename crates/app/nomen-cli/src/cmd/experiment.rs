@@ -4,9 +4,9 @@
 use anyhow::{Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use nomen_core::Message;
+use nomen_engine::Fusion;
 use nomen_engine::{EngineConfig, run_batch};
 use nomen_eval::identity::{EvalConfig, SceneData, evaluate};
-use nomen_evidence::Fusion;
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -103,7 +103,14 @@ fn imu_table(args: &ImuTableArgs) -> Result<()> {
     };
     let mut rows = Vec::new();
     for (people, text) in scenes {
-        let source = format!("imu_{}_{people}.toml", if args.network == Network::Full { "ban" } else { "wrist" });
+        let source = format!(
+            "imu_{}_{people}.toml",
+            if args.network == Network::Full {
+                "ban"
+            } else {
+                "wrist"
+            }
+        );
         let (scenario, sim, seed) = super::simulate::simulate_scenario(
             text,
             &source,

@@ -3,6 +3,7 @@
 pub mod demo;
 pub mod eval;
 pub mod eval_identity;
+pub mod experiment;
 pub mod fit;
 pub mod import;
 pub mod mocap;

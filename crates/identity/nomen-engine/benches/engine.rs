@@ -1,0 +1,93 @@
+//! Engine throughput on the 8-person full body-area-network scene (`scenarios/imu_ban_8.toml`:
+//! 8 people × 5 IMUs at 100 Hz, two cameras at 30 Hz, 60 s), single thread.
+//!
+//! `cargo bench -p nomen-engine` prints the median wall time of `run_batch`, the ratio scene
+//! time / wall time (the goal: ≥ 500× real time on one core) and the per-push cost
+//! percentiles of camera frames (a latency proxy: what one skeleton costs the caller, including
+//! any window it completes). Needs `../shared/data` for the motion capture.
+#![allow(
+    missing_docs,
+    clippy::print_stdout,
+    clippy::unwrap_used,
+    clippy::expect_used
+)]
+
+use nomen_core::Message;
+use nomen_engine::{Engine, EngineConfig, run_batch};
+use nomen_sim::{Scenario, load_clip, simulate};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+/// Timed runs after one warm-up.
+const NUM_RUNS: usize = 3;
+/// The scene.
+const SCENARIO: &str = "scenarios/imu_ban_8.toml";
+/// Simulation seed.
+const SEED: u64 = 1;
+
+fn main() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
+    let data = repo.join("../shared/data");
+    if !data.join("mocap/cmu").is_dir() {
+        println!("skipping: shared data not found at {}", data.display());
+        return;
+    }
+    let text = std::fs::read_to_string(repo.join(SCENARIO)).expect("scenario");
+    let scenario = Scenario::from_toml(&text, SCENARIO).expect("valid scenario");
+    let lib = scenario.clip_library();
+    let mut clips = BTreeMap::new();
+    for p in &scenario.people {
+        let def = &lib[&p.motion.clip];
+        let bvh = std::fs::read_to_string(data.join(&def.file)).expect("clip");
+        clips.insert(
+            p.motion.clip.clone(),
+            load_clip(def, &bvh, &def.file).expect("clip loads"),
+        );
+    }
+    let mut sim = simulate(&scenario, &clips, SEED, &mut |_, _| {}).expect("simulates");
+    sim.recording.sort_by_key(Message::t);
+    let registry = sim.scene.registry.clone();
+    let config = EngineConfig::default();
+
+    let _ = run_batch(&registry, &sim.recording, &config).expect("warm-up");
+    let mut times = Vec::with_capacity(NUM_RUNS);
+    for _ in 0..NUM_RUNS {
+        let start = Instant::now();
+        let (out, _) = run_batch(&registry, &sim.recording, &config).expect("runs");
+        times.push(start.elapsed().as_secs_f64());
+        assert!(!out.is_empty());
+    }
+    times.sort_by(f64::total_cmp);
+    let median = times[NUM_RUNS / 2];
+    println!(
+        "engine on {SCENARIO} (seed {SEED}): {} messages, median {:.3} s over {NUM_RUNS} runs = {:.0}× real time",
+        sim.recording.len(),
+        median,
+        scenario.duration_s / median
+    );
+
+    // Cost of each skeleton push (plus the poll after it), the latency a live caller sees.
+    let mut engine = Engine::new(registry, config).expect("engine");
+    let mut out = Vec::new();
+    let mut frame_costs = Vec::new();
+    for m in &sim.recording {
+        let start = Instant::now();
+        let _ = engine.push(m);
+        engine.poll(&mut out);
+        if matches!(m, Message::Skeleton(_)) {
+            frame_costs.push(start.elapsed().as_secs_f64() * 1e6);
+        }
+        out.clear();
+    }
+    frame_costs.sort_by(f64::total_cmp);
+    let pct = |q: f64| frame_costs[((frame_costs.len() - 1) as f64 * q) as usize];
+    println!(
+        "per camera skeleton push+poll: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs over {} skeletons; decision latency by design {:.2} s",
+        pct(0.5),
+        pct(0.99),
+        frame_costs.last().copied().unwrap_or(0.0),
+        frame_costs.len(),
+        engine.config().latency_s()
+    );
+}
