@@ -10,8 +10,7 @@
     clippy::expect_used
 )]
 
-use nomen_sim::{Scenario, load_clip, simulate};
-use std::collections::BTreeMap;
+use nomen_sim::{Scenario, load_scenario_clips, simulate};
 use std::path::Path;
 use std::time::Instant;
 
@@ -29,16 +28,10 @@ fn main() {
     }
     let text = std::fs::read_to_string(repo.join(SCENARIO)).expect("scenario");
     let scenario = Scenario::from_toml(&text, SCENARIO).expect("valid scenario");
-    let lib = scenario.clip_library();
-    let mut clips = BTreeMap::new();
-    for p in &scenario.people {
-        let def = &lib[&p.motion.clip];
-        let bvh = std::fs::read_to_string(data.join(&def.file)).expect("clip");
-        clips.insert(
-            p.motion.clip.clone(),
-            load_clip(def, &bvh, &def.file).expect("clip loads"),
-        );
-    }
+    let clips = load_scenario_clips(&scenario, &mut |file| {
+        std::fs::read_to_string(data.join(file)).map_err(|e| e.to_string())
+    })
+    .expect("clips load");
     let _ = simulate(&scenario, &clips, 1, &mut |_, _| {}).expect("warm-up");
     let mut times = Vec::with_capacity(NUM_RUNS);
     let mut num_messages = 0;

@@ -21,4 +21,4 @@ pub mod sensors;
 
 pub use error::{Result, SimError};
 pub use scenario::Scenario;
-pub use scene::{SceneDescription, SimOutput, load_clip, simulate};
+pub use scene::{SceneDescription, SimOutput, load_clip, load_scenario_clips, simulate};

@@ -29,6 +29,34 @@ pub fn load_clip(def: &ClipDef, bvh_text: &str, source: &str) -> Result<MocapCli
     Ok(convert(&bvh, &options)?)
 }
 
+/// Loads every clip the scenario's people use. `read_file(path)` returns the text of a file
+/// given its path relative to the data folder (`ClipDef::file`); the caller decides where that
+/// is, so this stays free of I/O. Errors name the clip and the file.
+pub fn load_scenario_clips(
+    scenario: &Scenario,
+    read_file: &mut dyn FnMut(&str) -> std::result::Result<String, String>,
+) -> Result<BTreeMap<String, MocapClip>> {
+    let library = scenario.clip_library();
+    let mut clips = BTreeMap::new();
+    for p in &scenario.people {
+        let name = &p.motion.clip;
+        if clips.contains_key(name) {
+            continue;
+        }
+        let Some(def) = library.get(name) else {
+            return Err(SimError::InvalidScenario(format!(
+                "person '{}': unknown clip '{name}'",
+                p.id
+            )));
+        };
+        let text = read_file(&def.file).map_err(|why| {
+            SimError::InvalidScenario(format!("clip '{name}': cannot read {}: {why}", def.file))
+        })?;
+        clips.insert(name.clone(), load_clip(def, &text, &def.file)?);
+    }
+    Ok(clips)
+}
+
 /// What one simulated device drew: the hidden truth behind its messages.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DeviceTruth {

@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use nomen_core::Message;
-use nomen_sim::{Scenario, load_clip, simulate};
+use nomen_sim::{Scenario, load_scenario_clips, simulate};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -22,18 +22,10 @@ fn data_dir() -> Option<PathBuf> {
 }
 
 fn clips_for(scenario: &Scenario, data: &Path) -> BTreeMap<String, nomen_mocap::MocapClip> {
-    let lib = scenario.clip_library();
-    let mut clips = BTreeMap::new();
-    for p in &scenario.people {
-        let def = &lib[&p.motion.clip];
-        let path = data.join(&def.file);
-        let text = std::fs::read_to_string(&path).unwrap();
-        clips.insert(
-            p.motion.clip.clone(),
-            load_clip(def, &text, &path.display().to_string()).unwrap(),
-        );
-    }
-    clips
+    load_scenario_clips(scenario, &mut |file| {
+        std::fs::read_to_string(data.join(file)).map_err(|e| e.to_string())
+    })
+    .unwrap()
 }
 
 const SMALL: &str = r#"

@@ -1,12 +1,11 @@
 //! `nomen simulate`: a scenario → recording, ground truth and scene description.
 
 use super::mocap::write_recording;
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use nomen_recording::{Header, sort_for_writing};
-use nomen_sim::{Scenario, SimOutput, load_clip, simulate};
-use std::collections::BTreeMap;
+use nomen_sim::{Scenario, SimOutput, load_scenario_clips, simulate};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
@@ -46,22 +45,11 @@ pub fn simulate_scenario(
 ) -> Result<(Scenario, SimOutput, u64)> {
     let scenario = Scenario::from_toml(text, source)?;
     let data = crate::io::find_data(data)?;
-    let library = scenario.clip_library();
-    let mut clips = BTreeMap::new();
-    for p in &scenario.people {
-        let name = &p.motion.clip;
-        if clips.contains_key(name) {
-            continue;
-        }
-        let Some(def) = library.get(name) else {
-            bail!("{source}: unknown clip '{name}'");
-        };
-        let path = data.join(&def.file);
-        let bvh = crate::io::read_text(&path)?;
-        let clip = load_clip(def, &bvh, &path.display().to_string())
-            .with_context(|| format!("loading clip '{name}'"))?;
-        clips.insert(name.clone(), clip);
-    }
+    let clips = load_scenario_clips(&scenario, &mut |file| {
+        std::fs::read_to_string(data.join(file))
+            .map_err(|e| format!("{} ({e})", data.join(file).display()))
+    })
+    .with_context(|| format!("loading the clips of {source}"))?;
     let seed = seed.unwrap_or(scenario.seed);
     let mut sim = simulate(&scenario, &clips, seed, progress)
         .with_context(|| format!("simulating {source}"))?;
