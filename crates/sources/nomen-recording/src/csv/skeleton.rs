@@ -27,6 +27,27 @@ fn is_no_unit(_: &str) -> bool {
 
 const TIME_NAMES: [&str; 3] = ["t", "time", "timestamp"];
 
+/// The `x`, `y`, `z` columns and their factors to metres (unit from the column name, else from
+/// the spec).
+fn xyz_columns<R: Read>(
+    csv: &CsvInput<R>,
+    length_unit: Option<LengthUnit>,
+) -> Result<[(usize, f64); 3]> {
+    let mut xyz = [(0, 1.0); 3];
+    for (axis, name) in ["x", "y", "z"].into_iter().enumerate() {
+        let (col, unit) = csv.require(&[name], is_length_unit)?;
+        let unit = csv.unit(
+            col,
+            unit.as_deref(),
+            LengthUnit::parse,
+            length_unit,
+            "x (m)",
+        )?;
+        xyz[axis] = (col, unit.to_metres());
+    }
+    Ok(xyz)
+}
+
 /// How to read a tag-fix CSV file with columns `t, tag, x, y, z [, quality]`.
 ///
 /// Units come from the column names (`t (s)`, `t_ms`, `x_m`, `x [mm]`) or, where a name has
@@ -54,18 +75,7 @@ pub fn import_fixes(input: impl Read, source: &str, spec: &FixCsvSpec) -> Result
         "t (s)",
     )?;
     let (tag_col, _) = csv.require(&["tag"], is_no_unit)?;
-    let mut xyz = [(0, 1.0); 3];
-    for (axis, name) in ["x", "y", "z"].into_iter().enumerate() {
-        let (col, unit) = csv.require(&[name], is_length_unit)?;
-        let unit = csv.unit(
-            col,
-            unit.as_deref(),
-            LengthUnit::parse,
-            spec.length_unit,
-            "x (m)",
-        )?;
-        xyz[axis] = (col, unit.to_metres());
-    }
+    let xyz = xyz_columns(&csv, spec.length_unit)?;
     let quality_col = csv.find(&["quality"], is_no_unit).map(|(c, _)| c);
 
     let mut out = Vec::new();
@@ -313,18 +323,7 @@ fn import_joint_rows<R: Read>(
 ) -> Result<Vec<Message>> {
     let c = common(&csv, spec)?;
     let (joint_col, _) = csv.require(&["joint"], is_no_unit)?;
-    let mut xyz = [(0, 1.0); 3];
-    for (axis, name) in ["x", "y", "z"].into_iter().enumerate() {
-        let (col, unit) = csv.require(&[name], is_length_unit)?;
-        let unit = csv.unit(
-            col,
-            unit.as_deref(),
-            LengthUnit::parse,
-            spec.length_unit,
-            "x (m)",
-        )?;
-        xyz[axis] = (col, unit.to_metres());
-    }
+    let xyz = xyz_columns(&csv, spec.length_unit)?;
     let conf_col = csv.find(&["confidence"], is_no_unit).map(|(c, _)| c);
     let state_col = csv.find(&["state"], is_no_unit).map(|(c, _)| c);
 
