@@ -8,12 +8,11 @@
 //! 4. run the MOT evaluator on the MOTChallenge sequences that py-motmetrics ships.
 
 use super::eval::{evaluate_motchallenge, mot_table};
-use super::mocap::{ConvertArgs, convert_files, load_clips, write_recording};
+use super::mocap::{ConvertArgs, convert_files, write_recording};
 use anyhow::{Context, Result};
 use clap::Args;
 use nomen_core::{IdentifiedSkeleton, Identity, Joint, Message};
 use nomen_eval::identity::{EvalConfig, EvalReport};
-use nomen_mocap::ConvertOptions;
 use nomen_recording::{Header, RecordingReader};
 use std::path::{Path, PathBuf};
 
@@ -90,7 +89,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         data.join("mocap/cmu/19_01.bvh"),
     ];
     let convert = ConvertArgs {
-        files: files.clone(),
+        files,
         scale: Some(CMU_SCALE),
         fps: Some(120.0),
         ground: false,
@@ -99,15 +98,8 @@ pub fn run(args: DemoArgs) -> Result<()> {
         truth: Some(dir.join("truth.jsonl")),
     };
     println!("\n[3/4] mocap convert (CMU 18_01 + 19_01, one clock, one frame)");
-    println!("{}", convert_files(&convert)?);
-    let clips = load_clips(
-        &files,
-        &ConvertOptions {
-            scale: Some(CMU_SCALE),
-            fps_hz: Some(120.0),
-            ..Default::default()
-        },
-    )?;
+    let (summary, clips) = convert_files(&convert)?;
+    println!("{summary}");
     if let [a, b] = clips.as_slice() {
         let closest = (0..a.num_frames.min(b.num_frames))
             .filter_map(|f| {

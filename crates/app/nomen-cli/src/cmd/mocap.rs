@@ -47,15 +47,16 @@ pub struct ConvertArgs {
 pub fn run(command: MocapCommand) -> Result<()> {
     match command {
         MocapCommand::Convert(args) => {
-            let summary = convert_files(&args)?;
+            let (summary, _) = convert_files(&args)?;
             eprintln!("{summary}");
             Ok(())
         }
     }
 }
 
-/// Converts the files of `args` and writes the recording (and truth); returns a summary.
-pub fn convert_files(args: &ConvertArgs) -> Result<String> {
+/// Converts the files of `args` and writes the recording (and truth); returns a summary and the
+/// converted clips.
+pub fn convert_files(args: &ConvertArgs) -> Result<(String, Vec<MocapClip>)> {
     let options = ConvertOptions {
         scale: args.scale,
         fps_hz: args.fps,
@@ -129,7 +130,7 @@ pub fn convert_files(args: &ConvertArgs) -> Result<String> {
         write_recording(truth_path, &header, &truth)?;
         summary.push_str(&format!("\nwrote ground truth to {}", truth_path.display()));
     }
-    Ok(summary)
+    Ok((summary, clips))
 }
 
 /// Parses and converts every file with the same options; two files go through `convert_pair` so
