@@ -8,6 +8,7 @@
 
 mod cmd;
 mod io;
+mod refine;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -42,8 +43,14 @@ enum Command {
     /// Fit sensor noise models to real recordings (IMU, UWB ranging, RSSI path loss).
     #[command(subcommand)]
     Fit(cmd::fit::FitCommand),
+    /// Calibrate frames: camera to RTLS (from a walk or from known point pairs) and clock offset.
+    #[command(subcommand)]
+    Calibrate(cmd::calibrate::CalibrateCommand),
     /// Run the end-to-end demonstration on the default data, with no hardware and no server.
     Demo(cmd::demo::DemoArgs),
+    /// Train a learned model (De Marchi's two-branch CNN) on simulated scenes.
+    #[command(subcommand)]
+    Train(cmd::train::TrainCommand),
 }
 
 fn main() -> ExitCode {
@@ -58,6 +65,8 @@ fn main() -> ExitCode {
         Command::Experiment(c) => cmd::experiment::run(c),
         Command::Fit(c) => cmd::fit::run(c),
         Command::Demo(a) => cmd::demo::run(a),
+        Command::Train(c) => cmd::train::run(c),
+        Command::Calibrate(c) => cmd::calibrate::run(c),
     };
     match outcome {
         Ok(()) => ExitCode::SUCCESS,

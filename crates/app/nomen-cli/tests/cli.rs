@@ -427,3 +427,79 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
         text(&o.stderr)
     );
 }
+
+#[test]
+fn refine_joints_estimates_hidden_arms_with_covariance_and_keeps_seen_joints() {
+    let Some(data) = data_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
+    let o = nomen(&[
+        "simulate",
+        repo.join("scenarios/hospital_room.toml").to_str().unwrap(),
+        "--out",
+        scene.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let result = scene.join("refined.jsonl");
+    let o = nomen(&[
+        "run",
+        scene.join("recording.jsonl").to_str().unwrap(),
+        "--refine-joints",
+        "--environment",
+        scene.join("obstacles.obj").to_str().unwrap(),
+        "--out",
+        result.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    // The output is a valid recording, and some joints the camera lost were estimated.
+    let o = nomen(&["validate", result.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let lines = std::fs::read_to_string(&result).unwrap();
+    let mut num_estimated = 0;
+    for line in lines
+        .lines()
+        .filter(|l| l.contains("\"type\":\"identified\""))
+    {
+        let v: serde_json::Value = serde_json::from_str(line).unwrap();
+        for (_, joint) in v["joints"].as_object().unwrap() {
+            if joint["state"] == "estimated" {
+                num_estimated += 1;
+                let c = joint["covariance_m2"].as_array().unwrap();
+                let trace: f64 = (0..3).map(|i| c[i][i].as_f64().unwrap()).sum();
+                assert!(trace > 0.0 && trace < 1.0, "{joint}");
+            }
+        }
+    }
+    assert!(num_estimated > 0);
+    // An empty environment file is refused by name; --environment needs --refine-joints.
+    let empty = tmp.path().join("empty.obj");
+    std::fs::write(&empty, "# nothing\n").unwrap();
+    let o = nomen(&[
+        "run",
+        scene.join("recording.jsonl").to_str().unwrap(),
+        "--refine-joints",
+        "--environment",
+        empty.to_str().unwrap(),
+        "--out",
+        tmp.path().join("x.jsonl").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o.stderr).contains("empty.obj"), "{}", text(&o.stderr));
+    let o = nomen(&[
+        "run",
+        scene.join("recording.jsonl").to_str().unwrap(),
+        "--environment",
+        empty.to_str().unwrap(),
+        "--out",
+        tmp.path().join("y.jsonl").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("--refine-joints"),
+        "{}",
+        text(&o.stderr)
+    );
+}

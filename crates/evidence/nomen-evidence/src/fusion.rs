@@ -5,13 +5,23 @@
 //! [`ScoreTensor`] holds, for one window, the [`ModelScores`] of every skeleton against every
 //! subject at every instrumented joint (missing entries are `None`). [`fuse`] reduces it:
 //!
-//! - [`Fusion::Acc`], [`Fusion::Vel`], [`Fusion::Ori`]: one model, mean over the joints present.
+//! - [`Fusion::Acc`], [`Fusion::Vel`], [`Fusion::Ori`], [`Fusion::Dl`]: one model, mean over the
+//!   joints present.
 //! - [`Fusion::Mean`]: mean over every present (joint, model) entry.
 //! - [`Fusion::Max`]: maximum over them.
 //! - [`Fusion::Threshold`]: fraction of present entries strictly above
 //!   [`FusionConfig::threshold`].
 //! - [`Fusion::ModelVote`], [`Fusion::ModelJointVote`]: De Marchi's multilevel voting
 //!   (Algorithm 1), read as follows.
+//!
+//! # The learned model
+//!
+//! [`Model::Dl`] is a fourth model next to De Marchi's three: the score of a learned
+//! [`PairScorer`](crate::PairScorer) (De Marchi's CNN), on the same `-1..=1` scale. Every fusion
+//! that spans models (mean, max, threshold, both votes) takes it in wherever it is present, as
+//! De Marchi et al. add their CNN as one more voter; where no scorer ran its entries are missing
+//! and every fusion gives exactly what it gives with the three geometric models alone (a model
+//! ballot with no entry is skipped under rule 1 below, without counting).
 //!
 //! # How we read Algorithm 1 (multilevel voting)
 //!
@@ -52,11 +62,16 @@ pub enum Model {
     Vel,
     /// Orientation-change magnitude.
     Ori,
+    /// A learned pair scorer ([`crate::PairScorer`], De Marchi's CNN), mapped to `-1..=1`.
+    Dl,
 }
 
 impl Model {
-    /// All models, in tensor order.
-    pub const ALL: [Model; 3] = [Model::Acc, Model::Vel, Model::Ori];
+    /// All models, in tensor order (the geometric three, then the learned one).
+    pub const ALL: [Model; 4] = [Model::Acc, Model::Vel, Model::Ori, Model::Dl];
+
+    /// De Marchi's three geometric models.
+    pub const GEOMETRIC: [Model; 3] = [Model::Acc, Model::Vel, Model::Ori];
 
     /// Index in [`Model::ALL`].
     pub const fn index(self) -> usize {
@@ -69,6 +84,7 @@ impl Model {
             Model::Acc => scores.acc,
             Model::Vel => scores.vel,
             Model::Ori => scores.ori,
+            Model::Dl => scores.dl,
         }
     }
 }
@@ -133,8 +149,8 @@ impl ScoreTensor {
         Ok(((skeleton * self.num_subjects + subject) * self.joints.len() + j) * Model::ALL.len())
     }
 
-    /// Stores the three model scores of `skeleton` against `subject`'s IMU at `joint`
-    /// (non-finite scores are stored as missing).
+    /// Stores the model scores of `skeleton` against `subject`'s IMU at `joint`, the learned one
+    /// included (non-finite scores are stored as missing).
     pub fn set(
         &mut self,
         skeleton: usize,
@@ -241,6 +257,8 @@ pub enum Fusion {
     Vel,
     /// Orientation model, mean over joints.
     Ori,
+    /// Learned model ([`Model::Dl`]) alone, mean over joints.
+    Dl,
     /// Mean over every (joint, model) entry.
     Mean,
     /// Fraction of entries above [`FusionConfig::threshold`].
@@ -284,10 +302,11 @@ pub fn fuse(tensor: &ScoreTensor, fusion: Fusion, cfg: &FusionConfig) -> ScoreMa
     let mut out = ScoreMatrix::new(ns, nb);
     let single = |m: Model| -> [Model; 1] { [m] };
     match fusion {
-        Fusion::Acc | Fusion::Vel | Fusion::Ori => {
+        Fusion::Acc | Fusion::Vel | Fusion::Ori | Fusion::Dl => {
             let model = match fusion {
                 Fusion::Acc => Model::Acc,
                 Fusion::Vel => Model::Vel,
+                Fusion::Dl => Model::Dl,
                 _ => Model::Ori,
             };
             let models = single(model);
@@ -407,6 +426,7 @@ mod tests {
             acc: Some(acc),
             vel: Some(vel),
             ori: Some(ori),
+            dl: None,
         }
     }
 
@@ -469,6 +489,81 @@ mod tests {
         }
     }
 
+    fn with_dl(mut s: ModelScores, dl: f64) -> ModelScores {
+        s.dl = Some(dl);
+        s
+    }
+
+    /// One skeleton, two subjects, two joints. Acceleration points to subject 0, orientation to
+    /// subject 1, velocity is missing: the geometric ballots tie.
+    fn split_geometry(dl: Option<[f64; 2]>) -> ScoreTensor {
+        let joints = [Joint::LeftWrist, Joint::RightAnkle];
+        let mut t = ScoreTensor::new(1, 2, &joints);
+        for &j in &joints {
+            for b in 0..2 {
+                let (acc, ori) = if b == 0 { (0.8, 0.3) } else { (0.4, 0.7) };
+                let mut s = ModelScores {
+                    acc: Some(acc),
+                    vel: None,
+                    ori: Some(ori),
+                    dl: None,
+                };
+                if let Some(dl) = dl {
+                    s = with_dl(s, dl[b]);
+                }
+                t.set(0, b, j, s).unwrap();
+            }
+        }
+        t
+    }
+
+    #[test]
+    fn learned_voter_breaks_a_geometric_tie() {
+        let cfg = FusionConfig::default();
+        let without = fuse(&split_geometry(None), Fusion::ModelVote, &cfg);
+        assert_eq!(without.get(0, 0), Some(0.5));
+        assert_eq!(without.get(0, 1), Some(0.5));
+        // The learned model sides with subject 1: two ballots of three.
+        let with = fuse(&split_geometry(Some([-0.6, 0.9])), Fusion::ModelVote, &cfg);
+        assert_eq!(with.best_subject(0), Some(1));
+        assert!((with.get(0, 1).unwrap() - 2.0 / 3.0).abs() < 1e-12);
+        // Per (model, joint): the learned model casts one ballot per joint, 4 of 6 ballots.
+        let joint_votes = fuse(
+            &split_geometry(Some([-0.6, 0.9])),
+            Fusion::ModelJointVote,
+            &cfg,
+        );
+        assert!((joint_votes.get(0, 1).unwrap() - 4.0 / 6.0).abs() < 1e-12);
+        assert!((joint_votes.get(0, 0).unwrap() - 2.0 / 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn learned_score_enters_mean_max_and_threshold_only_when_present() {
+        let cfg = FusionConfig::default();
+        let plain = split_geometry(None);
+        let learned = split_geometry(Some([-0.6, 0.9]));
+        // Without a learned score the mean is over acc and ori only.
+        assert!((fuse(&plain, Fusion::Mean, &cfg).get(0, 1).unwrap() - 0.55).abs() < 1e-12);
+        // With it: (0.4 + 0.7 + 0.9) / 3 per joint.
+        let mean = fuse(&learned, Fusion::Mean, &cfg);
+        assert!((mean.get(0, 1).unwrap() - 2.0 / 3.0).abs() < 1e-12);
+        assert_eq!(fuse(&plain, Fusion::Max, &cfg).get(0, 1), Some(0.7));
+        assert_eq!(fuse(&learned, Fusion::Max, &cfg).get(0, 1), Some(0.9));
+        // Above 0.5 for subject 1: ori and dl of three entries per joint.
+        let th = fuse(&learned, Fusion::Threshold, &cfg);
+        assert!((th.get(0, 1).unwrap() - 2.0 / 3.0).abs() < 1e-12);
+        // The learned model alone, and nothing at all when it did not run.
+        let dl = fuse(&learned, Fusion::Dl, &cfg);
+        assert_eq!(dl.get(0, 0), Some(-0.6));
+        assert_eq!(dl.best_subject(0), Some(1));
+        assert_eq!(fuse(&plain, Fusion::Dl, &cfg).row(0), &[None, None]);
+        // The geometric single-model columns ignore it.
+        assert_eq!(
+            fuse(&learned, Fusion::Acc, &cfg),
+            fuse(&plain, Fusion::Acc, &cfg)
+        );
+    }
+
     #[test]
     fn bad_indices_are_errors_and_nan_is_missing() {
         let mut t = ScoreTensor::new(1, 1, &[Joint::Pelvis]);
@@ -487,5 +582,15 @@ mod tests {
             &FusionConfig::default(),
         );
         assert!(empty.scores.is_empty());
+        let mut u = ScoreTensor::new(1, 1, &[Joint::Pelvis]);
+        u.set(
+            0,
+            0,
+            Joint::Pelvis,
+            with_dl(scores(0.1, 0.3, 0.2), f64::INFINITY),
+        )
+        .unwrap();
+        assert_eq!(u.get(0, 0, Joint::Pelvis, Model::Dl), None);
+        assert_eq!(u.get(0, 0, Joint::Pelvis, Model::Acc), Some(0.1));
     }
 }

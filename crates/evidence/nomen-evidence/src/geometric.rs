@@ -124,6 +124,7 @@ pub fn geometric_scores(
             imu_orientation_magnitude(imu, cfg),
             segment_orientation_magnitude(skel, site, cfg),
         ),
+        dl: None,
     }
 }
 
@@ -134,7 +135,7 @@ fn is_imu_consistent(imu: &ImuWindow) -> bool {
 }
 
 /// Linear acceleration in the world frame, low-passed (NaN where missing).
-fn imu_linear_accel_world(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<Vector3<f64>> {
+pub(crate) fn imu_linear_accel_world(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<Vector3<f64>> {
     let n = imu.t_s.len();
     let (Some(rate), true) = (grid_rate_hz(&imu.t_s), is_imu_consistent(imu)) else {
         return vec![nan3(); n];
@@ -160,7 +161,7 @@ fn smoothed_norms(v: &[Vector3<f64>], cfg: &GeometricConfig) -> Vec<f64> {
 }
 
 /// The leak factor per grid step: `e^{−dt/τ}` (per-step dt from the grid).
-fn leak(dt_s: f64, cfg: &GeometricConfig) -> f64 {
+pub(crate) fn leak(dt_s: f64, cfg: &GeometricConfig) -> f64 {
     if cfg.leak_time_constant_s > 0.0 && dt_s.is_finite() {
         (-dt_s / cfg.leak_time_constant_s).exp()
     } else {
@@ -227,7 +228,7 @@ pub fn imu_orientation_magnitude(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<
 }
 
 /// Positions of `joint` on the window's grid (NaN where absent or non-finite).
-fn joint_positions(skel: &SkeletonWindow, joint: Joint) -> Vec<Vector3<f64>> {
+pub(crate) fn joint_positions(skel: &SkeletonWindow, joint: Joint) -> Vec<Vector3<f64>> {
     skel.joints_world_m
         .iter()
         .map(|j| j.get(joint).map_or_else(nan3, |p| p.coords))
@@ -240,7 +241,7 @@ fn joint_positions(skel: &SkeletonWindow, joint: Joint) -> Vec<Vector3<f64>> {
 /// operation in the interior, but keeps the ends right: the filter's odd padding of *positions*
 /// would force zero curvature at the window's edges, while the IMU's acceleration is padded as an
 /// acceleration.
-fn filtered_joint_derivative(
+pub(crate) fn filtered_joint_derivative(
     skel: &SkeletonWindow,
     joint: Joint,
     which: Derivative,

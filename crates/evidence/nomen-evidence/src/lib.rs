@@ -9,6 +9,8 @@
 //! - [`signal`]: [`pearson`] and the clock-offset search [`best_lag`].
 //! - [`belmonte`]: Belmonte-Hernández's pitch and yaw-rate costs ([`belmonte_costs`]).
 //! - [`fusion`]: [`ScoreTensor`] → [`ScoreMatrix`] by [`fuse`] (mean, max, threshold, voting).
+//! - [`scorer`]: [`PairScorer`], the seam for a learned model (e.g. `nomen-cnn`) whose score
+//!   enters the fusions as [`Model::Dl`] through [`ModelScores::dl`].
 //!
 //! Bad data never panics or errors: a score or cost that cannot be computed is `None`.
 
@@ -20,6 +22,8 @@ pub use error::{EvidenceError, Result};
 pub mod belmonte;
 pub mod fusion;
 pub mod geometric;
+pub mod kinematic;
+pub mod scorer;
 pub mod signal;
 pub mod window;
 
@@ -30,5 +34,10 @@ pub use geometric::{
     imu_orientation_magnitude, imu_velocity_magnitude, joint_accel_magnitude,
     joint_velocity_magnitude, segment_orientation_magnitude,
 };
+pub use kinematic::{
+    KinematicConfig, KinematicScores, imu_swing_signal, imu_vertical_accel, joint_vertical_accel,
+    kinematic_scores, segment_swing_signal,
+};
+pub use scorer::PairScorer;
 pub use signal::{LagConfig, best_lag, best_lag_with, pearson};
 pub use window::{ImuWindow, ModelScores, SkeletonWindow};

@@ -33,8 +33,9 @@ pub struct SkeletonWindow {
     pub joints_world_m: Vec<Joints<Point3<f64>>>,
 }
 
-/// De Marchi's per-model similarity for one (IMU, skeleton joint) pair: Pearson correlations in
-/// `-1..=1` of the magnitude signals; `None` when a signal is missing or constant.
+/// Per-model similarity for one (IMU, skeleton joint) pair, all on the correlation scale
+/// `-1..=1`: De Marchi's Pearson correlations of the magnitude signals, plus an optional learned
+/// score; `None` when a signal is missing or constant, or the model did not run.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ModelScores {
     /// Correlation of linear-acceleration magnitudes.
@@ -43,4 +44,8 @@ pub struct ModelScores {
     pub vel: Option<f64>,
     /// Correlation of orientation-change magnitudes.
     pub ori: Option<f64>,
+    /// A learned model's score ([`crate::PairScorer`], e.g. De Marchi's CNN), mapped to `-1..=1`
+    /// (`2p − 1` for a match probability `p`). [`crate::geometric_scores`] leaves it `None`; the
+    /// caller fills it when a scorer is configured.
+    pub dl: Option<f64>,
 }

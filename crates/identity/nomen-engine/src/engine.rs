@@ -1,31 +1,47 @@
 //! The streaming engine: ingest, settle, windows, evidence, assignment, output.
 
-use crate::config::{EngineConfig, ns};
+use crate::config::{EngineConfig, MotionScore, ns};
 use crate::error::{EngineError, Result};
 use crate::signal::{ImuSeries, LagSignals, curve_peak, imu_window_on_grid, lag_curve};
 use crate::stats::EngineStats;
+use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m, fix_similarity};
 use nalgebra::{Isometry3, Matrix3, Point3, UnitQuaternion, Vector3};
 use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
 use nomen_core::skeleton::{JointState, Joints};
 use nomen_core::{
-    CameraId, DeviceId, DeviceKind, Evidence, IdentifiedSkeleton, Identity, ImuSample, Joint,
-    Message, Registry, SessionTime, SkeletonObservation, SubjectId, TrackId,
+    AntennaId, CameraId, DeviceId, DeviceKind, Evidence, IdentifiedSkeleton, Identity, ImuSample,
+    Joint, Message, Registry, RssiRead, RtlsFix, SessionTime, SkeletonObservation, SubjectId,
+    TagCorrection, TrackId,
 };
 use nomen_evidence::{
-    GeometricConfig, ImuWindow, ScoreTensor, SkeletonWindow, fuse, geometric_scores,
-    imu_accel_magnitude, imu_orientation_magnitude, joint_accel_magnitude,
-    segment_orientation_magnitude,
+    GeometricConfig, ImuWindow, PairScorer, ScoreTensor, Side, SkeletonWindow, belmonte_costs,
+    fuse, geometric_scores, imu_accel_magnitude, imu_orientation_magnitude, imu_swing_signal,
+    imu_vertical_accel, joint_accel_magnitude, joint_vertical_accel, kinematic_scores,
+    segment_orientation_magnitude, segment_swing_signal,
 };
 use nomen_filters::kalman::JointKalman;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
+use nomen_rssi::{
+    FilterBank, LikelihoodConfig, RssiKalmanConfig, RssiModel, RssiUnit, TagPlacement,
+    background_log_likelihood, log_likelihood, pair_score,
+};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
-/// Step of the coarse clock-offset search, ns (one IMU sample at 100 Hz).
+/// Step of the clock-offset search, ns (one IMU sample at 100 Hz).
 const LAG_STEP_NS: i64 = 10_000_000;
+
+/// A search for an unknown offset first steps this many [`LAG_STEP_NS`] at a time (40 ms: ten
+/// points per 0.4–0.5 s stride period, so the coarse curve still shows every stride peak), then
+/// refines around its peak at [`LAG_STEP_NS`].
+const COARSE_LAG_STEPS: usize = 4;
 
 /// Longest gap between two IMU samples across which the engine interpolates, ns (a dropout of
 /// a few packets at 50–100 Hz; longer gaps are missing data).
 const MAX_IMU_GAP_NS: i64 = 60_000_000;
+
+/// A track that stopped less than this before a new one started is not yet considered ended
+/// (three frames at 30 Hz), ns.
+const STITCH_MIN_GAP_NS: i64 = 100_000_000;
 
 struct CameraState {
     id: CameraId,
@@ -111,11 +127,19 @@ struct TrackState {
     last_t: i64,
     /// Fused window scores per subject.
     evidence: BTreeMap<usize, Accumulator>,
+    /// Location-tag window scores per subject (their own, faster half-life).
+    tag_evidence: BTreeMap<usize, Accumulator>,
+    /// RSSI scores per subject (tag half-life).
+    rssi_evidence: BTreeMap<usize, Accumulator>,
     /// Mean model score per IMU (reported as the evidence behind a label).
     device_evidence: BTreeMap<usize, Accumulator>,
     label: Option<usize>,
     /// Scores per subject at the last decision (without the hysteresis bonus).
     subject_scores: BTreeMap<usize, f64>,
+    /// Where the person was at the newest observation (mean of the observed joints), world, m.
+    last_anchor_world_m: Option<Point3<f64>>,
+    /// A later track continues this one (stitched): it no longer takes part in decisions.
+    is_superseded: bool,
 }
 
 /// The streaming identity engine. See the crate documentation for the pipeline and latency.
@@ -127,19 +151,36 @@ pub struct Engine {
     silence_ns: i64,
     delay_ns: i64,
     decay_per_hop: f64,
+    tag_decay_per_hop: f64,
+    rssi_decay_per_hop: f64,
+    tag_window_ns: i64,
     subjects: Vec<SubjectId>,
     subject_imus: Vec<Vec<usize>>,
     cameras: Vec<CameraState>,
     camera_index: BTreeMap<CameraId, usize>,
     imus: Vec<ImuState>,
     imu_index: BTreeMap<DeviceId, usize>,
-    other_devices: BTreeSet<DeviceId>,
+    tags: Vec<TagState>,
+    tag_index: BTreeMap<DeviceId, usize>,
+    /// A learned scorer of (IMU window, skeleton window) pairs ([`Engine::with_pair_scorer`]).
+    pair_scorer: Option<Box<dyn PairScorer>>,
+    /// RSSI evidence, when a calibrated model was given ([`Engine::with_rssi_model`]).
+    rssi: Option<RssiState>,
+    /// The registry's antennas.
+    antennas: BTreeSet<AntennaId>,
+    /// Subject and site of every RFID/BLE tag, for RSSI reads.
+    rssi_tags: BTreeMap<DeviceId, (usize, Joint)>,
+    /// The kind of every registered device (for clear errors on mismatched messages).
+    device_kinds: BTreeMap<DeviceId, DeviceKind>,
     tracks: BTreeMap<(usize, TrackId), TrackState>,
     pending_out: BTreeSet<(i64, usize, TrackId)>,
     next_end: Option<i64>,
     global_max: Option<i64>,
     ready: Vec<Message>,
     stats: EngineStats,
+    /// Pairs of tracks of one camera that are in a close encounter now (see
+    /// [`Engine::note_encounters`]).
+    close_pairs: BTreeSet<(usize, TrackId, TrackId)>,
 }
 
 impl Engine {
@@ -149,13 +190,23 @@ impl Engine {
         registry.validate().map_err(EngineError::Registry)?;
         let mut imus = Vec::new();
         let mut imu_index = BTreeMap::new();
-        let mut other_devices = BTreeSet::new();
+        let mut tags = Vec::new();
+        let mut tag_index = BTreeMap::new();
+        let mut device_kinds = BTreeMap::new();
+        let mut rssi_tags = BTreeMap::new();
         let mut subject_imus = Vec::new();
         for (s, subject) in registry.subjects.iter().enumerate() {
             let mut mine = Vec::new();
             for w in &subject.wears {
+                device_kinds.insert(w.device.clone(), w.kind);
+                if matches!(w.kind, DeviceKind::UwbTag | DeviceKind::BleTag) {
+                    tag_index.insert(w.device.clone(), tags.len());
+                    tags.push(TagState::new(w.device.clone(), s, w.site));
+                }
+                if matches!(w.kind, DeviceKind::RfidTag | DeviceKind::BleTag) {
+                    rssi_tags.insert(w.device.clone(), (s, w.site));
+                }
                 if w.kind != DeviceKind::Imu {
-                    other_devices.insert(w.device.clone());
                     continue;
                 }
                 imu_index.insert(w.device.clone(), imus.len());
@@ -173,7 +224,7 @@ impl Engine {
                     frontier: i64::MIN,
                     ahrs: None,
                     offset_ns: w.clock.offset_ns,
-                    is_offset_known: false,
+                    is_offset_known: config.known_clock_offsets,
                     last_refine_end: i64::MIN,
                     last_search_end: i64::MIN,
                     candidates: VecDeque::new(),
@@ -204,6 +255,9 @@ impl Engine {
             silence_ns: ns(config.silence_timeout_s),
             delay_ns: ns(config.decision_delay_s),
             decay_per_hop: 0.5f64.powf(config.hop_s / config.evidence_half_life_s),
+            tag_decay_per_hop: 0.5f64.powf(config.hop_s / config.tag_evidence_half_life_s),
+            rssi_decay_per_hop: 0.5f64.powf(config.hop_s / config.rssi_evidence_half_life_s),
+            tag_window_ns: ns(config.tag_window_s.min(config.window_s)),
             config,
             subjects: registry.subjects.iter().map(|s| s.id.clone()).collect(),
             subject_imus,
@@ -211,14 +265,53 @@ impl Engine {
             camera_index,
             imus,
             imu_index,
-            other_devices,
+            tags,
+            tag_index,
+            rssi: None,
+            pair_scorer: None,
+            antennas: registry.antennas.iter().map(|a| a.id.clone()).collect(),
+            rssi_tags,
+            device_kinds,
             tracks: BTreeMap::new(),
             pending_out: BTreeSet::new(),
             next_end: None,
             global_max: None,
             ready: Vec::new(),
             stats: EngineStats::default(),
+            close_pairs: BTreeSet::new(),
         })
+    }
+
+    /// Adds a learned scorer (e.g. `nomen-cnn`'s) as one more model of every (IMU, track) window:
+    /// its score is `ModelScores::dl`, which De Marchi's fusions count as a fourth model and
+    /// [`crate::MotionScore::Nomen`] averages with the correlations.
+    pub fn with_pair_scorer(mut self, scorer: Box<dyn PairScorer>) -> Engine {
+        self.pair_scorer = Some(scorer);
+        self
+    }
+
+    /// Enables RSSI evidence with a calibrated model (`nomen calibrate rssi`). Without one, RSSI
+    /// reads are counted and ignored. Errors when the model does not validate or names an
+    /// antenna the registry does not list.
+    pub fn with_rssi_model(mut self, model: &RssiModel) -> Result<Engine> {
+        model.validate()?;
+        for a in &model.antennas {
+            if !self.antennas.contains(&a.antenna) {
+                return Err(EngineError::InvalidConfig(format!(
+                    "the RSSI model has antenna '{}', which the registry does not list",
+                    a.antenna
+                )));
+            }
+        }
+        self.rssi = Some(RssiState {
+            bank: FilterBank::new(model, RssiKalmanConfig::default(), RssiUnit::Dbm)?,
+            likelihood: LikelihoodConfig::default(),
+            pending: BTreeMap::new(),
+            newest: None,
+            frontier: i64::MIN,
+            estimates: Vec::new(),
+        });
+        Ok(self)
     }
 
     /// What the engine has done so far.
@@ -239,6 +332,8 @@ impl Engine {
         let result = match msg {
             Message::Imu(s) => self.push_imu(s),
             Message::Skeleton(s) => self.push_skeleton(s),
+            Message::RtlsFix(f) => self.push_fix(f),
+            Message::Rssi(r) => self.push_rssi(r),
             _ => {
                 self.stats.num_ignored += 1;
                 Ok(())
@@ -248,7 +343,7 @@ impl Engine {
             let r = &mut self.stats.rejected;
             match e {
                 EngineError::InvalidMessage { .. } => r.num_invalid += 1,
-                EngineError::UnknownDevice { .. } | EngineError::NotAnImu { .. } => {
+                EngineError::UnknownDevice { .. } | EngineError::WrongDeviceKind { .. } => {
                     r.num_unknown_device += 1
                 }
                 EngineError::UnknownCamera { .. } => r.num_unknown_camera += 1,
@@ -262,17 +357,7 @@ impl Engine {
 
     fn push_imu(&mut self, s: &ImuSample) -> Result<()> {
         let Some(&i) = self.imu_index.get(&s.device) else {
-            return Err(if self.other_devices.contains(&s.device) {
-                EngineError::NotAnImu {
-                    device: s.device.clone(),
-                    t: s.t,
-                }
-            } else {
-                EngineError::UnknownDevice {
-                    device: s.device.clone(),
-                    t: s.t,
-                }
-            });
+            return Err(self.device_error("imu", &s.device, s.t));
         };
         s.validate().map_err(|error| EngineError::InvalidMessage {
             kind: "imu",
@@ -306,6 +391,120 @@ impl Engine {
         settle_imu(imu, &self.config);
         self.note_time(session);
         Ok(())
+    }
+
+    /// The error for a message from `device` that is not of the kind the message needs.
+    fn device_error(&self, kind: &'static str, device: &DeviceId, t: SessionTime) -> EngineError {
+        match self.device_kinds.get(device) {
+            Some(registered) => EngineError::WrongDeviceKind {
+                kind,
+                device: device.clone(),
+                registered: *registered,
+                t,
+            },
+            None => EngineError::UnknownDevice {
+                kind,
+                device: device.clone(),
+                t,
+            },
+        }
+    }
+
+    fn push_fix(&mut self, f: &RtlsFix) -> Result<()> {
+        let Some(&i) = self.tag_index.get(&f.tag) else {
+            return Err(self.device_error("rtls_fix", &f.tag, f.t));
+        };
+        f.validate().map_err(|error| EngineError::InvalidMessage {
+            kind: "rtls_fix",
+            source_id: f.tag.to_string(),
+            t: f.t,
+            error,
+        })?;
+        let defaults = (
+            self.config.tag_sigma_horizontal_m,
+            self.config.tag_sigma_vertical_m,
+        );
+        let Some(tag) = self.tags.get_mut(i) else {
+            return Ok(());
+        };
+        let t = f.t.as_ns();
+        if t < tag.frontier {
+            return Err(EngineError::Late {
+                kind: "rtls_fix",
+                source_id: f.tag.to_string(),
+                t: f.t,
+            });
+        }
+        if tag.pending.contains_key(&t) {
+            return Err(EngineError::Duplicate {
+                kind: "rtls_fix",
+                source_id: f.tag.to_string(),
+                t: f.t,
+            });
+        }
+        tag.pending.insert(
+            t,
+            Fix {
+                t,
+                position_world_m: f.position_m,
+                sigma_m: fix_sigma_m(f, defaults),
+            },
+        );
+        tag.newest = Some(tag.newest.map_or(t, |n| n.max(t)));
+        tag.frontier = tag.frontier.max(t - self.reorder_ns);
+        tag.settle();
+        self.stats.num_tag_fixes += 1;
+        self.note_time(t);
+        Ok(())
+    }
+
+    fn push_rssi(&mut self, r: &RssiRead) -> Result<()> {
+        if !self.rssi_tags.contains_key(&r.tag) {
+            return Err(self.device_error("rssi", &r.tag, r.t));
+        }
+        if !self.antennas.contains(&r.antenna) {
+            return Err(EngineError::UnknownAntenna {
+                antenna: r.antenna.clone(),
+                t: r.t,
+            });
+        }
+        r.validate().map_err(|error| EngineError::InvalidMessage {
+            kind: "rssi",
+            source_id: format!("{}@{}", r.tag, r.antenna),
+            t: r.t,
+            error,
+        })?;
+        let reorder = self.reorder_ns;
+        let Some(rssi) = self.rssi.as_mut() else {
+            self.stats.num_rssi_without_model += 1;
+            return Ok(());
+        };
+        let t = r.t.as_ns();
+        let key = (t, r.tag.clone(), r.antenna.clone());
+        if t < rssi.frontier {
+            return Err(EngineError::Late {
+                kind: "rssi",
+                source_id: format!("{}@{}", r.tag, r.antenna),
+                t: r.t,
+            });
+        }
+        if rssi.pending.contains_key(&key) {
+            return Err(EngineError::Duplicate {
+                kind: "rssi",
+                source_id: format!("{}@{}", r.tag, r.antenna),
+                t: r.t,
+            });
+        }
+        rssi.pending.insert(key, r.clone());
+        rssi.newest = Some(rssi.newest.map_or(t, |n| n.max(t)));
+        rssi.frontier = rssi.frontier.max(t - reorder);
+        let rejected = rssi.settle();
+        self.stats.num_rssi_reads += 1;
+        self.note_time(t);
+        match rejected {
+            Some(e) => Err(e.into()),
+            None => Ok(()),
+        }
     }
 
     fn push_skeleton(&mut self, s: &SkeletonObservation) -> Result<()> {
@@ -353,23 +552,51 @@ impl Engine {
         cam.newest = Some(cam.newest.map_or(t, |n| n.max(t)));
         cam.frontier = cam.frontier.max(t - self.reorder_ns);
         let frontier = cam.frontier;
-        let track = self
-            .tracks
-            .entry((c, s.track))
-            .or_insert_with(|| TrackState {
+        let anchor = joint_centroid(&world);
+        if !self.tracks.contains_key(&(c, s.track)) {
+            let mut fresh = TrackState {
                 camera: c,
                 pending: BTreeMap::new(),
                 samples: VecDeque::new(),
                 kalman: Vec::new(),
                 last_t: t,
                 evidence: BTreeMap::new(),
+                tag_evidence: BTreeMap::new(),
+                rssi_evidence: BTreeMap::new(),
                 device_evidence: BTreeMap::new(),
                 label: None,
                 subject_scores: BTreeMap::new(),
-            });
+                last_anchor_world_m: anchor,
+                is_superseded: false,
+            };
+            if let Some(prev) = anchor.and_then(|a| self.stitch_candidate(c, t, &a))
+                && let Some(old) = self.tracks.get_mut(&prev)
+            {
+                old.is_superseded = true;
+                fresh.evidence = old.evidence.clone();
+                fresh.tag_evidence = old.tag_evidence.clone();
+                fresh.rssi_evidence = old.rssi_evidence.clone();
+                fresh.device_evidence = old.device_evidence.clone();
+                fresh.label = old.label;
+                fresh.subject_scores = old.subject_scores.clone();
+                self.stats.num_stitched += 1;
+            }
+            self.tracks.insert((c, s.track), fresh);
+        }
+        let Some(track) = self.tracks.get_mut(&(c, s.track)) else {
+            return Ok(());
+        };
         track.pending.insert(t, world);
-        track.last_t = track.last_t.max(t);
+        if t >= track.last_t {
+            track.last_t = t;
+            if anchor.is_some() {
+                track.last_anchor_world_m = anchor;
+            }
+        }
         self.pending_out.insert((t, c, s.track));
+        if let Some(a) = anchor {
+            self.note_encounters(c, s.track, t, &a);
+        }
         self.stats.num_skeletons += 1;
         let noise = self.config.joint_noise_std_m;
         for tr in self.tracks.values_mut().filter(|tr| tr.camera == c) {
@@ -377,6 +604,115 @@ impl Engine {
         }
         self.note_time(t);
         Ok(())
+    }
+
+    /// The ended track of camera `c` that a new track starting at `t` at `anchor` continues:
+    /// ended at least a few frames and at most `stitch_max_gap_s` before, not already continued,
+    /// with its last position within reach (`stitch_radius_m + stitch_max_speed_mps · gap`).
+    /// When two candidates are within reach, the nearer (relative to its reach) must be at most
+    /// half as far as the other; otherwise nothing is stitched and evidence starts afresh.
+    fn stitch_candidate(&self, c: usize, t: i64, anchor: &Point3<f64>) -> Option<(usize, TrackId)> {
+        let max_gap = ns(self.config.stitch_max_gap_s);
+        if max_gap <= 0 {
+            return None;
+        }
+        let min_gap = STITCH_MIN_GAP_NS;
+        let mut best: Option<((usize, TrackId), f64)> = None;
+        let mut second = f64::INFINITY;
+        for (key, tr) in self.tracks.iter().filter(|(k, _)| k.0 == c) {
+            let gap = t - tr.last_t;
+            if tr.is_superseded || gap < min_gap || gap > max_gap {
+                continue;
+            }
+            let Some(last) = tr.last_anchor_world_m else {
+                continue;
+            };
+            let reach =
+                self.config.stitch_radius_m + self.config.stitch_max_speed_mps * gap as f64 * 1e-9;
+            let rel = (anchor - last).norm() / reach;
+            if rel > 1.0 {
+                continue;
+            }
+            match best {
+                Some((_, b)) if rel >= b => second = second.min(rel),
+                _ => {
+                    if let Some((_, b)) = best {
+                        second = second.min(b);
+                    }
+                    best = Some((*key, rel));
+                }
+            }
+        }
+        let (key, rel) = best?;
+        (second.is_infinite() || rel <= 0.5 * second).then_some(key)
+    }
+
+    /// Close encounters. SDKs swap the ids of two people who pass close across the line of
+    /// sight, so after such an encounter the engine no longer knows which track is which: when
+    /// two tracks of a camera that were within `encounter_distance_m` of each other (measured
+    /// across the line of sight, at the nearer one's depth) separate again, both get the
+    /// average of their motion evidence, and new windows decide who is who. Location-tag
+    /// evidence is not pooled: its short window and half-life re-decide within a second.
+    fn note_encounters(&mut self, c: usize, track: TrackId, t: i64, anchor: &Point3<f64>) {
+        let near_m = self.config.encounter_distance_m;
+        if near_m <= 0.0 {
+            return;
+        }
+        let Some(eye) = self
+            .cameras
+            .get(c)
+            .map(|cam| Point3::from(cam.world_from_camera.translation.vector))
+        else {
+            return;
+        };
+        let mut separated = Vec::new();
+        for (key, tr) in self.tracks.range((c, TrackId(0))..) {
+            if key.0 != c || key.1 == track || tr.is_superseded {
+                continue;
+            }
+            let pair = (c, key.1.min(track), key.1.max(track));
+            let is_close_now = self.close_pairs.contains(&pair);
+            // Only simultaneous observations (within two frames at 30 Hz) are compared.
+            let Some(other) = tr
+                .last_anchor_world_m
+                .filter(|_| (t - tr.last_t).abs() <= 70_000_000)
+            else {
+                continue;
+            };
+            let d = lateral_distance_m(&eye, anchor, &other);
+            if d < near_m && !is_close_now {
+                self.close_pairs.insert(pair);
+            } else if d > 1.5 * near_m && is_close_now {
+                self.close_pairs.remove(&pair);
+                separated.push(*key);
+            }
+        }
+        for other in separated {
+            self.stats.num_encounters += 1;
+            let (Some(a), Some(b)) = (
+                self.tracks
+                    .get(&(c, track))
+                    .map(|tr| (tr.evidence.clone(), tr.device_evidence.clone())),
+                self.tracks
+                    .get(&other)
+                    .map(|tr| (tr.evidence.clone(), tr.device_evidence.clone())),
+            ) else {
+                continue;
+            };
+            let evidence = average_evidence(&a.0, &b.0);
+            let device = average_evidence(&a.1, &b.1);
+
+            for key in [(c, track), other] {
+                if let Some(tr) = self.tracks.get_mut(&key) {
+                    tr.evidence = evidence.clone();
+                    tr.device_evidence = device.clone();
+                }
+            }
+        }
+        // Pairs whose tracks are gone are forgotten.
+        let tracks = &self.tracks;
+        self.close_pairs
+            .retain(|(c, a, b)| tracks.contains_key(&(*c, *a)) && tracks.contains_key(&(*c, *b)));
     }
 
     fn note_time(&mut self, t: i64) {
@@ -395,6 +731,8 @@ impl Engine {
                 .iter()
                 .filter_map(|c| c.newest)
                 .chain(self.imus.iter().filter_map(ImuState::newest_session))
+                .chain(self.tags.iter().filter_map(|t| t.newest))
+                .chain(self.rssi.iter().filter_map(|r| r.newest))
                 .all(|n| n >= settle);
             let timed_out = self
                 .global_max
@@ -420,6 +758,14 @@ impl Engine {
         for cam in &mut self.cameras {
             cam.frontier = i64::MAX;
         }
+        for tag in &mut self.tags {
+            tag.frontier = i64::MAX;
+            tag.settle();
+        }
+        if let Some(rssi) = self.rssi.as_mut() {
+            rssi.frontier = i64::MAX;
+            let _ = rssi.settle();
+        }
         for tr in self.tracks.values_mut() {
             settle_track(tr, i64::MAX, &self.config, noise);
         }
@@ -430,6 +776,8 @@ impl Engine {
             }
             self.process_window(end);
         }
+        // Fixes after the last skeleton decision still get their (uncorrected or corrected) line.
+        self.emit_corrections(i64::MAX);
         out.append(&mut self.ready);
     }
 
@@ -438,6 +786,17 @@ impl Engine {
         self.stats.num_windows += 1;
         for imu in &mut self.imus {
             imu.make_contiguous();
+        }
+        // This window is final: a tag that went quiet still has its fixes before `end` used
+        // (a fix older than `end` arriving later is late).
+        for tag in &mut self.tags {
+            tag.frontier = tag.frontier.max(end);
+            tag.settle();
+        }
+        if let Some(rssi) = self.rssi.as_mut() {
+            rssi.frontier = rssi.frontier.max(end);
+            // A read the bank refuses was validated at push; nothing else to do with it here.
+            let _ = rssi.settle();
         }
         self.update_offsets(end);
         self.score_window(end);
@@ -469,6 +828,7 @@ impl Engine {
             BTreeMap::new();
         let mut scratch = Vec::new();
         let mut curve = Vec::new();
+        let mut fine = Vec::new();
         for b in 0..self.subjects.len() {
             let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
@@ -500,14 +860,17 @@ impl Engine {
                 else {
                     continue;
                 };
+                // Unknown offsets: a coarse grid over the whole range, then the fine grid
+                // around the coarse peak (a quarter of the work of the fine grid throughout).
                 let offsets: Vec<i64> = if imu.is_offset_known {
                     full.iter()
                         .map(|o| o + imu.offset_ns)
                         .filter(|o| (o - imu.offset_ns).abs() <= refine_range)
                         .collect()
                 } else {
-                    full.clone()
+                    full.iter().step_by(COARSE_LAG_STEPS).copied().collect()
                 };
+                let is_coarse = !imu.is_offset_known;
                 for key in &candidates {
                     let sig = skel_cache.entry((*key, imu.site)).or_insert_with(|| {
                         self.tracks
@@ -526,24 +889,38 @@ impl Engine {
                         &mut scratch,
                         &mut curve,
                     );
-                    let Some((offset, value)) =
+                    let Some((mut offset, mut value)) =
                         curve_peak(&offsets, &curve, self.config.offset_tie_tolerance)
                     else {
                         continue;
                     };
+                    if is_coarse {
+                        let reach = COARSE_LAG_STEPS as i64 * LAG_STEP_NS;
+                        let near = offset.div_euclid(LAG_STEP_NS) * LAG_STEP_NS;
+                        fine.clear();
+                        fine.extend(
+                            (-(COARSE_LAG_STEPS as i64)..=COARSE_LAG_STEPS as i64)
+                                .map(|k| near + k * LAG_STEP_NS)
+                                .filter(|o| o.abs() <= max_off && (o - offset).abs() <= reach),
+                        );
+                        lag_curve(
+                            &imu_sig,
+                            sig,
+                            &fine,
+                            MAX_IMU_GAP_NS,
+                            self.config.geometric.min_samples,
+                            &mut scratch,
+                            &mut curve,
+                        );
+                        if let Some(found) = curve_peak(&fine, &curve, 0.0) {
+                            (offset, value) = found;
+                        }
+                    }
                     let e = track_score.entry(*key).or_insert((0.0, 0));
                     e.0 += value;
                     e.1 += 1;
                     peaks.insert((i, *key), offset);
                 }
-            }
-            if std::env::var("NOMEN_DEBUG").is_ok() {
-                eprintln!(
-                    "DBG end {} subj {b} cands {} scores {:?}",
-                    end as f64 * 1e-9,
-                    candidates.len(),
-                    track_score
-                );
             }
             // The best track and its margin over the next one of the same camera.
             let scores: Vec<((usize, TrackId), f64)> = track_score
@@ -685,13 +1062,14 @@ impl Engine {
         sites.dedup();
         let mut imu_win = ImuWindow::default();
         for c in 0..self.cameras.len() {
+            // Tracks with a few samples in the window; the IMU models need more (below).
             let keys: Vec<(usize, TrackId)> = self
                 .tracks
                 .iter()
                 .filter(|(k, tr)| {
-                    k.0 == c && {
+                    k.0 == c && !tr.is_superseded && {
                         let (a, b) = sample_range(tr, start, end);
-                        b >= a + 8 && covered_span(tr, start, end) >= min_span
+                        b >= a + 3
                     }
                 })
                 .map(|(k, _)| *k)
@@ -701,11 +1079,16 @@ impl Engine {
             }
             let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &sites);
             let mut device_scores: Vec<((usize, TrackId), usize, f64)> = Vec::new();
+            // (row, subject) → (sum, count) of every correlation ([`MotionScore::Nomen`]).
+            let mut nomen_sums: BTreeMap<(usize, usize), (f64, usize)> = BTreeMap::new();
             for (row, key) in keys.iter().enumerate() {
                 let Some(tr) = self.tracks.get(key) else {
                     continue;
                 };
                 let (a, b) = sample_range(tr, start, end);
+                if b < a + 8 || covered_span(tr, start, end) < min_span {
+                    continue;
+                }
                 let grid: Vec<i64> = tr.samples.range(a..b).map(|s| s.t).collect();
                 let skel = SkeletonWindow {
                     camera: None,
@@ -731,8 +1114,56 @@ impl Engine {
                         until,
                         &mut imu_win,
                     );
-                    let scores =
+                    imu_win.device = Some(imu.device.clone());
+                    let mut scores =
                         geometric_scores(&imu_win, &skel, imu.site, &self.config.geometric);
+                    if let Some(scorer) = &self.pair_scorer {
+                        scores.dl = scorer.score(&imu_win, &skel, imu.site);
+                    }
+                    if self.config.motion_score == MotionScore::Belmonte
+                        && let Some(side) = match imu.site {
+                            Joint::LeftWrist => Some(Side::Left),
+                            Joint::RightWrist => Some(Side::Right),
+                            // A band at the elbow or hand may be on either forearm.
+                            Joint::LeftElbow
+                            | Joint::RightElbow
+                            | Joint::LeftHand
+                            | Joint::RightHand => Some(Side::Unknown),
+                            _ => None,
+                        }
+                    {
+                        let costs = belmonte_costs(&imu_win, &skel, side, &self.config.belmonte);
+                        if let (Some(p), Some(y)) = (costs.pitch_mse, costs.yaw_rate_mse) {
+                            let sp = self.config.belmonte_pitch_sigma_rad;
+                            let sy = self.config.belmonte_yaw_rate_sigma_radps;
+                            let similarity = (-0.5 * (p / (sp * sp) + y / (sy * sy))).exp();
+                            let cell = nomen_sums
+                                .entry((row, imu.subject))
+                                .or_insert((0.0, 0usize));
+                            cell.0 += similarity;
+                            cell.1 += 1;
+                        }
+                    }
+                    if self.config.motion_score == MotionScore::Nomen {
+                        let k = kinematic_scores(
+                            &imu_win,
+                            &skel,
+                            imu.site,
+                            &self.config.geometric,
+                            &self.config.kinematic,
+                        );
+                        let cell = nomen_sums
+                            .entry((row, imu.subject))
+                            .or_insert((0.0, 0usize));
+                        for v in [scores.acc, scores.vel, scores.ori, scores.dl]
+                            .into_iter()
+                            .flatten()
+                            .chain(k.present())
+                        {
+                            cell.0 += v;
+                            cell.1 += 1;
+                        }
+                    }
                     let models = [scores.acc, scores.vel, scores.ori];
                     let (sum, n) = models
                         .iter()
@@ -745,15 +1176,55 @@ impl Engine {
                     let _ = tensor.set(row, imu.subject, imu.site, scores);
                 }
             }
-            let matrix = fuse(&tensor, self.config.fusion, &self.config.fusion_config);
+            let matrix = match self.config.motion_score {
+                MotionScore::DeMarchi => Some(fuse(
+                    &tensor,
+                    self.config.fusion,
+                    &self.config.fusion_config,
+                )),
+                MotionScore::Nomen | MotionScore::Belmonte => None,
+            };
             let decay = self.decay_per_hop;
+            let tag_decay = self.tag_decay_per_hop;
+            let rssi_decay = self.rssi_decay_per_hop;
+            let rssi_matrix = match self.rssi.as_mut() {
+                Some(rssi) => {
+                    let tracks: Vec<Option<&TrackState>> =
+                        keys.iter().map(|k| self.tracks.get(k)).collect();
+                    rssi.camera_scores(&tracks, end, &self.rssi_tags, self.subjects.len())
+                }
+                None => Vec::new(),
+            };
             for (row, key) in keys.iter().enumerate() {
                 let Some(tr) = self.tracks.get_mut(key) else {
                     continue;
                 };
-                for b in 0..self.subjects.len() {
-                    if let Some(v) = matrix.get(row, b) {
+                let tag_scores = tag_window_scores(
+                    &self.tags,
+                    tr,
+                    end - self.tag_window_ns,
+                    end,
+                    self.config.joint_noise_std_m,
+                    self.subjects.len(),
+                );
+                let no_rssi = Vec::new();
+                let rssi_scores = rssi_matrix.get(row).unwrap_or(&no_rssi);
+                for (b, tag_score) in tag_scores.iter().enumerate() {
+                    let imu_score = match &matrix {
+                        Some(m) => m.get(row, b),
+                        None => nomen_sums
+                            .get(&(row, b))
+                            .filter(|(_, n)| *n > 0)
+                            .map(|(sum, n)| sum / *n as f64),
+                    };
+                    if let Some(v) = imu_score {
                         accumulate(tr.evidence.entry(b).or_default(), v, decay);
+                    }
+                    if let Some(v) = tag_score {
+                        accumulate(tr.tag_evidence.entry(b).or_default(), *v, tag_decay);
+                    }
+                    if let Some(v) = rssi_scores.get(b).copied().flatten() {
+                        accumulate(tr.rssi_evidence.entry(b).or_default(), v, rssi_decay);
                     }
                 }
             }
@@ -766,12 +1237,15 @@ impl Engine {
     }
     /// Assigns subjects to the active tracks of each camera.
     fn decide(&mut self, end: i64) {
-        let active_since = end - self.window_ns - self.delay_ns;
+        // Only tracks with frames still to emit take part: one that ended before this decision's
+        // frames (`end − delay − hop` onwards) keeps its last label, so a subject who walked
+        // out and came back under a new id is not fought over by the old and the new track.
+        let active_since = end - self.delay_ns - self.hop_ns;
         for c in 0..self.cameras.len() {
             let keys: Vec<(usize, TrackId)> = self
                 .tracks
                 .iter()
-                .filter(|(k, tr)| k.0 == c && tr.last_t >= active_since)
+                .filter(|(k, tr)| k.0 == c && tr.last_t >= active_since && !tr.is_superseded)
                 .map(|(k, _)| *k)
                 .collect();
             if keys.is_empty() || self.subjects.is_empty() {
@@ -785,9 +1259,20 @@ impl Engine {
                 tr.subject_scores.clear();
                 let mut row = vec![None; self.subjects.len()];
                 for s in 0..self.subjects.len() {
-                    let Some(mean) = tr.evidence.get(&s).map(|a| a.mean) else {
+                    // Every modality the subject has evidence from counts equally (crate docs).
+                    let present: Vec<f64> = [
+                        tr.evidence.get(&s),
+                        tr.tag_evidence.get(&s),
+                        tr.rssi_evidence.get(&s),
+                    ]
+                    .into_iter()
+                    .flatten()
+                    .map(|a| a.mean)
+                    .collect();
+                    if present.is_empty() {
                         continue;
-                    };
+                    }
+                    let mean = present.iter().sum::<f64>() / present.len() as f64;
                     tr.subject_scores.insert(s, mean);
                     let bonus = if tr.label == Some(s) {
                         self.config.switch_margin
@@ -829,6 +1314,7 @@ impl Engine {
 
     /// Emits every observation whose decision window is `end` or earlier.
     fn emit(&mut self, end: i64) {
+        self.emit_corrections(end);
         let due: Vec<(i64, usize, TrackId)> = self
             .pending_out
             .iter()
@@ -859,6 +1345,48 @@ impl Engine {
                 evidence,
                 joints: Joints::new(),
             }));
+        }
+    }
+
+    /// Emits a [`TagCorrection`] for every settled fix at or before `end − decision_delay`: the
+    /// fix blended with its wearer's key joint when a track labelled with the wearer has it
+    /// at that time, the raw fix otherwise (see [`crate::tags`]).
+    fn emit_corrections(&mut self, end: i64) {
+        let joint_sigma = self.config.joint_noise_std_m;
+        for k in 0..self.tags.len() {
+            while let Some(tag) = self.tags.get(k) {
+                let Some(fix) = tag.to_correct.front().copied() else {
+                    break;
+                };
+                if fix.t.saturating_add(self.delay_ns) > end {
+                    break;
+                }
+                let joint = self
+                    .tracks
+                    .values()
+                    .filter(|tr| tr.label == Some(tag.subject))
+                    .filter_map(|tr| key_joint_near(tr, tag.site, fix.t))
+                    .min_by(|a, b| {
+                        let da = (a - fix.position_world_m).norm();
+                        let db = (b - fix.position_world_m).norm();
+                        da.total_cmp(&db)
+                    });
+                let corrected = joint.map_or(fix.position_world_m, |j| {
+                    corrected_position(&fix, &j, joint_sigma)
+                });
+                self.ready.push(Message::TagCorrection(TagCorrection {
+                    t: SessionTime::from_ns(fix.t),
+                    tag: tag.device.clone(),
+                    raw_position_m: fix.position_world_m,
+                    corrected_position_m: corrected,
+                }));
+                if joint.is_some() {
+                    self.stats.num_tag_corrections += 1;
+                }
+                if let Some(tag) = self.tags.get_mut(k) {
+                    tag.to_correct.pop_front();
+                }
+            }
         }
     }
 
@@ -918,6 +1446,9 @@ impl Engine {
             while imu.t.front().is_some_and(|&t| t < cut) {
                 imu.pop_front();
             }
+        }
+        for tag in &mut self.tags {
+            tag.forget_before(end - keep);
         }
         let timeout = ns(self.config.track_timeout_s);
         for tr in self.tracks.values_mut() {
@@ -997,6 +1528,232 @@ fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise
     }
 }
 
+/// RSSI evidence: reads wait for the reorder window, then feed one Kalman filter per (tag,
+/// antenna) ([`FilterBank`]); at each window end the tracks of a camera are scored against
+/// every tag ([`RssiState::camera_scores`]).
+struct RssiState {
+    bank: FilterBank,
+    likelihood: LikelihoodConfig,
+    pending: BTreeMap<(i64, DeviceId, AntennaId), RssiRead>,
+    newest: Option<i64>,
+    frontier: i64,
+    estimates: Vec<Option<nomen_rssi::RssiEstimate>>,
+}
+
+impl RssiState {
+    /// Feeds settled reads to the filters in time order; returns the first refusal, if any.
+    fn settle(&mut self) -> Option<nomen_rssi::RssiError> {
+        let mut first = None;
+        while let Some(entry) = self.pending.first_entry() {
+            if entry.key().0 >= self.frontier {
+                break;
+            }
+            let read = entry.remove();
+            if let Err(e) = self.bank.push(&read) {
+                first.get_or_insert(e);
+            }
+        }
+        first
+    }
+
+    /// For the tracks of one camera (rows) and every subject (columns): the mean over the
+    /// subject's RSSI tags of how much more likely the tag is at this track's position than
+    /// anywhere in the area. Per tag, the likelihood of the filtered RSSI at the track's
+    /// position (its sample nearest to `end`, within [`MAX_PAIR_DT_NS`]) against the background
+    /// likelihood gives `p = nomen_rssi::pair_score` (0.5: no better than background); the
+    /// score is `2p − 1` clamped to `0..=1`. Tracks compete in the assignment, and RSSI evidence
+    /// accumulates with its own, longer half-life ([`EngineConfig::rssi_evidence_half_life_s`]):
+    /// one read says little, a walk across the antennas' field says much.
+    fn camera_scores(
+        &mut self,
+        tracks: &[Option<&TrackState>],
+        end: i64,
+        tags: &BTreeMap<DeviceId, (usize, Joint)>,
+        num_subjects: usize,
+    ) -> Vec<Vec<Option<f64>>> {
+        let mut sums = vec![vec![(0.0, 0usize); num_subjects]; tracks.len()];
+        let placement = self.bank.model().placement;
+        let mut lls = Vec::with_capacity(tracks.len());
+        let t = SessionTime::from_ns(end);
+        for (tag, (subject, site)) in tags {
+            if !self.bank.estimates_at(tag, t, &mut self.estimates) {
+                continue;
+            }
+            let model = self.bank.model();
+            lls.clear();
+            for tr in tracks {
+                let last = tr.and_then(|tr| {
+                    let i = tr.samples.partition_point(|s| s.t < end);
+                    i.checked_sub(1)
+                        .and_then(|k| tr.samples.get(k))
+                        .filter(|s| end - s.t <= MAX_PAIR_DT_NS)
+                });
+                let position = last.and_then(|last| match placement {
+                    TagPlacement::FixedHeight(h) => last
+                        .joints
+                        .get(Joint::Pelvis)
+                        .copied()
+                        .or_else(|| joint_centroid(&last.joints))
+                        .map(|p| Point3::new(p.x, p.y, h)),
+                    TagPlacement::RegistrySite => last
+                        .joints
+                        .get(*site)
+                        .copied()
+                        .or_else(|| last.joints.get(Joint::Pelvis).copied()),
+                });
+                lls.push(position.map_or(f64::NAN, |p| {
+                    log_likelihood(model, &self.estimates, &p, &self.likelihood)
+                }));
+            }
+            let bg = background_log_likelihood(model, &self.estimates, &self.likelihood);
+            for (row, ll) in sums.iter_mut().zip(&lls) {
+                if ll.is_nan() {
+                    continue;
+                }
+                if let Some(cell) = row.get_mut(*subject) {
+                    cell.0 += (2.0 * pair_score(*ll, bg) - 1.0).clamp(0.0, 1.0);
+                    cell.1 += 1;
+                }
+            }
+        }
+        sums.into_iter()
+            .map(|row| {
+                row.into_iter()
+                    .map(|(sum, n)| (n > 0).then(|| sum / n as f64))
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// Per subject, the mean over their tags of the tag-versus-track window score (see [`crate::tags`]);
+/// `None` for a subject without a tag or without enough paired fixes in the window.
+fn tag_window_scores(
+    tags: &[TagState],
+    tr: &TrackState,
+    start: i64,
+    end: i64,
+    joint_sigma_m: f64,
+    num_subjects: usize,
+) -> Vec<Option<f64>> {
+    let mut sums = vec![(0.0, 0usize); num_subjects];
+    for tag in tags {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for fix in tag.fixes_in(start, end) {
+            if let Some((joint, extra_m)) = key_joint_or_ancestor(tr, tag.site, fix.t) {
+                let sigma = joint_sigma_m.hypot(extra_m);
+                sum += fix_similarity(fix, &joint, sigma);
+                n += 1;
+            }
+        }
+        if n >= MIN_TAG_PAIRS
+            && let Some(cell) = sums.get_mut(tag.subject)
+        {
+            cell.0 += sum / n as f64;
+            cell.1 += 1;
+        }
+    }
+    sums.into_iter()
+        .map(|(sum, n)| (n > 0).then(|| sum / n as f64))
+        .collect()
+}
+
+/// Fewest fixes paired with a track in a window for a tag score (0.3 s of fixes at 10 Hz).
+const MIN_TAG_PAIRS: usize = 3;
+
+/// The track's `joint` at the sample nearest to `t`, if within [`MAX_PAIR_DT_NS`].
+fn key_joint_near(tr: &TrackState, joint: Joint, t: i64) -> Option<Point3<f64>> {
+    let i = tr.samples.partition_point(|s| s.t < t);
+    let after = tr.samples.get(i);
+    let before = i.checked_sub(1).and_then(|k| tr.samples.get(k));
+    let nearest = match (before, after) {
+        (Some(b), Some(a)) => {
+            if t - b.t <= a.t - t {
+                b
+            } else {
+                a
+            }
+        }
+        (Some(b), None) => b,
+        (None, Some(a)) => a,
+        (None, None) => return None,
+    };
+    if (nearest.t - t).abs() > MAX_PAIR_DT_NS {
+        return None;
+    }
+    nearest.joints.get(joint).copied()
+}
+
+/// The key joint at the track sample nearest to `t`, or, when the camera lost it, its nearest
+/// observed ancestor (wrist → elbow → shoulder → chest → pelvis) with the extra uncertainty of
+/// [`TAG_CHAIN_SIGMA_M`] per step: a hidden wrist still places the person.
+fn key_joint_or_ancestor(tr: &TrackState, joint: Joint, t: i64) -> Option<(Point3<f64>, f64)> {
+    let mut j = Some(joint);
+    let mut extra_m = 0.0;
+    while let Some(cur) = j {
+        if let Some(p) = key_joint_near(tr, cur, t) {
+            return Some((p, extra_m));
+        }
+        extra_m += TAG_CHAIN_SIGMA_M;
+        j = cur.parent();
+    }
+    None
+}
+
+/// Extra standard deviation per step up the kinematic chain when a tag's key joint is hidden
+/// and an ancestor stands in for it, m (about a forearm's length).
+const TAG_CHAIN_SIGMA_M: f64 = 0.25;
+
+/// Distance between `a` and `b` across the line of sight from `eye`: the angle between the two
+/// rays times the nearer one's range, m.
+fn lateral_distance_m(eye: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
+    let (ra, rb) = (a - eye, b - eye);
+    let range = ra.norm().min(rb.norm());
+    if range <= 0.0 || !range.is_finite() {
+        return (a - b).norm();
+    }
+    ra.angle(&rb) * range
+}
+
+/// The per-key average of two evidence maps (a key in one map only keeps half its weight).
+fn average_evidence<K: Ord + Copy>(
+    a: &BTreeMap<K, Accumulator>,
+    b: &BTreeMap<K, Accumulator>,
+) -> BTreeMap<K, Accumulator> {
+    let keys: BTreeSet<K> = a.keys().chain(b.keys()).copied().collect();
+    keys.into_iter()
+        .map(|k| {
+            let (x, y) = (
+                a.get(&k).copied().unwrap_or_default(),
+                b.get(&k).copied().unwrap_or_default(),
+            );
+            let w = x.weight + y.weight;
+            let mean = if w > 0.0 {
+                (x.mean * x.weight + y.mean * y.weight) / w
+            } else {
+                0.0
+            };
+            (
+                k,
+                Accumulator {
+                    mean,
+                    weight: 0.5 * w,
+                },
+            )
+        })
+        .collect()
+}
+
+/// Mean of a skeleton's observed joints (where the person is), `None` without any.
+fn joint_centroid(joints: &Joints<Point3<f64>>) -> Option<Point3<f64>> {
+    let (sum, n) = joints
+        .iter()
+        .fold((Vector3::zeros(), 0usize), |(s, n), (_, p)| {
+            (s + p.coords, n + 1)
+        });
+    (n > 0).then(|| Point3::from(sum / n as f64))
+}
+
 /// Adds one window score to an exponentially weighted mean (older scores decay per hop).
 fn accumulate(acc: &mut Accumulator, score: f64, decay_per_hop: f64) {
     let w = acc.weight * decay_per_hop;
@@ -1064,6 +1821,8 @@ fn imu_lag_signals(imu: &ImuState, lo: i64, hi: i64, config: &EngineConfig) -> O
         models: vec![
             imu_accel_magnitude(&window, &cfg),
             imu_orientation_magnitude(&window, &cfg),
+            imu_vertical_accel(&window, &cfg),
+            imu_swing_signal(&window, &cfg, &config.kinematic),
         ],
     })
 }
@@ -1094,6 +1853,8 @@ fn track_lag_signals(
         models: vec![
             joint_accel_magnitude(&skel, site, &cfg),
             segment_orientation_magnitude(&skel, site, &cfg),
+            joint_vertical_accel(&skel, site, &cfg),
+            segment_swing_signal(&skel, site, &cfg, &config.kinematic),
         ],
     })
 }

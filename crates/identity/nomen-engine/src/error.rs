@@ -1,6 +1,6 @@
 //! The error type of `nomen-engine`.
 
-use nomen_core::{CameraId, CoreError, DeviceId, SessionTime};
+use nomen_core::{AntennaId, CameraId, CoreError, DeviceId, DeviceKind, SessionTime};
 
 /// Everything the engine can refuse.
 ///
@@ -27,19 +27,34 @@ pub enum EngineError {
         /// What is wrong with it.
         error: CoreError,
     },
-    /// An IMU sample from a device no subject wears.
-    #[error("imu sample at {t} from unknown device '{device}'")]
+    /// A sensor message from a device no subject wears.
+    #[error("{kind} at {t} from unknown device '{device}'")]
     UnknownDevice {
+        /// Message type (`imu`, `rtls_fix`, `rssi`).
+        kind: &'static str,
         /// The device.
         device: DeviceId,
         /// Message time.
         t: SessionTime,
     },
-    /// An IMU sample from a registered device that is not an IMU.
-    #[error("imu sample at {t} from device '{device}', which is not registered as an imu")]
-    NotAnImu {
+    /// A sensor message from a registered device of another kind (an IMU sample from a tag, a
+    /// position fix from an IMU).
+    #[error("{kind} at {t} from device '{device}', which is registered as {registered:?}")]
+    WrongDeviceKind {
+        /// Message type.
+        kind: &'static str,
         /// The device.
         device: DeviceId,
+        /// What the registry says it is.
+        registered: DeviceKind,
+        /// Message time.
+        t: SessionTime,
+    },
+    /// An RSSI read from an antenna the registry does not list.
+    #[error("rssi read at {t} from unknown antenna '{antenna}'")]
+    UnknownAntenna {
+        /// The antenna.
+        antenna: AntennaId,
         /// Message time.
         t: SessionTime,
     },
@@ -74,9 +89,18 @@ pub enum EngineError {
     /// A filter refused its configuration or input.
     #[error("filter: {0}")]
     Filter(#[from] nomen_filters::FilterError),
+    /// The RSSI model or an RSSI read was refused (unknown antenna, implausible value).
+    #[error("rssi: {0}")]
+    Rssi(String),
     /// The assignment solver refused its input.
     #[error("assignment: {0}")]
     Assign(#[from] nomen_assign::AssignError),
+}
+
+impl From<nomen_rssi::RssiError> for EngineError {
+    fn from(e: nomen_rssi::RssiError) -> Self {
+        EngineError::Rssi(e.to_string())
+    }
 }
 
 /// Result alias of this crate.

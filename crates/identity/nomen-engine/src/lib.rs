@@ -51,11 +51,12 @@ mod engine;
 mod error;
 mod signal;
 mod stats;
+mod tags;
 
-pub use config::EngineConfig;
+pub use config::{EngineConfig, MotionScore};
 pub use engine::Engine;
 pub use error::{EngineError, Result};
-pub use nomen_evidence::{Fusion, FusionConfig, GeometricConfig};
+pub use nomen_evidence::{Fusion, FusionConfig, GeometricConfig, KinematicConfig};
 pub use stats::{ClockOffsetEstimate, EngineStats, RejectCounts};
 
 use nomen_core::{Message, Registry};
@@ -67,7 +68,20 @@ pub fn run_batch(
     messages: &[Message],
     config: &EngineConfig,
 ) -> Result<(Vec<Message>, EngineStats)> {
+    run_batch_with_rssi(registry, messages, config, None)
+}
+
+/// [`run_batch`] with RSSI evidence from a calibrated model ([`Engine::with_rssi_model`]).
+pub fn run_batch_with_rssi(
+    registry: &Registry,
+    messages: &[Message],
+    config: &EngineConfig,
+    rssi_model: Option<&nomen_rssi::RssiModel>,
+) -> Result<(Vec<Message>, EngineStats)> {
     let mut engine = Engine::new(registry.clone(), *config)?;
+    if let Some(model) = rssi_model {
+        engine = engine.with_rssi_model(model)?;
+    }
     let mut out = Vec::new();
     for msg in messages {
         // A rejected message is counted in the stats; the run goes on.

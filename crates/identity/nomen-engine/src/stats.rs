@@ -64,6 +64,18 @@ pub struct EngineStats {
     pub num_identified: u64,
     /// Times a track's label changed from one subject to another.
     pub num_label_switches: u64,
+    /// New camera tracks that continued an ended track's identity (stitching).
+    pub num_stitched: u64,
+    /// RSSI reads accepted.
+    pub num_rssi_reads: u64,
+    /// RSSI reads ignored because the engine has no RSSI model.
+    pub num_rssi_without_model: u64,
+    /// Location-tag fixes accepted.
+    pub num_tag_fixes: u64,
+    /// Tag fixes emitted corrected by their wearer's key joint.
+    pub num_tag_corrections: u64,
+    /// Close encounters after which two tracks' evidence was pooled (possible id swap).
+    pub num_encounters: u64,
     /// Clock offset estimates per IMU, once made.
     pub clock_offsets: BTreeMap<DeviceId, ClockOffsetEstimate>,
 }

@@ -175,7 +175,14 @@ impl Message {
                 for (i, e) in m.evidence.iter().enumerate() {
                     check_finite_all(&format!("evidence[{i}].score"), &[e.score])?;
                 }
-                Ok(())
+                // The joints follow the skeleton rules (finite, plausible, finite covariance).
+                SkeletonObservation {
+                    t: m.t,
+                    camera: m.camera.clone(),
+                    track: m.track,
+                    joints: m.joints.clone(),
+                }
+                .validate()
             }
             Message::TagCorrection(m) => {
                 check_finite_all("raw_position_m", m.raw_position_m.coords.as_slice())?;

@@ -64,7 +64,8 @@ pub fn run(args: DemoArgs) -> Result<()> {
             &recording,
             &result,
             nomen_engine::EngineConfig::default(),
-            false
+            false,
+            &super::run::EngineExtras::default(),
         )?
     );
     let report = super::eval_identity::evaluate_files(

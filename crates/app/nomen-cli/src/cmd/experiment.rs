@@ -5,7 +5,7 @@ use anyhow::{Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use nomen_core::Message;
 use nomen_engine::Fusion;
-use nomen_engine::{EngineConfig, run_batch};
+use nomen_engine::{EngineConfig, MotionScore, run_batch};
 use nomen_eval::identity::{EvalConfig, SceneData, evaluate};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -16,6 +16,74 @@ pub enum ExperimentCommand {
     /// De Marchi's Tables III/IV: identification accuracy for 2–8 people, per matching model and
     /// fusion, with a full body-area network or one wrist IMU each.
     ImuTable(ImuTableArgs),
+    /// Rebecchi's §7.3: occluded-wrist error and 95% ellipsoid volume of the constrained
+    /// particle filter (Original, Joint Bounding Volume, Complete) on the assembly scene.
+    Occlusion(super::occlusion::OcclusionArgs),
+    /// Belmonte-Hernández's three episodes (a person lost and re-detected, an intruder walking
+    /// beside a banded person, two banded people one of whom is lost): accuracy, intruder
+    /// anonymity, time to identify and switches for their method and nomen's.
+    Belmonte(EpisodeArgs),
+    /// Baptizo's ghosting experiments (1 and 2 subjects, tag on the right wrist) and the 8-tagged
+    /// scene: raw vs corrected tag RMSE and identity metrics, Baptizo vs the engine.
+    Ghosting(super::ghosting::GhostingArgs),
+    /// Llorca's Table I on simulated crosswalk scenes: CA, CNA, NA and delay of RSSI tag
+    /// association, standard vs directional model (calibrated from the calibration sequence),
+    /// and the engine.
+    Crosswalk(super::crosswalk::CrosswalkArgs),
+}
+
+/// Arguments of `nomen experiment belmonte`.
+#[derive(Debug, Args)]
+pub struct EpisodeArgs {
+    /// Print one JSON object instead of the table.
+    #[arg(long)]
+    json: bool,
+    /// Simulation seed of every scene.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Folder with the shared real recordings (default: $NOMEN_DATA, else ../shared/data).
+    #[arg(long)]
+    data: Option<PathBuf>,
+}
+
+/// The DL columns (with `--cnn`): the CNN alone, and De Marchi's fusions over geometry + CNN.
+const DL_COLUMNS: [(&str, Method); 5] = [
+    ("dl", Method::DeMarchi(Fusion::Dl)),
+    ("geo+dl_mean", Method::DeMarchi(Fusion::Mean)),
+    ("geo+dl_max", Method::DeMarchi(Fusion::Max)),
+    ("geo+dl_model_vote", Method::DeMarchi(Fusion::ModelVote)),
+    (
+        "geo+dl_model_joint_vote",
+        Method::DeMarchi(Fusion::ModelJointVote),
+    ),
+];
+
+/// Belmonte-Hernández's episodes, embedded like the IMU table's scenes.
+const EPISODES: [(&str, &str); 3] = [
+    (
+        "belmonte_lost_redetected.toml",
+        include_str!("../../../../../scenarios/belmonte_lost_redetected.toml"),
+    ),
+    (
+        "belmonte_one_without_band.toml",
+        include_str!("../../../../../scenarios/belmonte_one_without_band.toml"),
+    ),
+    (
+        "belmonte_two_banded_one_lost.toml",
+        include_str!("../../../../../scenarios/belmonte_two_banded_one_lost.toml"),
+    ),
+];
+
+/// One (episode, method) cell of `nomen experiment belmonte`.
+#[derive(Debug, Serialize)]
+struct EpisodeCell {
+    scenario: String,
+    seed: u64,
+    method: &'static str,
+    id_accuracy: Option<f64>,
+    intruder_anonymous_rate: Option<f64>,
+    time_to_identify_s: Option<f64>,
+    id_switches: u64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
@@ -42,6 +110,10 @@ pub struct ImuTableArgs {
     /// Folder with the shared real recordings (default: $NOMEN_DATA, else ../shared/data).
     #[arg(long)]
     data: Option<PathBuf>,
+    /// A model from `nomen train cnn` (path without extension): adds the DL column and the
+    /// Geo+DL columns (De Marchi's fusion, MotionScore::DeMarchi, with the CNN as fourth model).
+    #[arg(long)]
+    cnn: Option<PathBuf>,
 }
 
 /// The scenes of the table: the shipped scenario files, embedded so the table regenerates from any
@@ -61,17 +133,53 @@ const FULL: [(usize, &str); 5] = [
     (8, include_str!("../../../../../scenarios/imu_ban_8.toml")),
 ];
 
-/// The table's columns, in De Marchi's order.
-const COLUMNS: [(&str, Fusion); 8] = [
-    ("acc", Fusion::Acc),
-    ("vel", Fusion::Vel),
-    ("ori", Fusion::Ori),
-    ("mean", Fusion::Mean),
-    ("threshold", Fusion::Threshold),
-    ("max", Fusion::Max),
-    ("model_vote", Fusion::ModelVote),
-    ("model_joint_vote", Fusion::ModelJointVote),
+/// The table's columns: De Marchi's (their models and fusions, in their order), then
+/// Belmonte-Hernández's pitch/yaw-rate method, then nomen's own evidence.
+const COLUMNS: [(&str, Method); 10] = [
+    ("acc", Method::DeMarchi(Fusion::Acc)),
+    ("vel", Method::DeMarchi(Fusion::Vel)),
+    ("ori", Method::DeMarchi(Fusion::Ori)),
+    ("mean", Method::DeMarchi(Fusion::Mean)),
+    ("threshold", Method::DeMarchi(Fusion::Threshold)),
+    ("max", Method::DeMarchi(Fusion::Max)),
+    ("model_vote", Method::DeMarchi(Fusion::ModelVote)),
+    ("model_joint_vote", Method::DeMarchi(Fusion::ModelJointVote)),
+    ("belmonte", Method::Belmonte),
+    ("nomen", Method::Nomen),
 ];
+
+/// How one column runs the engine.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Method {
+    /// De Marchi's correlations with one fusion, with the thresholds measured for vote shares
+    /// and correlations (rejection 0.3, switch margin 0.1).
+    DeMarchi(Fusion),
+    /// Belmonte-Hernández's pitch and yaw-rate costs (rejection at a similarity of 0.2).
+    Belmonte,
+    /// The engine's defaults.
+    Nomen,
+}
+
+impl Method {
+    /// The engine configuration of this method.
+    pub(crate) fn config(self) -> EngineConfig {
+        match self {
+            Method::DeMarchi(fusion) => EngineConfig {
+                motion_score: MotionScore::DeMarchi,
+                fusion,
+                rejection_threshold: 0.3,
+                switch_margin: 0.1,
+                ..Default::default()
+            },
+            Method::Belmonte => EngineConfig {
+                motion_score: MotionScore::Belmonte,
+                rejection_threshold: 0.2,
+                ..Default::default()
+            },
+            Method::Nomen => EngineConfig::default(),
+        }
+    }
+}
 
 #[derive(Debug, Serialize)]
 struct Row {
@@ -93,10 +201,72 @@ struct Table {
 pub fn run(command: ExperimentCommand) -> Result<()> {
     match command {
         ExperimentCommand::ImuTable(args) => imu_table(&args),
+        ExperimentCommand::Occlusion(args) => super::occlusion::run(&args),
+        ExperimentCommand::Ghosting(args) => super::ghosting::run(&args),
+        ExperimentCommand::Belmonte(args) => belmonte_episodes(&args),
+        ExperimentCommand::Crosswalk(args) => super::crosswalk::run(&args),
     }
 }
 
+fn belmonte_episodes(args: &EpisodeArgs) -> Result<()> {
+    let methods = [("belmonte", Method::Belmonte), ("nomen", Method::Nomen)];
+    let mut cells = Vec::new();
+    for (source, text) in EPISODES {
+        let (scenario, sim, seed) = super::simulate::simulate_scenario(
+            text,
+            source,
+            Some(args.seed),
+            args.data.as_deref(),
+            &mut |_, _| {},
+        )?;
+        eprintln!("{}: simulated with seed {seed}", scenario.name);
+        for (name, method) in methods {
+            let (result, _) = run_batch(&sim.scene.registry, &sim.recording, &method.config())?;
+            let scene = SceneData::from_messages(&scenario.name, &sim.truth, &result);
+            let m = evaluate(&[scene], &EvalConfig::default())?.overall;
+            cells.push(EpisodeCell {
+                scenario: scenario.name.clone(),
+                seed,
+                method: name,
+                id_accuracy: m.id_accuracy,
+                intruder_anonymous_rate: m.intruder_anonymous_rate,
+                time_to_identify_s: m.time_to_identify_s,
+                id_switches: m.id_switches,
+            });
+        }
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&cells)?);
+        return Ok(());
+    }
+    println!(
+        "Belmonte-Hernández episodes, seed {} (simulate → run → eval per cell)",
+        args.seed
+    );
+    println!(
+        "{:<30} {:<9} {:>9} {:>10} {:>14} {:>8}",
+        "episode", "method", "accuracy", "intruder", "identify (s)", "switches"
+    );
+    for c in &cells {
+        println!(
+            "{:<30} {:<9} {:>9} {:>10} {:>14} {:>8}",
+            c.scenario,
+            c.method,
+            fmt_pct(c.id_accuracy),
+            fmt_pct(c.intruder_anonymous_rate),
+            c.time_to_identify_s
+                .map_or_else(|| "-".to_owned(), |v| format!("{v:.2}")),
+            c.id_switches
+        );
+    }
+    Ok(())
+}
+
 fn imu_table(args: &ImuTableArgs) -> Result<()> {
+    let cnn = match &args.cnn {
+        Some(path) => Some(std::sync::Arc::new(super::train::load_scorer(path)?)),
+        None => None,
+    };
     let scenes = match args.network {
         Network::Full => &FULL,
         Network::Wrist => &WRIST,
@@ -120,15 +290,29 @@ fn imu_table(args: &ImuTableArgs) -> Result<()> {
         )?;
         eprintln!("{}: simulated with seed {seed}", scenario.name);
         let mut accuracy = std::collections::BTreeMap::new();
-        for (name, fusion) in COLUMNS {
-            let config = EngineConfig {
-                fusion,
-                ..Default::default()
-            };
+        for (name, method) in COLUMNS {
+            let config = method.config();
             let (result, _) = run_batch(&sim.scene.registry, &sim.recording, &config)?;
             let acc = id_accuracy(&scenario.name, &sim.truth, &result)?;
             eprintln!("  {name:<17} {}", fmt_pct(acc));
             accuracy.insert(name.to_owned(), acc);
+        }
+        if let Some(cnn) = &cnn {
+            for (name, method) in DL_COLUMNS {
+                let config = method.config();
+                let mut engine = nomen_engine::Engine::new(sim.scene.registry.clone(), config)?
+                    .with_pair_scorer(Box::new(std::sync::Arc::clone(cnn)));
+                let mut result = Vec::new();
+                for m in &sim.recording {
+                    // A rejected message is counted by the engine; the run goes on.
+                    let _ = engine.push(m);
+                    engine.poll(&mut result);
+                }
+                engine.finish(&mut result);
+                let acc = id_accuracy(&scenario.name, &sim.truth, &result)?;
+                eprintln!("  {name:<17} {}", fmt_pct(acc));
+                accuracy.insert(name.to_owned(), acc);
+            }
         }
         rows.push(Row {
             people: *people,
@@ -159,7 +343,7 @@ fn id_accuracy(name: &str, truth: &[Message], result: &[Message]) -> Result<Opti
     Ok(report.overall.id_accuracy)
 }
 
-fn fmt_pct(v: Option<f64>) -> String {
+pub(crate) fn fmt_pct(v: Option<f64>) -> String {
     v.map_or_else(|| "-".to_owned(), |a| format!("{:.1}%", 100.0 * a))
 }
 
@@ -173,14 +357,19 @@ fn render(table: &Table) -> String {
         table.seed
     );
     out.push_str(&format!("{:>6}", "people"));
-    for (name, _) in COLUMNS {
+    let has_dl = table
+        .rows
+        .iter()
+        .any(|r| r.accuracy.contains_key(DL_COLUMNS[0].0));
+    let dl_names: &[(&str, Method)] = if has_dl { &DL_COLUMNS } else { &[] };
+    for (name, _) in COLUMNS.iter().chain(dl_names) {
         out.push_str(&format!("  {name:>16}"));
     }
     out.push('\n');
     for row in &table.rows {
         out.push_str(&format!("{:>6}", row.people));
-        for (name, _) in COLUMNS {
-            let v = row.accuracy.get(name).copied().flatten();
+        for (name, _) in COLUMNS.iter().chain(dl_names) {
+            let v = row.accuracy.get(*name).copied().flatten();
             out.push_str(&format!("  {:>16}", fmt_pct(v)));
         }
         out.push('\n');

@@ -1,12 +1,18 @@
 //! One module per subcommand.
 
+pub mod calibrate;
+pub mod calibrate_rssi;
+pub mod crosswalk;
 pub mod demo;
 pub mod eval;
 pub mod eval_identity;
 pub mod experiment;
 pub mod fit;
+pub mod ghosting;
 pub mod import;
 pub mod mocap;
+pub mod occlusion;
 pub mod run;
 pub mod simulate;
+pub mod train;
 pub mod validate;

@@ -1,9 +1,15 @@
 //! `nomen run`: a recording through the engine, identified skeletons out (streaming; `-` works
 //! for stdin and stdout, so a live pipe works).
+//!
+//! `--method` picks the identity method: `nomen` (the streaming engine), or one of the published
+//! baselines kept for comparison, `baptizo` (Bazo 2019, UWB tags, `nomen_rtls`) and `llorca`
+//! (Llorca et al., RSSI tags, `nomen_rssi`; needs `--rssi-model`). The baselines are batch: the
+//! whole recording is read first, then decided, then written in time order.
 
+use crate::refine::Refinement;
 use anyhow::{Context, Result, bail};
-use clap::Args;
-use nomen_core::Message;
+use clap::{Args, ValueEnum};
+use nomen_core::{Message, Registry};
 use nomen_engine::{Engine, EngineConfig};
 use nomen_recording::{
     DEFAULT_GLOBAL_TOLERANCE_NS, ErrorPolicy, Header, IdCheck, ReadOptions, RecordingReader,
@@ -25,14 +31,203 @@ pub struct RunArgs {
     /// Skip malformed input lines (counted and reported) instead of stopping.
     #[arg(long)]
     pub skip_bad: bool,
+    /// Identity method: the nomen engine, or a published baseline.
+    #[arg(long, value_enum, default_value_t = Method::Nomen)]
+    pub method: Method,
+    /// RSSI model (JSON, as written by `nomen calibrate rssi RECORDING --out MODEL.json`);
+    /// required by `llorca`, and gives the engine (`nomen`) RSSI evidence.
+    #[arg(long, value_name = "MODEL.json")]
+    pub rssi_model: Option<PathBuf>,
+    /// Pose refinement (engine only): fill the joints of every identified skeleton, with elbows
+    /// and wrists the camera lost estimated by the occluded-joint particle filter
+    /// (`state: estimated`, with covariance).
+    #[arg(long)]
+    pub refine_joints: bool,
+    /// Environment mesh (OBJ or PLY, world frame) whose surfaces estimated joints may not pass
+    /// through, e.g. the `obstacles.obj` that `nomen simulate` writes. Needs `--refine-joints`.
+    #[arg(long, value_name = "MESH")]
+    pub environment: Option<PathBuf>,
+}
+
+/// What the engine path of `nomen run` adds to the engine itself.
+#[derive(Debug, Default)]
+pub struct EngineExtras {
+    /// RSSI model for RSSI evidence.
+    pub rssi_model: Option<nomen_rssi::RssiModel>,
+    /// Run the pose-refinement stage.
+    pub refine_joints: bool,
+    /// Environment mesh for the refinement.
+    pub environment: Option<PathBuf>,
+}
+
+fn load_rssi_model(path: &Path) -> Result<nomen_rssi::RssiModel> {
+    let text = crate::io::read_text(path)?;
+    Ok(nomen_rssi::RssiModel::from_json(
+        &text,
+        &path.display().to_string(),
+    )?)
+}
+
+/// The identity methods `nomen run` can use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// nomen's streaming engine (every modality; `--config` applies).
+    Nomen,
+    /// Bazo's Baptizo on UWB tag fixes, as published (`nomen_rtls::run_baptizo`).
+    Baptizo,
+    /// Llorca's RSSI association (`nomen_rssi::run_llorca`); needs `--rssi-model`.
+    Llorca,
 }
 
 /// Runs `nomen run`.
 pub fn run(args: RunArgs) -> Result<()> {
-    let config = load_config(args.config.as_deref())?;
-    let summary = run_file(&args.recording, &args.out, config, args.skip_bad)?;
+    let summary = match args.method {
+        Method::Nomen => {
+            if args.environment.is_some() && !args.refine_joints {
+                bail!("--environment is used by the pose refinement: add --refine-joints");
+            }
+            let config = load_config(args.config.as_deref())?;
+            let extras = EngineExtras {
+                rssi_model: args
+                    .rssi_model
+                    .as_deref()
+                    .map(load_rssi_model)
+                    .transpose()?,
+                refine_joints: args.refine_joints,
+                environment: args.environment.clone(),
+            };
+            run_file(&args.recording, &args.out, config, args.skip_bad, &extras)?
+        }
+        Method::Baptizo | Method::Llorca => {
+            if args.refine_joints || args.environment.is_some() {
+                bail!(
+                    "--refine-joints and --environment work with the engine (--method nomen) only"
+                );
+            }
+            if args.config.is_some() {
+                bail!(
+                    "--config configures the nomen engine; --method baptizo and --method llorca use their published settings"
+                );
+            }
+            let baseline = match (args.method, &args.rssi_model) {
+                (Method::Llorca, None) => {
+                    bail!(
+                        "--method llorca needs --rssi-model MODEL.json (fit one with `nomen calibrate rssi RECORDING --out MODEL.json`)"
+                    )
+                }
+                (Method::Llorca, Some(path)) => Baseline::Llorca(load_rssi_model(path)?),
+                (_, Some(_)) => {
+                    bail!("--rssi-model is used by --method llorca and --method nomen only")
+                }
+                (_, None) => Baseline::Baptizo,
+            };
+            run_baseline_file(&args.recording, &args.out, &baseline, args.skip_bad)?
+        }
+    };
     eprintln!("{summary}");
     Ok(())
+}
+
+/// A published method run as a batch over the whole recording.
+#[derive(Debug)]
+pub enum Baseline {
+    /// Baptizo with its default settings.
+    Baptizo,
+    /// Llorca's association with this RSSI model.
+    Llorca(nomen_rssi::RssiModel),
+}
+
+impl Baseline {
+    fn name(&self) -> &'static str {
+        match self {
+            Baseline::Baptizo => "baptizo",
+            Baseline::Llorca(_) => "llorca",
+        }
+    }
+}
+
+fn read_policy(skip_bad: bool) -> ErrorPolicy {
+    if skip_bad {
+        ErrorPolicy::SkipAndCount
+    } else {
+        ErrorPolicy::Stop
+    }
+}
+
+fn open_writer(
+    out: &Path,
+    recording: &Path,
+    registry: Registry,
+    generator: &str,
+) -> Result<RecordingWriter<Box<dyn std::io::Write>>> {
+    let header = Header::new(registry)
+        .with_meta("generator", generator)
+        .with_meta("input", crate::io::source_name(recording));
+    let sink = crate::io::create_write(out)?;
+    Ok(RecordingWriter::with_options(
+        sink,
+        &crate::io::sink_name(out),
+        &header,
+        WriteOptions {
+            id_check: IdCheck::Header,
+            global_tolerance_ns: DEFAULT_GLOBAL_TOLERANCE_NS,
+        },
+    )?)
+}
+
+/// Reads the whole of `recording`, decides it with `baseline` and writes the decisions to `out`
+/// in time order; returns a summary line.
+pub fn run_baseline_file(
+    recording: &Path,
+    out: &Path,
+    baseline: &Baseline,
+    skip_bad: bool,
+) -> Result<String> {
+    let mut reader = RecordingReader::open_with_options(
+        recording,
+        ReadOptions::with_policy(read_policy(skip_bad)),
+    )?;
+    let Some(registry) = reader.header().registry.clone() else {
+        bail!(
+            "{}: the header carries no registry, so {} does not know who wears what",
+            crate::io::source_name(recording),
+            baseline.name()
+        );
+    };
+    let mut messages = Vec::new();
+    for m in reader.by_ref() {
+        messages.push(m?);
+    }
+    let mut decided = match baseline {
+        Baseline::Baptizo => nomen_rtls::run_baptizo(&registry, &messages)
+            .with_context(|| format!("{}: baptizo", crate::io::source_name(recording)))?,
+        Baseline::Llorca(model) => nomen_rssi::run_llorca(&registry, model, &messages)
+            .with_context(|| format!("{}: llorca", crate::io::source_name(recording)))?,
+    };
+    // The writer wants time order; a stable sort keeps each time's messages in decision order.
+    decided.sort_by_key(Message::t);
+    let mut writer = open_writer(
+        out,
+        recording,
+        registry,
+        &format!("nomen run --method {}", baseline.name()),
+    )?;
+    for m in &decided {
+        writer.write(m)?;
+    }
+    writer.finish()?;
+    let stats = reader.into_stats();
+    let num_identified = decided
+        .iter()
+        .filter(|m| matches!(m, Message::Identified(_)))
+        .count();
+    Ok(format!(
+        "{}: {stats}; {} wrote {num_identified} decisions and {} other messages to {}",
+        crate::io::source_name(recording),
+        baseline.name(),
+        decided.len() - num_identified,
+        crate::io::sink_name(out)
+    ))
 }
 
 /// Loads an engine configuration file, or the defaults.
@@ -53,14 +248,12 @@ pub fn run_file(
     out: &Path,
     config: EngineConfig,
     skip_bad: bool,
+    extras: &EngineExtras,
 ) -> Result<String> {
-    let policy = if skip_bad {
-        ErrorPolicy::SkipAndCount
-    } else {
-        ErrorPolicy::Stop
-    };
-    let mut reader =
-        RecordingReader::open_with_options(recording, ReadOptions::with_policy(policy))?;
+    let mut reader = RecordingReader::open_with_options(
+        recording,
+        ReadOptions::with_policy(read_policy(skip_bad)),
+    )?;
     let Some(registry) = reader.header().registry.clone() else {
         bail!(
             "{}: the header carries no registry, so the engine does not know who wears what",
@@ -68,54 +261,73 @@ pub fn run_file(
         );
     };
     let mut engine = Engine::new(registry.clone(), config)?;
-    let header = Header::new(registry)
-        .with_meta("generator", "nomen run")
-        .with_meta("input", crate::io::source_name(recording));
-    let sink = crate::io::create_write(out)?;
-    let mut writer = RecordingWriter::with_options(
-        sink,
-        &crate::io::sink_name(out),
-        &header,
-        WriteOptions {
-            id_check: IdCheck::Header,
-            global_tolerance_ns: DEFAULT_GLOBAL_TOLERANCE_NS,
-        },
-    )?;
+    if let Some(model) = &extras.rssi_model {
+        engine = engine
+            .with_rssi_model(model)
+            .with_context(|| format!("{}: the RSSI model", crate::io::source_name(recording)))?;
+    }
+    let mut refinement = if extras.refine_joints {
+        Some(Refinement::new(&registry, extras.environment.as_deref())?)
+    } else {
+        None
+    };
+    let mut writer = open_writer(out, recording, registry, "nomen run")?;
     let mut batch: Vec<Message> = Vec::new();
     let mut num_rejected = 0u64;
     let mut first_rejection = None;
     let mut num_out = 0u64;
-    let mut write_batch =
-        |batch: &mut Vec<Message>, writer: &mut RecordingWriter<_>| -> Result<()> {
-            batch.sort_by_key(|m| m.t());
-            for m in batch.drain(..) {
-                writer.write(&m)?;
-                num_out += 1;
+    let mut write_batch = |batch: &mut Vec<Message>,
+                           writer: &mut RecordingWriter<_>,
+                           refinement: &mut Option<Refinement>|
+     -> Result<()> {
+        batch.sort_by_key(|m| m.t());
+        for mut m in batch.drain(..) {
+            if let (Some(r), Message::Identified(id)) = (refinement.as_mut(), &mut m) {
+                r.refine(id)?;
             }
-            Ok(())
-        };
+            writer.write(&m)?;
+            num_out += 1;
+        }
+        Ok(())
+    };
     for m in reader.by_ref() {
         let m = m?;
+        if let (Some(r), Message::Skeleton(s)) = (refinement.as_mut(), &m) {
+            r.observe(s);
+        }
         if let Err(e) = engine.push(&m) {
             num_rejected += 1;
             first_rejection.get_or_insert_with(|| e.to_string());
         }
         engine.poll(&mut batch);
         if !batch.is_empty() {
-            write_batch(&mut batch, &mut writer)?;
+            write_batch(&mut batch, &mut writer, &mut refinement)?;
         }
     }
     engine.finish(&mut batch);
-    write_batch(&mut batch, &mut writer)?;
+    write_batch(&mut batch, &mut writer, &mut refinement)?;
     writer.finish()?;
     let stats = reader.into_stats();
     let mut summary = format!(
-        "{}: {stats}; engine rejected {num_rejected} messages; wrote {num_out} decisions to {}",
+        "{}: {stats}; engine rejected {num_rejected} messages, stitched {} tracks, estimated {} clock offsets; wrote {num_out} decisions to {}",
         crate::io::source_name(recording),
+        engine.stats().num_stitched,
+        engine.stats().clock_offsets.len(),
         crate::io::sink_name(out)
     );
     if let Some(first) = first_rejection {
         summary.push_str(&format!(" (first rejection: {first})"));
+    }
+    if let Some(r) = &refinement {
+        summary.push_str(&format!("; estimated {} occluded joints", r.num_estimated));
+    }
+    for (device, est) in &engine.stats().clock_offsets {
+        summary.push_str(&format!(
+            "\n  clock offset {device}: {:+.3} s (peak correlation {:.2}, {} updates)",
+            est.offset_ns as f64 * 1e-9,
+            est.correlation,
+            est.num_updates
+        ));
     }
     Ok(summary)
 }

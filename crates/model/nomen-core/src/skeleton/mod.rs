@@ -292,6 +292,9 @@ pub enum JointState {
     Inferred,
     /// Not available at all; the position is meaningless.
     Missing,
+    /// Not seen by the camera but estimated by nomen's pose refinement (occluded-joint particle
+    /// filter); [`JointObservation::covariance_m2`] says how sure the estimate is.
+    Estimated,
 }
 
 /// One joint of one skeleton observation.
@@ -302,9 +305,12 @@ pub struct JointObservation {
     /// Estimator confidence in `0..=1`.
     #[serde(default = "one")]
     pub confidence: f64,
-    /// Tracked, inferred or missing.
+    /// Tracked, inferred, missing or estimated.
     #[serde(default)]
     pub state: JointState,
+    /// Position covariance in the same frame, m², row-major 3×3: set on estimated joints.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub covariance_m2: Option<[[f64; 3]; 3]>,
 }
 
 fn one() -> f64 {
@@ -318,6 +324,7 @@ impl JointObservation {
             position_m,
             confidence: 1.0,
             state: JointState::Tracked,
+            covariance_m2: None,
         }
     }
 }
@@ -355,6 +362,9 @@ impl SkeletonObservation {
             }
             let field = format!("joints.{j}.position_m");
             check_finite_all(&field, obs.position_m.coords.as_slice())?;
+            if let Some(c) = &obs.covariance_m2 {
+                check_finite_all(&format!("joints.{j}.covariance_m2"), c.as_flattened())?;
+            }
             for (axis, v) in obs.position_m.coords.iter().enumerate() {
                 check_range(
                     &format!("{field}[{axis}]"),

@@ -225,6 +225,7 @@ fn derive_midpoint(out: &mut Joints<JointObservation>, target: Joint, a: Joint, 
         position_m: mid,
         confidence: pa.confidence.min(pb.confidence),
         state: JointState::Inferred,
+        covariance_m2: None,
     };
     out.insert(target, obs);
 }

@@ -536,6 +536,7 @@ impl CameraSimulator {
                         position_m: self.model.camera_from_world * p_true_w + noise_c * sigma,
                         confidence: noise.tracked_confidence,
                         state: JointState::Tracked,
+                        covariance_m2: None,
                     }
                 } else {
                     let hidden_s = state
@@ -556,12 +557,14 @@ impl CameraSimulator {
                                 + noise_c * (sigma * noise.inferred_sigma_factor),
                             confidence: noise.inferred_confidence,
                             state: JointState::Inferred,
+                            covariance_m2: None,
                         }
                     } else {
                         JointObservation {
                             position_m: Point3::origin(),
                             confidence: 0.0,
                             state: JointState::Missing,
+                            covariance_m2: None,
                         }
                     }
                 };

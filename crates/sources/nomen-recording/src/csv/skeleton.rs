@@ -203,6 +203,7 @@ impl JointCollector {
             position_m: Point3::origin(),
             confidence: 0.0,
             state: JointState::Missing,
+            covariance_m2: None,
         };
         let frame: Vec<JointObservation> =
             self.by_index.iter().map(|o| o.unwrap_or(absent)).collect();
@@ -314,6 +315,7 @@ fn observation<R: Read>(
         position_m: Point3::from(p),
         confidence,
         state,
+        covariance_m2: None,
     })
 }
 

@@ -85,6 +85,7 @@ pub fn skeleton(t_ns: i64, track: u64) -> Message {
             position_m: Point3::new(0.0, 1.7, 2.5),
             confidence: 0.75,
             state: JointState::Inferred,
+            covariance_m2: None,
         },
     );
     Message::Skeleton(SkeletonObservation {

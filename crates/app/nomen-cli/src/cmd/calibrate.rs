@@ -1,0 +1,206 @@
+//! `nomen calibrate frames`: the camera-to-RTLS transform (rigid or similarity, Umeyama with
+//! RANSAC) and the clock offset, from a recording where one tagged person walks or from known
+//! point pairs (Belmonte-Hernández's 6–10 points).
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use nomen_calib::FitKind;
+use nomen_calib::fit::{FitQualityConfig, ResidualReport, SimilarityTransform};
+use nomen_calib::points::parse_point_pairs;
+use nomen_calib::ransac::{RansacConfig, fit_ransac};
+use nomen_calib::recording::{FramesCalibrationConfig, calibrate_from_recording};
+use nomen_core::{CameraId, TagId};
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// `nomen calibrate ...`
+#[derive(Debug, Subcommand)]
+pub enum CalibrateCommand {
+    /// Camera-to-RTLS transform and clock offset from a walk (RECORDING) or from point pairs
+    /// (--points).
+    Frames(FramesArgs),
+    /// RSSI models per antenna (Llorca's automatic calibration) from a recording in which one
+    /// tagged person is tracked alone; writes the model file `nomen run` (llorca) loads.
+    Rssi(super::calibrate_rssi::CalibrateRssiArgs),
+}
+
+/// Arguments of `nomen calibrate frames`.
+#[derive(Debug, Args)]
+pub struct FramesArgs {
+    /// A recording (skeletons in the camera frame, fixes in the RTLS frame) of one tagged person
+    /// walking a loop.
+    recording: Option<PathBuf>,
+    /// Point pairs CSV instead of a recording: header `source_x,source_y,source_z,target_x,
+    /// target_y,target_z` (or `camera_*`, `world_*`), metres.
+    #[arg(long, conflicts_with = "recording")]
+    points: Option<PathBuf>,
+    /// The camera (default: the only one in the recording).
+    #[arg(long)]
+    camera: Option<String>,
+    /// The tag (default: the only one in the recording).
+    #[arg(long)]
+    tag: Option<String>,
+    /// Fit a similarity (rotation, translation and scale) instead of a rigid transform.
+    #[arg(long)]
+    similarity: bool,
+    /// RANSAC inlier threshold, m (default: 0.5 for a walk, 0.05 for point pairs).
+    #[arg(long)]
+    threshold_m: Option<f64>,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct Output {
+    kind: FitKind,
+    rotation_wxyz: [f64; 4],
+    rotation_deg_about_axis: (f64, [f64; 3]),
+    translation_m: [f64; 3],
+    scale: f64,
+    /// Camera stamp minus tag stamp of the same instant, s (walks only).
+    clock_offset_s: Option<f64>,
+    clock_contrast: Option<f64>,
+    residuals: ResidualReport,
+    warnings: Vec<String>,
+}
+
+/// Runs `nomen calibrate ...`.
+pub fn run(command: CalibrateCommand) -> Result<()> {
+    match command {
+        CalibrateCommand::Frames(args) => frames(&args),
+        CalibrateCommand::Rssi(args) => super::calibrate_rssi::run(args),
+    }
+}
+
+fn output(
+    kind: FitKind,
+    t: &SimilarityTransform,
+    clock: Option<(f64, f64)>,
+    residuals: ResidualReport,
+) -> Output {
+    let q = t.rotation();
+    let (axis, angle) = q
+        .axis_angle()
+        .map_or(([0.0, 0.0, 1.0], 0.0), |(a, ang)| ([a.x, a.y, a.z], ang));
+    let tr = t.translation_m();
+    Output {
+        kind,
+        rotation_wxyz: [q.w, q.i, q.j, q.k],
+        rotation_deg_about_axis: (angle.to_degrees(), axis),
+        translation_m: [tr.x, tr.y, tr.z],
+        scale: t.scale,
+        clock_offset_s: clock.map(|c| c.0),
+        clock_contrast: clock.map(|c| c.1),
+        warnings: residuals.warnings.iter().map(ToString::to_string).collect(),
+        residuals,
+    }
+}
+
+fn frames(args: &FramesArgs) -> Result<()> {
+    let kind = if args.similarity {
+        FitKind::Similarity
+    } else {
+        FitKind::Rigid
+    };
+    let out = if let Some(path) = &args.points {
+        let text = crate::io::read_text(path)?;
+        let pairs = parse_point_pairs(&text, &crate::io::source_name(path))?;
+        let source: Vec<_> = pairs.iter().map(|p| p.source_m).collect();
+        let target: Vec<_> = pairs.iter().map(|p| p.target_m).collect();
+        let ransac = RansacConfig {
+            inlier_threshold_m: args.threshold_m.unwrap_or(0.05),
+            ..RansacConfig::default()
+        };
+        let fit = fit_ransac(&source, &target, kind, &ransac)
+            .with_context(|| format!("fitting the point pairs of {}", path.display()))?;
+        let report = ResidualReport::new(
+            &fit.transform,
+            kind,
+            &source,
+            &target,
+            &fit.inliers,
+            &FitQualityConfig::default(),
+        );
+        output(kind, &fit.transform, None, report)
+    } else {
+        let Some(path) = &args.recording else {
+            bail!("give a RECORDING or --points PAIRS.csv");
+        };
+        let rec = nomen_recording::read_file(path)
+            .with_context(|| format!("reading {}", path.display()))?;
+        let registry = rec.header.registry.clone().unwrap_or_default();
+        let mut config = FramesCalibrationConfig::default();
+        config.clock.kind = kind;
+        if let Some(t) = args.threshold_m {
+            config.ransac.inlier_threshold_m = t;
+        }
+        // Fixes carry ~0.4 m of 3D noise: judge the residual against that, not surveyed points.
+        config.quality.max_rmse_m = 0.5;
+        let camera = args.camera.as_deref().map(CameraId::new);
+        let tag = args.tag.as_deref().map(TagId::new);
+        let cal = calibrate_from_recording(
+            &registry,
+            &rec.messages,
+            camera.as_ref(),
+            tag.as_ref(),
+            &config,
+        )
+        .with_context(|| format!("calibrating from {}", path.display()))?;
+        output(
+            kind,
+            &cal.rtls_from_camera,
+            Some((cal.clock.offset_ns as f64 * 1e-9, cal.clock.contrast())),
+            cal.report,
+        )
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+        return Ok(());
+    }
+    println!(
+        "{} fit (target_from_source = rtls/world from camera):",
+        match kind {
+            FitKind::Rigid => "rigid",
+            FitKind::Similarity => "similarity",
+        }
+    );
+    println!(
+        "  rotation: {:.3}° about [{:.4}, {:.4}, {:.4}]  (wxyz {:.6}, {:.6}, {:.6}, {:.6})",
+        out.rotation_deg_about_axis.0,
+        out.rotation_deg_about_axis.1[0],
+        out.rotation_deg_about_axis.1[1],
+        out.rotation_deg_about_axis.1[2],
+        out.rotation_wxyz[0],
+        out.rotation_wxyz[1],
+        out.rotation_wxyz[2],
+        out.rotation_wxyz[3]
+    );
+    println!(
+        "  translation: [{:.4}, {:.4}, {:.4}] m   scale: {:.5}",
+        out.translation_m[0], out.translation_m[1], out.translation_m[2], out.scale
+    );
+    if let (Some(o), Some(c)) = (out.clock_offset_s, out.clock_contrast) {
+        println!(
+            "  clock offset (camera − tag stamps): {:+.3} s   (curve contrast {:.1}; near 1 = not observable)",
+            o, c
+        );
+    }
+    let r = &out.residuals;
+    println!(
+        "  residuals: {} pairs, {} inliers, inlier RMS {:.1} cm, median {:.1} cm, p95 {:.1} cm, max {:.1} cm",
+        r.num_points,
+        r.num_inliers,
+        100.0 * r.rmse_inliers_m,
+        100.0 * r.median_m,
+        100.0 * r.p95_m,
+        100.0 * r.max_m
+    );
+    if out.warnings.is_empty() {
+        println!("  fit looks good");
+    }
+    for w in &out.warnings {
+        println!("  warning: {w}");
+    }
+    Ok(())
+}

@@ -1,0 +1,300 @@
+//! nomen's own motion models, beside De Marchi's three: signals that keep the *sign* and the
+//! *timing* of the motion instead of a magnitude relative to the window's first sample.
+//!
+//! De Marchi's models compare magnitudes, which throws away direction, and the orientation model
+//! measures the rotation from the window's first sample, which is dominated by slow heading
+//! changes. Two people walking the same way at the same pace then look alike. These models use
+//! what both sides measure without knowing the sensor's mounting on the segment or the AHRS's
+//! heading reference:
+//!
+//! | model | IMU | skeleton |
+//! |---|---|---|
+//! | swing | rotation angle of `q_{k−L}⁻¹ q_k` (how far the sensor turned in the last `L` samples) | angle between the carrying bone's direction at `k−L` and at `k` |
+//! | vertical acceleration | world `z` of the linear acceleration (gravity removed with the AHRS tilt, which is observable without a magnetometer), 3 Hz zero-phase low-pass | `z̈` of the joint through the same low-pass |
+//! | vertical velocity | leaky integral of that vertical acceleration | `ż` of the joint through the same leak (see [`crate::geometric`]) |
+//! | inclination | elevation of each sensor axis, `asin((q·e)_z)` | elevation of the carrying segment (the largest \|r\| over the three axes: the mounting is unknown) |
+//!
+//! The vertical components are signed, so a foot going up is not confused with one coming down;
+//! the world `z` axis is shared by the camera calibration and the AHRS (gravity), unlike the
+//! horizontal axes. The swing angle over a short lag (default 0.2 s) follows the limb's
+//! swing rate, a signal with the gait's timing in it, and is invariant to the mounting. As in
+//! De Marchi's orientation model the twist about the bone is invisible to the camera and only
+//! lowers the correlation.
+//!
+//! Every score is a Pearson correlation in `-1..=1` (`None` when a signal is missing, constant or
+//! too short), so the fusions treat these models like De Marchi's.
+
+use crate::geometric::{
+    GeometricConfig, carrying_segment, filtered_joint_derivative, imu_linear_accel_world,
+    joint_positions, leak,
+};
+use crate::signal::{Derivative, grid_rate_hz, moving_average, pearson};
+use crate::window::{ImuWindow, SkeletonWindow};
+use nalgebra::{UnitQuaternion, Vector3};
+use nomen_core::skeleton::Joint;
+use serde::{Deserialize, Serialize};
+
+/// Configuration of nomen's models.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct KinematicConfig {
+    /// Lag over which the swing angle is measured, s. Default 0.2 s (a fifth of a gait cycle:
+    /// long enough for the camera's bone direction noise to average out, short enough to keep
+    /// the swing's timing).
+    pub swing_lag_s: f64,
+}
+
+impl Default for KinematicConfig {
+    fn default() -> Self {
+        Self { swing_lag_s: 0.2 }
+    }
+}
+
+/// Correlations of nomen's models for one (IMU, skeleton joint) pair.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct KinematicScores {
+    /// Swing angle over the lag.
+    pub swing: Option<f64>,
+    /// Vertical linear acceleration.
+    pub vertical_accel: Option<f64>,
+    /// Vertical velocity (leaky).
+    pub vertical_vel: Option<f64>,
+    /// Inclination of the carrying segment against the best-matching sensor axis.
+    pub inclination: Option<f64>,
+}
+
+impl KinematicScores {
+    /// The scores present, in field order.
+    pub fn present(&self) -> impl Iterator<Item = f64> + '_ {
+        [
+            self.swing,
+            self.vertical_accel,
+            self.vertical_vel,
+            self.inclination,
+        ]
+        .into_iter()
+        .flatten()
+    }
+}
+
+/// nomen's three correlations for the IMU worn at `site` and the joint `site` of a candidate
+/// skeleton (see the module docs). Windows on different grids give all `None`.
+pub fn kinematic_scores(
+    imu: &ImuWindow,
+    skel: &SkeletonWindow,
+    site: Joint,
+    geo: &GeometricConfig,
+    cfg: &KinematicConfig,
+) -> KinematicScores {
+    if imu.t_s.len() != skel.t_s.len() || imu.t_s.is_empty() {
+        return KinematicScores::default();
+    }
+    let lag = grid_rate_hz(&imu.t_s)
+        .map(|r| (cfg.swing_lag_s * r).round().max(1.0) as usize)
+        .unwrap_or(1);
+    let smooth = |mut v: Vec<f64>| {
+        moving_average(&mut v, geo.moving_average_len);
+        v
+    };
+    let corr = |a: Vec<f64>, b: Vec<f64>| pearson(&smooth(a), &smooth(b), geo.min_samples);
+    let lin = imu_linear_accel_world(imu, geo);
+    KinematicScores {
+        swing: corr(imu_swing(imu, lag), segment_swing(skel, site, lag)),
+        vertical_accel: corr(
+            lin.iter().map(|a| a.z).collect(),
+            filtered_joint_derivative(skel, site, Derivative::Acceleration, geo)
+                .map(|d| d.iter().map(|a| a.z).collect())
+                .unwrap_or_else(|| vec![f64::NAN; skel.t_s.len()]),
+        ),
+        vertical_vel: corr(
+            imu_vertical_velocity(imu, &lin, geo),
+            joint_vertical_velocity(skel, site, geo),
+        ),
+        inclination: inclination_score(imu, skel, site, geo),
+    }
+}
+
+/// The segment's elevation above the horizontal against the elevation of each sensor axis
+/// (`asin((q·e)_z)`, which needs only the AHRS tilt): the largest |Pearson correlation| over the
+/// three axes. The axis along the segment is unknown (mounting), and its sign flips the
+/// correlation's, hence the absolute value; the maximum over three axes lifts wrong pairs a
+/// little, the same for every candidate.
+fn inclination_score(
+    imu: &ImuWindow,
+    skel: &SkeletonWindow,
+    site: Joint,
+    geo: &GeometricConfig,
+) -> Option<f64> {
+    let (from, to) = carrying_segment(site);
+    let mut bone: Vec<f64> = joint_positions(skel, to)
+        .iter()
+        .zip(joint_positions(skel, from))
+        .map(|(b, a)| elevation_rad(&(b - a)))
+        .collect();
+    moving_average(&mut bone, geo.moving_average_len);
+    [Vector3::x(), Vector3::y(), Vector3::z()]
+        .iter()
+        .filter_map(|e| {
+            let mut axis: Vec<f64> = imu
+                .world_from_sensor
+                .iter()
+                .map(|q| elevation_rad(&(q * e)))
+                .collect();
+            moving_average(&mut axis, geo.moving_average_len);
+            pearson(&axis, &bone, geo.min_samples).map(f64::abs)
+        })
+        .reduce(f64::max)
+}
+
+/// Elevation of a vector above the horizontal plane, rad (NaN if degenerate).
+fn elevation_rad(d: &Vector3<f64>) -> f64 {
+    let horizontal = d.x.hypot(d.y);
+    if (horizontal > 0.0 || d.z != 0.0) && d.iter().all(|v| v.is_finite()) {
+        d.z.atan2(horizontal)
+    } else {
+        f64::NAN
+    }
+}
+
+/// Rotation angle of the sensor over the last `lag` samples, rad (NaN where unknown).
+fn imu_swing(imu: &ImuWindow, lag: usize) -> Vec<f64> {
+    let ok = |q: &UnitQuaternion<f64>| q.coords.iter().all(|c| c.is_finite());
+    (0..imu.t_s.len())
+        .map(|k| {
+            let a = k
+                .checked_sub(lag)
+                .and_then(|i| imu.world_from_sensor.get(i));
+            match (a, imu.world_from_sensor.get(k)) {
+                (Some(a), Some(b)) if ok(a) && ok(b) => (a.inverse() * b).angle(),
+                _ => f64::NAN,
+            }
+        })
+        .collect()
+}
+
+/// Angle the carrying bone turned over the last `lag` samples, rad (NaN where unknown).
+fn segment_swing(skel: &SkeletonWindow, site: Joint, lag: usize) -> Vec<f64> {
+    let (from, to) = carrying_segment(site);
+    let dirs: Vec<Option<Vector3<f64>>> = joint_positions(skel, to)
+        .iter()
+        .zip(joint_positions(skel, from))
+        .map(|(b, a)| (b - a).try_normalize(1e-9))
+        .collect();
+    (0..skel.t_s.len())
+        .map(|k| {
+            let a = k
+                .checked_sub(lag)
+                .and_then(|i| dirs.get(i))
+                .copied()
+                .flatten();
+            match (a, dirs.get(k).copied().flatten()) {
+                (Some(a), Some(b)) => a.angle(&b),
+                _ => f64::NAN,
+            }
+        })
+        .collect()
+}
+
+/// Leaky integral of the IMU's vertical linear acceleration, m/s (starts at 0 in the window).
+fn imu_vertical_velocity(imu: &ImuWindow, lin: &[Vector3<f64>], geo: &GeometricConfig) -> Vec<f64> {
+    let mut v = 0.0;
+    let mut started = false;
+    let mut out = Vec::with_capacity(lin.len());
+    for (k, a) in lin.iter().enumerate() {
+        if let (Some(t1), Some(t0)) = (
+            imu.t_s.get(k),
+            k.checked_sub(1).and_then(|i| imu.t_s.get(i)),
+        ) {
+            let dt = t1 - t0;
+            v *= leak(dt, geo);
+            if started && a.z.is_finite() {
+                v += a.z * dt;
+            }
+        }
+        started |= a.z.is_finite();
+        out.push(if started && a.z.is_finite() {
+            v
+        } else {
+            f64::NAN
+        });
+    }
+    out
+}
+
+/// The joint's vertical velocity through the IMU integrator's leak, m/s.
+fn joint_vertical_velocity(skel: &SkeletonWindow, site: Joint, geo: &GeometricConfig) -> Vec<f64> {
+    let Some(vel) = filtered_joint_derivative(skel, site, Derivative::Velocity, geo) else {
+        return vec![f64::NAN; skel.t_s.len()];
+    };
+    let mut u = 0.0;
+    let mut last: Option<f64> = None;
+    let mut out = Vec::with_capacity(vel.len());
+    for (k, v) in vel.iter().enumerate() {
+        if let (Some(t1), Some(t0)) = (
+            skel.t_s.get(k),
+            k.checked_sub(1).and_then(|i| skel.t_s.get(i)),
+        ) {
+            u *= leak(t1 - t0, geo);
+        }
+        if v.z.is_finite() {
+            if let Some(prev) = last {
+                u += v.z - prev;
+            }
+            last = Some(v.z);
+            out.push(u);
+        } else {
+            out.push(f64::NAN);
+        }
+    }
+    out
+}
+
+/// The IMU's vertical linear acceleration on its window's own times, m/s² (world `z`, gravity
+/// removed, 3 Hz zero-phase low-pass, moving average), for lag searches on longer buffers.
+pub fn imu_vertical_accel(imu: &ImuWindow, geo: &GeometricConfig) -> Vec<f64> {
+    let mut v: Vec<f64> = imu_linear_accel_world(imu, geo)
+        .iter()
+        .map(|a| a.z)
+        .collect();
+    moving_average(&mut v, geo.moving_average_len);
+    v
+}
+
+/// A joint's vertical acceleration on the skeleton window's own times, m/s² (through the IMU's
+/// low-pass and moving average).
+pub fn joint_vertical_accel(skel: &SkeletonWindow, site: Joint, geo: &GeometricConfig) -> Vec<f64> {
+    let mut v: Vec<f64> = filtered_joint_derivative(skel, site, Derivative::Acceleration, geo)
+        .map(|d| d.iter().map(|a| a.z).collect())
+        .unwrap_or_else(|| vec![f64::NAN; skel.t_s.len()]);
+    moving_average(&mut v, geo.moving_average_len);
+    v
+}
+
+/// The IMU's swing angle over the last `cfg.swing_lag_s` on its window's own times, rad.
+pub fn imu_swing_signal(imu: &ImuWindow, geo: &GeometricConfig, cfg: &KinematicConfig) -> Vec<f64> {
+    let lag = lag_samples(&imu.t_s, cfg);
+    let mut v = imu_swing(imu, lag);
+    moving_average(&mut v, geo.moving_average_len);
+    v
+}
+
+/// The carrying segment's swing angle over the last `cfg.swing_lag_s` on the skeleton window's
+/// own times, rad.
+pub fn segment_swing_signal(
+    skel: &SkeletonWindow,
+    site: Joint,
+    geo: &GeometricConfig,
+    cfg: &KinematicConfig,
+) -> Vec<f64> {
+    let lag = lag_samples(&skel.t_s, cfg);
+    let mut v = segment_swing(skel, site, lag);
+    moving_average(&mut v, geo.moving_average_len);
+    v
+}
+
+/// The swing lag in samples of a grid (at least one).
+fn lag_samples(t_s: &[f64], cfg: &KinematicConfig) -> usize {
+    grid_rate_hz(t_s)
+        .map(|r| (cfg.swing_lag_s * r).round().max(1.0) as usize)
+        .unwrap_or(1)
+}

@@ -1,0 +1,416 @@
+//! Llorca's association and the calibration on small synthetic scenes (no shared data): two
+//! people crossing in front of two antennas, one of them tagged; reads drawn from a known
+//! standard model with Gaussian shadowing.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use nalgebra::{Point3, Vector3};
+use nomen_core::skeleton::Joints;
+use nomen_core::{
+    Antenna, AntennaId, Camera, CameraId, DeviceId, DeviceKind, Identity, Joint, JointObservation,
+    Message, Registry, RssiRead, SessionTime, SkeletonObservation, Subject, SubjectId, TrackId,
+    Wearable,
+};
+use nomen_rssi::{
+    CalibrationConfig, Llorca, LlorcaConfig, ModelKind, RssiError, RssiModel, RssiUnit,
+    TagPlacement, calibrate, run_llorca, run_llorca_with,
+};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+const P1_DBM: f64 = -45.0;
+const K_DB: f64 = 22.0;
+const SIGMA_DB: f64 = 4.0;
+const TAG_HEIGHT_M: f64 = 1.3;
+
+fn registry(num_tags: usize) -> Registry {
+    let subjects = (0..num_tags)
+        .map(|i| Subject {
+            id: SubjectId::new(format!("s{i}")),
+            name: None,
+            wears: vec![Wearable {
+                device: DeviceId::new(format!("tag{i}")),
+                kind: DeviceKind::RfidTag,
+                site: Joint::Chest,
+                clock: Default::default(),
+            }],
+        })
+        .collect();
+    Registry {
+        subjects,
+        cameras: vec![Camera {
+            id: CameraId::new("cam"),
+            world_from_camera: Default::default(),
+            intrinsics: None,
+            fps_hz: Some(25.0),
+            clock: Default::default(),
+        }],
+        anchors: Vec::new(),
+        antennas: vec![
+            Antenna {
+                id: AntennaId::new("ant0"),
+                position_m: Point3::new(6.0, 0.5, 1.0),
+                boresight: Some(Vector3::y()),
+            },
+            Antenna {
+                id: AntennaId::new("ant1"),
+                position_m: Point3::new(9.0, 0.5, 1.0),
+                boresight: Some(Vector3::y()),
+            },
+        ],
+    }
+}
+
+/// Person `k`'s ground position at `t_s`: person 0 walks away from the antennas at x = 7,
+/// person 1 walks towards them at x = 8.5 (opposite directions), 1.3 m/s.
+fn position(k: usize, t_s: f64) -> Point3<f64> {
+    let y = 1.0 + (1.3 * t_s).min(8.5);
+    match k {
+        0 => Point3::new(7.0, y, 0.95),
+        _ => Point3::new(8.5, 10.5 - y, 0.95),
+    }
+}
+
+fn skeleton(t_s: f64, track: u64, pelvis: Point3<f64>) -> Message {
+    let mut joints = Joints::new();
+    joints.insert(Joint::Pelvis, JointObservation::tracked(pelvis));
+    Message::Skeleton(SkeletonObservation {
+        t: SessionTime::from_secs_f64(t_s).unwrap(),
+        camera: CameraId::new("cam"),
+        track: TrackId(track),
+        joints,
+    })
+}
+
+struct SceneSpec {
+    num_people: usize,
+    /// `wearer[i]`: person wearing tag i.
+    wearer: Vec<usize>,
+    duration_s: f64,
+    /// Reads stop after this time (the tag falls silent).
+    reads_until_s: f64,
+    /// Antennas that hear the tags.
+    hearing: Vec<usize>,
+    seed: u64,
+}
+
+/// Skeletons at 25 Hz and reads at 10 Hz per antenna, time ordered (reads first at equal t).
+fn scene(reg: &Registry, spec: &SceneSpec) -> Vec<Message> {
+    let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
+    let noise = Normal::new(0.0, SIGMA_DB).unwrap();
+    let mut msgs = Vec::new();
+    let num_frames = (spec.duration_s * 25.0) as usize;
+    for f in 0..num_frames {
+        let t = f as f64 / 25.0;
+        for k in 0..spec.num_people {
+            msgs.push(skeleton(t, 10 + k as u64, position(k, t)));
+        }
+    }
+    let num_polls = (spec.duration_s.min(spec.reads_until_s) * 10.0) as usize;
+    for (tag, person) in spec.wearer.iter().enumerate() {
+        for a in &spec.hearing {
+            let antenna = &reg.antennas[*a];
+            let phase: f64 = rng.random::<f64>() * 0.1;
+            for p in 0..num_polls {
+                let t = p as f64 * 0.1 + phase;
+                let mut x = position(*person, t);
+                x.z = TAG_HEIGHT_M;
+                let d = (x - antenna.position_m).norm();
+                let rssi = P1_DBM - K_DB * d.log10() + noise.sample(&mut rng);
+                msgs.push(Message::Rssi(RssiRead {
+                    t: SessionTime::from_secs_f64(t).unwrap(),
+                    tag: DeviceId::new(format!("tag{tag}")),
+                    antenna: antenna.id.clone(),
+                    rssi_dbm: rssi.round(),
+                    phase_rad: None,
+                }));
+            }
+        }
+    }
+    msgs.sort_by_key(|m| (m.t(), !matches!(m, Message::Rssi(_))));
+    msgs
+}
+
+/// A model calibrated from a one-person synthetic recording (so the calibration is tested too).
+fn calibrated_model(reg: &Registry) -> RssiModel {
+    let mut msgs = Vec::new();
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    let noise = Normal::new(0.0, SIGMA_DB).unwrap();
+    // Zig-zag over the area in front of both antennas for 60 s.
+    let pos = |t: f64| {
+        let x = 4.0 + 7.0 * (0.5 + 0.5 * (0.21 * t).sin());
+        let y = 1.0 + 8.5 * (0.5 + 0.5 * (0.9 * t).sin());
+        Point3::new(x, y, 0.95)
+    };
+    for f in 0..1500 {
+        let t = f as f64 / 25.0;
+        msgs.push(skeleton(t, 1, pos(t)));
+    }
+    for a in &reg.antennas {
+        for p in 0..600 {
+            let t = p as f64 * 0.1 + 0.013;
+            let mut x = pos(t);
+            x.z = TAG_HEIGHT_M;
+            let d = (x - a.position_m).norm();
+            msgs.push(Message::Rssi(RssiRead {
+                t: SessionTime::from_secs_f64(t).unwrap(),
+                tag: DeviceId::new("tag0"),
+                antenna: a.id.clone(),
+                rssi_dbm: P1_DBM - K_DB * d.log10() + noise.sample(&mut rng),
+                phase_rad: None,
+            }));
+        }
+    }
+    msgs.sort_by_key(Message::t);
+    let config = CalibrationConfig {
+        placement: TagPlacement::FixedHeight(TAG_HEIGHT_M),
+        ..CalibrationConfig::default()
+    };
+    let report = calibrate(reg, &msgs, &config, "synthetic").unwrap();
+    report.model
+}
+
+fn labels(out: &[Message], track: u64) -> Vec<Identity> {
+    out.iter()
+        .filter_map(|m| match m {
+            Message::Identified(i) if i.track == TrackId(track) => Some(i.identity.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+fn fraction(v: &[Identity], who: &Identity) -> f64 {
+    v.iter().filter(|i| *i == who).count() as f64 / v.len().max(1) as f64
+}
+
+#[test]
+fn calibration_recovers_the_model_that_drew_the_reads() {
+    let reg = registry(1);
+    let model = calibrated_model(&reg);
+    for a in &model.antennas {
+        assert!(
+            (a.p1_dbm - P1_DBM).abs() < 1.0,
+            "{}: P1 {}",
+            a.antenna,
+            a.p1_dbm
+        );
+        assert!(
+            (a.k_db_per_decade - K_DB).abs() < 1.5,
+            "{}: K {}",
+            a.antenna,
+            a.k_db_per_decade
+        );
+        let s = a.noise.variance_db2(3.0, 0.0).sqrt();
+        assert!((s / SIGMA_DB - 1.0).abs() < 0.15, "{}: σ {s}", a.antenna);
+    }
+}
+
+#[test]
+fn the_tagged_person_is_named_and_the_other_stays_anonymous() {
+    let reg = registry(1);
+    let model = calibrated_model(&reg);
+    let spec = SceneSpec {
+        num_people: 2,
+        wearer: vec![0],
+        duration_s: 8.0,
+        reads_until_s: f64::INFINITY,
+        hearing: vec![0, 1],
+        seed: 1,
+    };
+    let out = run_llorca(&reg, &model, &scene(&reg, &spec)).unwrap();
+    let s0 = Identity::Subject(SubjectId::new("s0"));
+    let tagged = labels(&out, 10);
+    let untagged = labels(&out, 11);
+    assert_eq!(tagged.len(), 200);
+    assert!(fraction(&tagged, &s0) > 0.9, "{}", fraction(&tagged, &s0));
+    assert_eq!(fraction(&untagged, &s0), 0.0);
+    // Exactly one output per skeleton, in time order.
+    assert_eq!(out.len(), 400);
+    assert!(out.windows(2).all(|w| w[0].t() <= w[1].t()));
+}
+
+#[test]
+fn two_tags_on_two_people_are_told_apart() {
+    let reg = registry(2);
+    let model = calibrated_model(&reg);
+    let spec = SceneSpec {
+        num_people: 2,
+        wearer: vec![1, 0],
+        duration_s: 8.0,
+        reads_until_s: f64::INFINITY,
+        hearing: vec![0, 1],
+        seed: 2,
+    };
+    let out = run_llorca(&reg, &model, &scene(&reg, &spec)).unwrap();
+    let p0 = labels(&out, 10);
+    let p1 = labels(&out, 11);
+    assert!(fraction(&p0, &Identity::Subject(SubjectId::new("s1"))) > 0.8);
+    assert!(fraction(&p1, &Identity::Subject(SubjectId::new("s0"))) > 0.8);
+}
+
+#[test]
+fn a_tag_heard_on_only_one_antenna_is_still_associated() {
+    let reg = registry(1);
+    let model = calibrated_model(&reg);
+    let spec = SceneSpec {
+        num_people: 2,
+        wearer: vec![0],
+        duration_s: 8.0,
+        reads_until_s: f64::INFINITY,
+        hearing: vec![0],
+        seed: 3,
+    };
+    let out = run_llorca(&reg, &model, &scene(&reg, &spec)).unwrap();
+    let s0 = Identity::Subject(SubjectId::new("s0"));
+    // ant1 is silent, which is evidence too (censored): whoever is labelled, it must mostly be
+    // the wearer, and the other person must not carry the tag most of the time.
+    let tagged = fraction(&labels(&out, 10), &s0);
+    let untagged = fraction(&labels(&out, 11), &s0);
+    assert!(tagged > untagged, "{tagged} vs {untagged}");
+    assert!(untagged < 0.1, "{untagged}");
+}
+
+#[test]
+fn a_tag_never_heard_again_releases_its_lock() {
+    let reg = registry(1);
+    let model = calibrated_model(&reg);
+    let spec = SceneSpec {
+        num_people: 2,
+        wearer: vec![0],
+        duration_s: 8.0,
+        reads_until_s: 3.0,
+        hearing: vec![0, 1],
+        seed: 4,
+    };
+    let (out, stats) =
+        run_llorca_with(&reg, &model, &LlorcaConfig::default(), &scene(&reg, &spec)).unwrap();
+    let s0 = Identity::Subject(SubjectId::new("s0"));
+    let tagged = labels(&out, 10);
+    // Named while heard (frames 25..75 = 1–3 s) ...
+    assert!(fraction(&tagged[25..75], &s0) > 0.9);
+    // ... anonymous once the tag has been silent for longer than the timeout (2 s): t > 5.2 s.
+    assert_eq!(fraction(&tagged[130..], &s0), 0.0);
+    assert!(stats.num_locks >= 1 && stats.num_unlocks >= 1, "{stats:?}");
+}
+
+#[test]
+fn bad_reads_are_rejected_with_their_source_and_the_stream_goes_on() {
+    let reg = registry(1);
+    let model = calibrated_model(&reg);
+    let mut llorca = Llorca::new(reg.clone(), &model, LlorcaConfig::default()).unwrap();
+    let mut out = Vec::new();
+    let read = |t_s: f64, antenna: &str, v: f64| {
+        Message::Rssi(RssiRead {
+            t: SessionTime::from_secs_f64(t_s).unwrap(),
+            tag: DeviceId::new("tag0"),
+            antenna: AntennaId::new(antenna),
+            rssi_dbm: v,
+            phase_rad: None,
+        })
+    };
+    // NaN.
+    let e = llorca
+        .push(&read(0.1, "ant0", f64::NAN), &mut out)
+        .unwrap_err();
+    assert!(matches!(e, RssiError::NonFiniteRssi { .. }), "{e}");
+    // An antenna the registry does not know.
+    let e = llorca
+        .push(&read(0.2, "ant9", -60.0), &mut out)
+        .unwrap_err();
+    assert!(
+        e.to_string().contains("ant9") && e.to_string().contains("registry"),
+        "{e}"
+    );
+    // dBm×100 without the unit declared.
+    let e = llorca
+        .push(&read(0.3, "ant0", -6000.0), &mut out)
+        .unwrap_err();
+    assert!(e.to_string().contains("dBm×100"), "{e}");
+    // A good read and a skeleton go through; then something older than a decided frame is out
+    // of order.
+    llorca.push(&read(0.4, "ant0", -60.0), &mut out).unwrap();
+    llorca
+        .push(&skeleton(0.5, 1, position(0, 0.5)), &mut out)
+        .unwrap();
+    llorca.push(&read(0.6, "ant1", -60.0), &mut out).unwrap();
+    assert_eq!(out.len(), 1);
+    let e = llorca
+        .push(&read(0.45, "ant0", -60.0), &mut out)
+        .unwrap_err();
+    assert!(matches!(e, RssiError::OutOfOrder { .. }), "{e}");
+    // Reads of a tag nobody wears are counted, not errors.
+    let stray = Message::Rssi(RssiRead {
+        t: SessionTime::from_secs_f64(0.7).unwrap(),
+        tag: DeviceId::new("stranger"),
+        antenna: AntennaId::new("ant0"),
+        rssi_dbm: -70.0,
+        phase_rad: None,
+    });
+    llorca.push(&stray, &mut out).unwrap();
+    llorca.finish(&mut out);
+    let s = llorca.stats();
+    assert_eq!(s.num_rejected, 4);
+    assert_eq!(s.num_reads, 2);
+    assert_eq!(s.num_unknown_tag_reads, 1);
+}
+
+#[test]
+fn centi_dbm_reads_associate_when_the_unit_is_declared() {
+    let reg = registry(1);
+    let model = calibrated_model(&reg);
+    let spec = SceneSpec {
+        num_people: 2,
+        wearer: vec![0],
+        duration_s: 6.0,
+        reads_until_s: f64::INFINITY,
+        hearing: vec![0, 1],
+        seed: 5,
+    };
+    let centi: Vec<Message> = scene(&reg, &spec)
+        .into_iter()
+        .map(|m| match m {
+            Message::Rssi(mut r) => {
+                r.rssi_dbm *= 100.0;
+                Message::Rssi(r)
+            }
+            other => other,
+        })
+        .collect();
+    let s0 = Identity::Subject(SubjectId::new("s0"));
+    // Undeclared: every read is rejected, nobody is named.
+    let (out, stats) = run_llorca_with(&reg, &model, &LlorcaConfig::default(), &centi).unwrap();
+    assert_eq!(stats.num_reads, 0);
+    assert_eq!(fraction(&labels(&out, 10), &s0), 0.0);
+    // Declared: converted, and the wearer is named.
+    let config = LlorcaConfig {
+        rssi_unit: RssiUnit::CentiDbm,
+        ..LlorcaConfig::default()
+    };
+    let (out, _) = run_llorca_with(&reg, &model, &config, &centi).unwrap();
+    assert!(fraction(&labels(&out, 10), &s0) > 0.85);
+}
+
+#[test]
+fn a_model_missing_a_registry_antenna_is_refused() {
+    let reg = registry(1);
+    let mut model = calibrated_model(&reg);
+    model.antennas.pop();
+    let err = Llorca::new(reg.clone(), &model, LlorcaConfig::default())
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(err.contains("ant1"), "{err}");
+    assert_eq!(model.kind, ModelKind::Standard);
+}
+
+#[test]
+fn empty_input_gives_empty_output() {
+    let reg = registry(1);
+    let model = calibrated_model(&reg);
+    assert!(run_llorca(&reg, &model, &[]).unwrap().is_empty());
+    let err = calibrate(&reg, &[], &CalibrationConfig::default(), "empty.jsonl")
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(err.contains("empty.jsonl"), "{err}");
+}

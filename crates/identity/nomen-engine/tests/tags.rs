@@ -1,0 +1,338 @@
+//! Location tags in the engine: people walking back and forth under one camera, some wearing a
+//! UWB tag at the right wrist that reports noisy fixes at 10 Hz.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use nalgebra::{Point3, Vector3};
+use nomen_core::skeleton::Joints;
+use nomen_core::{
+    Camera, CameraId, ClockModel, DeviceId, DeviceKind, Identity, Joint, JointObservation, Message,
+    Registry, RigidTransform, RtlsFix, SessionTime, SkeletonObservation, Subject, SubjectId,
+    TrackId, Wearable,
+};
+use nomen_engine::{EngineConfig, EngineError, run_batch};
+
+const CAMERA: &str = "cam";
+
+/// One walker: along x between 1 and 7 m at `speed`, at lateral position `y_m`.
+#[derive(Clone)]
+struct Walker {
+    subject: Option<&'static str>,
+    y_m: f64,
+    speed_mps: f64,
+    track: u64,
+    /// `(time, new id)`: the camera re-labels the walker.
+    relabel: Option<(f64, u64)>,
+    /// Tags worn: `(device suffix, site)`.
+    tags: Vec<(&'static str, Joint)>,
+    /// No fixes in this time range, s.
+    silent: Option<(f64, f64)>,
+}
+
+impl Walker {
+    fn new(subject: Option<&'static str>, y_m: f64, speed_mps: f64, track: u64) -> Self {
+        Walker {
+            subject,
+            y_m,
+            speed_mps,
+            track,
+            relabel: None,
+            tags: subject
+                .map(|_| vec![("tag", Joint::RightWrist)])
+                .unwrap_or_default(),
+            silent: None,
+        }
+    }
+
+    fn pelvis(&self, t: f64) -> Point3<f64> {
+        // A triangle wave between 1 and 7 m.
+        let s = (self.speed_mps * t) % 12.0;
+        let x = if s < 6.0 { 1.0 + s } else { 13.0 - s };
+        Point3::new(x, self.y_m, 0.95)
+    }
+
+    fn joint(&self, t: f64, j: Joint) -> Point3<f64> {
+        let p = self.pelvis(t);
+        let swing = 0.2 * (2.0 * std::f64::consts::PI * 0.9 * t + self.y_m).sin();
+        let offset = match j {
+            Joint::Chest => Vector3::new(0.0, 0.0, 0.45),
+            Joint::RightShoulder => Vector3::new(0.0, -0.2, 0.5),
+            Joint::RightElbow => Vector3::new(0.5 * swing, -0.22, 0.2),
+            Joint::RightWrist => Vector3::new(swing, -0.24, -0.05),
+            Joint::LeftShoulder => Vector3::new(0.0, 0.2, 0.5),
+            Joint::LeftElbow => Vector3::new(-0.5 * swing, 0.22, 0.2),
+            Joint::LeftWrist => Vector3::new(-swing, 0.24, -0.05),
+            _ => Vector3::zeros(),
+        };
+        p + offset
+    }
+
+    fn track_at(&self, t: f64) -> TrackId {
+        match self.relabel {
+            Some((at, id)) if t >= at => TrackId(id),
+            _ => TrackId(self.track),
+        }
+    }
+}
+
+fn registry(walkers: &[Walker]) -> Registry {
+    Registry {
+        subjects: walkers
+            .iter()
+            .filter_map(|w| w.subject.map(|s| (s, w)))
+            .map(|(s, w)| Subject {
+                id: SubjectId::new(s),
+                name: None,
+                wears: w
+                    .tags
+                    .iter()
+                    .map(|(suffix, site)| Wearable {
+                        device: DeviceId::new(format!("{s}_{suffix}")),
+                        kind: DeviceKind::UwbTag,
+                        site: *site,
+                        clock: ClockModel::default(),
+                    })
+                    .collect(),
+            })
+            .collect(),
+        cameras: vec![Camera {
+            id: CameraId::new(CAMERA),
+            world_from_camera: RigidTransform::default(),
+            intrinsics: None,
+            fps_hz: Some(30.0),
+            clock: ClockModel::default(),
+        }],
+        ..Default::default()
+    }
+}
+
+fn ns(t: f64) -> SessionTime {
+    SessionTime::from_secs_f64(t).unwrap()
+}
+
+/// Deterministic noise in about ±`amp` (a fixed quasi-random sequence, no RNG needed).
+fn noise(k: usize, axis: usize, amp: f64) -> f64 {
+    let x = ((k * 7919 + axis * 104_729) as f64 * 0.618_033_988_75).fract();
+    amp * (2.0 * x - 1.0)
+}
+
+fn recording(walkers: &[Walker], duration_s: f64) -> Vec<Message> {
+    let mut msgs = Vec::new();
+    let joints = [
+        Joint::Pelvis,
+        Joint::Chest,
+        Joint::RightShoulder,
+        Joint::RightElbow,
+        Joint::RightWrist,
+        Joint::LeftShoulder,
+        Joint::LeftElbow,
+        Joint::LeftWrist,
+    ];
+    for k in 0..(duration_s * 30.0) as usize {
+        let t = k as f64 / 30.0;
+        for w in walkers {
+            let mut obs = Joints::new();
+            for j in joints {
+                obs.insert(j, JointObservation::tracked(w.joint(t, j)));
+            }
+            msgs.push(Message::Skeleton(SkeletonObservation {
+                t: ns(t),
+                camera: CameraId::new(CAMERA),
+                track: w.track_at(t),
+                joints: obs,
+            }));
+        }
+    }
+    for (i, w) in walkers.iter().enumerate() {
+        let Some(s) = w.subject else { continue };
+        for (suffix, site) in &w.tags {
+            for k in 0..(duration_s * 10.0) as usize {
+                let t = k as f64 / 10.0 + 0.013 * (i + 1) as f64;
+                if w.silent.is_some_and(|(a, b)| (a..b).contains(&t)) {
+                    continue;
+                }
+                let truth = w.joint(t, *site);
+                let p = truth + Vector3::new(noise(k, 0, 0.4), noise(k, 1, 0.4), noise(k, 2, 0.5));
+                msgs.push(Message::RtlsFix(RtlsFix {
+                    t: ns(t),
+                    tag: DeviceId::new(format!("{s}_{suffix}")),
+                    position_m: p,
+                    quality: None,
+                    covariance_m2: None,
+                }));
+            }
+        }
+    }
+    msgs.sort_by_key(|m| m.t());
+    msgs
+}
+
+/// Fraction of the walkers' identified frames after `from_s` that carry their subject (or
+/// `Anonymous` for walkers without one).
+fn accuracy(walkers: &[Walker], out: &[Message], from_s: f64) -> f64 {
+    let (mut n, mut right) = (0, 0);
+    for m in out {
+        let Message::Identified(id) = m else { continue };
+        let t = id.t.as_secs_f64();
+        let Some(w) = walkers.iter().find(|w| w.track_at(t) == id.track) else {
+            continue;
+        };
+        if t < from_s {
+            continue;
+        }
+        n += 1;
+        if id.identity.subject().map(|s| s.as_str()) == w.subject {
+            right += 1;
+        }
+    }
+    assert!(n > 0, "no frames after {from_s} s");
+    right as f64 / n as f64
+}
+
+fn three_walkers() -> Vec<Walker> {
+    vec![
+        Walker::new(Some("ana"), 1.0, 1.2, 1),
+        Walker::new(Some("ben"), 2.2, 0.9, 2),
+        Walker::new(None, 3.4, 1.1, 3),
+    ]
+}
+
+#[test]
+fn tagged_walkers_are_named_the_untagged_one_stays_anonymous_and_fixes_are_corrected() {
+    let walkers = three_walkers();
+    let msgs = recording(&walkers, 20.0);
+    let (out, stats) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    assert!(accuracy(&walkers, &out, 1.0) > 0.99, "{stats:?}");
+    assert!(accuracy(&walkers[2..], &out, 0.0) == 1.0);
+    // Every fix comes back once, and the corrected ones are far closer to the wrist.
+    let corrections: Vec<_> = out
+        .iter()
+        .filter_map(|m| match m {
+            Message::TagCorrection(c) => Some(c),
+            _ => None,
+        })
+        .collect();
+    let num_fixes = msgs
+        .iter()
+        .filter(|m| matches!(m, Message::RtlsFix(_)))
+        .count();
+    assert_eq!(corrections.len(), num_fixes);
+    let (mut raw, mut corrected) = (0.0, 0.0);
+    for c in &corrections {
+        let w = if c.tag.as_str() == "ana_tag" {
+            &walkers[0]
+        } else {
+            &walkers[1]
+        };
+        let truth = w.joint(c.t.as_secs_f64(), Joint::RightWrist);
+        raw += (c.raw_position_m - truth).norm_squared();
+        corrected += (c.corrected_position_m - truth).norm_squared();
+    }
+    assert!(corrected < 0.1 * raw, "raw {raw}, corrected {corrected}");
+}
+
+#[test]
+fn a_fix_jumping_30_m_changes_nothing() {
+    let walkers = three_walkers();
+    let mut msgs = recording(&walkers, 20.0);
+    let mut jumped = 0;
+    for m in &mut msgs {
+        if let Message::RtlsFix(f) = m
+            && f.tag.as_str() == "ana_tag"
+            && (10.0..10.5).contains(&f.t.as_secs_f64())
+        {
+            f.position_m.x += 30.0;
+            jumped += 1;
+        }
+    }
+    assert!(jumped >= 4);
+    let (out, _) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    assert!(accuracy(&walkers, &out, 1.0) > 0.99);
+}
+
+#[test]
+fn a_tag_silent_for_10_s_neither_blocks_nor_names_anyone_else() {
+    let mut walkers = three_walkers();
+    walkers[0].silent = Some((5.0, 15.0));
+    let msgs = recording(&walkers, 20.0);
+    let num_skeletons = msgs
+        .iter()
+        .filter(|m| matches!(m, Message::Skeleton(_)))
+        .count();
+    let (out, _) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    let ids: Vec<_> = out
+        .iter()
+        .filter_map(|m| match m {
+            Message::Identified(id) => Some(id),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(ids.len(), num_skeletons);
+    // Nobody but Ana's track is ever called Ana.
+    assert!(
+        ids.iter()
+            .filter(|id| id.identity == Identity::Subject(SubjectId::new("ana")))
+            .all(|id| id.track == TrackId(1))
+    );
+    // Ben and the untagged walker are unaffected.
+    assert!(accuracy(&walkers[1..], &out, 1.0) > 0.99);
+}
+
+#[test]
+fn two_tags_on_one_person_both_count() {
+    let mut walkers = three_walkers();
+    walkers[0].tags = vec![("right", Joint::RightWrist), ("left", Joint::LeftWrist)];
+    let msgs = recording(&walkers, 20.0);
+    let (out, _) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    assert!(accuracy(&walkers, &out, 1.0) > 0.99);
+    let corrected_left = out.iter().any(|m| {
+        matches!(m, Message::TagCorrection(c) if c.tag.as_str() == "ana_left"
+            && (c.corrected_position_m - c.raw_position_m).norm() > 0.0)
+    });
+    assert!(corrected_left);
+}
+
+#[test]
+fn an_unknown_tag_is_rejected_by_name_and_the_rest_goes_on() {
+    let walkers = three_walkers();
+    let mut msgs = recording(&walkers, 12.0);
+    let stranger = Message::RtlsFix(RtlsFix {
+        t: ns(3.0),
+        tag: DeviceId::new("stranger"),
+        position_m: Point3::new(2.0, 1.0, 1.0),
+        quality: None,
+        covariance_m2: None,
+    });
+    msgs.push(stranger.clone());
+    msgs.sort_by_key(|m| m.t());
+    let mut engine =
+        nomen_engine::Engine::new(registry(&walkers), EngineConfig::default()).unwrap();
+    let err = engine.push(&stranger).unwrap_err();
+    assert!(matches!(err, EngineError::UnknownDevice { .. }), "{err}");
+    assert!(err.to_string().contains("stranger"), "{err}");
+    let (out, stats) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    assert_eq!(stats.rejected.num_unknown_device, 1);
+    assert!(accuracy(&walkers, &out, 1.0) > 0.99);
+}
+
+#[test]
+fn a_walker_relabelled_by_the_camera_is_named_again_within_a_second() {
+    let mut walkers = three_walkers();
+    walkers[0].relabel = Some((9.0, 11));
+    let msgs = recording(&walkers, 20.0);
+    let (out, _) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    let after: Vec<_> = out
+        .iter()
+        .filter_map(|m| match m {
+            Message::Identified(id) if id.track == TrackId(11) => Some(id),
+            _ => None,
+        })
+        .collect();
+    assert!(!after.is_empty());
+    let named_from = after
+        .iter()
+        .filter(|id| id.identity == Identity::Subject(SubjectId::new("ana")))
+        .map(|id| id.t.as_secs_f64())
+        .fold(f64::INFINITY, f64::min);
+    assert!(named_from <= 10.0, "named from {named_from} s");
+    assert!(accuracy(&walkers, &out, 10.0) > 0.99);
+}

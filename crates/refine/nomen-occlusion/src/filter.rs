@@ -1,0 +1,653 @@
+//! One constrained particle filter for one joint (Rebecchi's enhanced constrained particle
+//! filter, after Casalino et al.).
+//!
+//! State per particle: position and velocity in the world frame. Each [`ConstrainedParticleFilter::step`]:
+//!
+//! 1. **predict** — constant velocity with white-acceleration process noise
+//!    (`p += Δparent + v·dt + a·dt²/2`, `v += a·dt`, `a ~ N(0, σ_a² I)`). The joint rides on its
+//!    parent: the parent's displacement since the last step is added, so velocity is relative to
+//!    the parent (the kinematic hierarchy shoulder → elbow → wrist);
+//! 2. **weight** — Gaussian likelihood of the measurement when the joint is observed (closed
+//!    loop), uniform when not (open loop);
+//! 3. **constraints** — each a veto (weight 0): collision (ray parent → particle hits the
+//!    environment: the particle is clamped to the hit point and discarded), skeletal distance
+//!    (outside the crown `bone length ± tolerance` around the parent), range of motion
+//!    ([`crate::rom`]), and in open loop only occlusion (the depth camera saw a surface behind the
+//!    particle, [`crate::depth::particle_visibility`]). Because every constraint is a veto the
+//!    accepted set does not depend on the order; we test the cheap ones (distance, range of
+//!    motion) first and cast rays only for the survivors;
+//! 4. **estimate** — weighted mean and covariance of the particles with non-zero weight, before
+//!    resampling, and the volume of the 95 % ellipsoid of that covariance;
+//! 5. **systematic resampling**.
+//!
+//! When every particle is vetoed the filter re-seeds them inside the constraints (on the crown
+//! around the parent, or around the measurement), with a bounded number of draws; if even that
+//! fails the predicted particles are kept with uniform weights and the estimate says so
+//! ([`JointEstimate::is_starved`]). Non-finite inputs (NaN joints) are treated as missing and
+//! never reach the particles. Buffers are allocated once, in [`ConstrainedParticleFilter::new`].
+
+use crate::depth::{DepthProbe, Visibility, particle_visibility};
+use crate::environment::Environment;
+use crate::error::{OcclusionError, Result};
+use crate::rom::{RangeOfMotionConfig, RomLimits, TrunkFrame};
+use nalgebra::{Matrix3, Point3, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+/// χ² quantile for 3 degrees of freedom at 95 %: the 95 % ellipsoid is `xᵀΣ⁻¹x ≤ 7.8147`.
+pub const CHI2_3DOF_95: f64 = 7.814_727_903_251_178;
+
+/// Particle-filter parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FilterConfig {
+    /// Particles per joint. Default 1000 (Rebecchi).
+    pub num_particles: usize,
+    /// Standard deviation of the white acceleration per axis, m/s². Default 3 (modelling
+    /// choice: a reaching hand accelerates at a few m/s²).
+    pub process_accel_sigma_mps2: f64,
+    /// Smallest position diffusion per step and axis, m, so particles keep exploring when the
+    /// step is short. Default 0.005 (modelling choice).
+    pub min_position_noise_m: f64,
+    /// Standard deviation of a joint measurement per axis, m. Default 0.03 (modelling choice,
+    /// a few times the camera's joint noise so the likelihood does not starve).
+    pub measurement_sigma_m: f64,
+    /// Spread of the particles around the first measurement, m. Default 0.02.
+    pub initial_sigma_m: f64,
+    /// Particle speeds relative to the parent are clamped to this, m/s. Default 3.
+    pub max_speed_mps: f64,
+    /// Draws per particle allowed when re-seeding a starved filter. Default 20.
+    pub reseed_draws_per_particle: usize,
+}
+
+impl Default for FilterConfig {
+    fn default() -> Self {
+        Self {
+            num_particles: 1000,
+            process_accel_sigma_mps2: 3.0,
+            min_position_noise_m: 0.005,
+            measurement_sigma_m: 0.03,
+            initial_sigma_m: 0.02,
+            max_speed_mps: 3.0,
+            reseed_draws_per_particle: 20,
+        }
+    }
+}
+
+impl FilterConfig {
+    /// Checks that every number is finite and in range.
+    ///
+    /// # Errors
+    /// [`OcclusionError::Config`] naming the field.
+    pub fn validate(&self) -> Result<()> {
+        let positive = [
+            ("measurement_sigma_m", self.measurement_sigma_m),
+            ("initial_sigma_m", self.initial_sigma_m),
+            ("max_speed_mps", self.max_speed_mps),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(OcclusionError::Config(format!(
+                    "{name} must be > 0, got {v}"
+                )));
+            }
+        }
+        for (name, v) in [
+            ("process_accel_sigma_mps2", self.process_accel_sigma_mps2),
+            ("min_position_noise_m", self.min_position_noise_m),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(OcclusionError::Config(format!(
+                    "{name} must be >= 0, got {v}"
+                )));
+            }
+        }
+        if self.num_particles < 2 {
+            return Err(OcclusionError::Config("num_particles must be >= 2".into()));
+        }
+        Ok(())
+    }
+}
+
+/// Which constraints are on (Rebecchi §7.3's variants are combinations of these).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ConstraintSet {
+    /// Skeletal distance: the crown `bone length ± tolerance` around the parent.
+    pub skeletal_distance: bool,
+    /// Range of motion (the joint bounding volume).
+    pub range_of_motion: bool,
+    /// Collision with the environment (ray parent → particle).
+    pub environment: bool,
+    /// Occlusion against the depth map, open loop only.
+    pub occlusion: bool,
+}
+
+impl Default for ConstraintSet {
+    fn default() -> Self {
+        Self::COMPLETE
+    }
+}
+
+impl ConstraintSet {
+    /// No constraint: a plain constant-velocity particle filter.
+    pub const NONE: Self = Self {
+        skeletal_distance: false,
+        range_of_motion: false,
+        environment: false,
+        occlusion: false,
+    };
+    /// Rebecchi's "Original" (Casalino et al.): skeletal distance and occlusion.
+    pub const ORIGINAL: Self = Self {
+        skeletal_distance: true,
+        range_of_motion: false,
+        environment: false,
+        occlusion: true,
+    };
+    /// "Joint Bounding Volume": Original plus range of motion.
+    pub const JOINT_BOUNDING_VOLUME: Self = Self {
+        skeletal_distance: true,
+        range_of_motion: true,
+        environment: false,
+        occlusion: true,
+    };
+    /// "Complete": all four constraints.
+    pub const COMPLETE: Self = Self {
+        skeletal_distance: true,
+        range_of_motion: true,
+        environment: true,
+        occlusion: true,
+    };
+}
+
+/// Constraint parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ConstraintConfig {
+    /// Which constraints are on.
+    pub enabled: ConstraintSet,
+    /// Half-width of the skeletal-distance crown, m. Default 0.03 (modelling choice: a few
+    /// times the bone-length noise of a depth camera).
+    pub bone_tolerance_m: f64,
+    /// Range-of-motion limits.
+    pub range_of_motion: RangeOfMotionConfig,
+    /// A particle would have been seen when the camera saw a surface deeper than it by more
+    /// than this, m. Default 0.05 (modelling choice: depth noise plus the limb's radius).
+    pub occlusion_margin_m: f64,
+    /// Zero depth pixels are filled from the nearest non-zero pixel within this radius, px.
+    /// Default 8.
+    pub max_fill_radius_px: u32,
+}
+
+impl Default for ConstraintConfig {
+    fn default() -> Self {
+        Self {
+            enabled: ConstraintSet::COMPLETE,
+            bone_tolerance_m: 0.03,
+            range_of_motion: RangeOfMotionConfig::default(),
+            occlusion_margin_m: 0.05,
+            max_fill_radius_px: 8,
+        }
+    }
+}
+
+/// The range-of-motion test that applies to this joint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RomContext {
+    /// No range-of-motion test.
+    None,
+    /// The joint is an elbow: shoulder limits against the trunk.
+    Shoulder {
+        /// The trunk frame of this arm.
+        trunk: TrunkFrame,
+    },
+    /// The joint is a wrist: elbow limits, given the shoulder and (if known) the hinge axis.
+    Elbow {
+        /// Shoulder position, world, m.
+        shoulder_m: Point3<f64>,
+        /// Unit hinge axis (see [`crate::rom::hinge_axis`]).
+        hinge_axis: Option<Vector3<f64>>,
+    },
+}
+
+/// Where the joint's parent is and what limits apply, for one step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChainContext {
+    /// Parent joint position, world, m (NaN = unknown).
+    pub parent_m: Point3<f64>,
+    /// Measured bone length parent → joint, m.
+    pub bone_length_m: f64,
+    /// Range-of-motion test.
+    pub rom: RomContext,
+}
+
+/// The filter's output for one step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointEstimate {
+    /// Weighted mean of the valid particles, world, m.
+    pub position_m: Point3<f64>,
+    /// Weighted covariance of the valid particles, m².
+    pub covariance_m2: Matrix3<f64>,
+    /// Volume of the 95 % confidence ellipsoid of that covariance, m³.
+    pub ellipsoid_volume_m3: f64,
+    /// Particles with non-zero weight before resampling.
+    pub num_valid_particles: usize,
+    /// Whether a measurement was used (closed loop).
+    pub is_observed: bool,
+    /// Whether every particle was vetoed and re-seeding failed too (constraints ignored).
+    pub is_starved: bool,
+}
+
+/// Volume of the 95 % ellipsoid `{x : xᵀΣ⁻¹x ≤ χ²₃(0.95)}`: `4/3 π √det Σ · χ²^{3/2}`.
+pub fn ellipsoid_volume_95_m3(covariance_m2: &Matrix3<f64>) -> f64 {
+    let det = covariance_m2.determinant().max(0.0);
+    4.0 / 3.0 * std::f64::consts::PI * det.sqrt() * CHI2_3DOF_95.powf(1.5)
+}
+
+fn finite(p: &Point3<f64>) -> bool {
+    p.x.is_finite() && p.y.is_finite() && p.z.is_finite()
+}
+
+/// A constrained particle filter for one joint.
+#[derive(Debug, Clone)]
+pub struct ConstrainedParticleFilter {
+    config: FilterConfig,
+    constraints: ConstraintConfig,
+    limits: RomLimits,
+    rng: ChaCha8Rng,
+    pos: Vec<Vector3<f64>>,
+    vel: Vec<Vector3<f64>>,
+    log_w: Vec<f64>,
+    w: Vec<f64>,
+    next_pos: Vec<Vector3<f64>>,
+    next_vel: Vec<Vector3<f64>>,
+    last_parent: Option<Point3<f64>>,
+    is_initialized: bool,
+}
+
+impl ConstrainedParticleFilter {
+    /// A filter with its buffers allocated and its random stream seeded.
+    ///
+    /// # Errors
+    /// [`OcclusionError::Config`] when the configuration is out of range.
+    pub fn new(config: FilterConfig, constraints: ConstraintConfig, seed: u64) -> Result<Self> {
+        config.validate()?;
+        if !(constraints.bone_tolerance_m.is_finite() && constraints.bone_tolerance_m >= 0.0) {
+            return Err(OcclusionError::Config(
+                "bone_tolerance_m must be >= 0".into(),
+            ));
+        }
+        if !constraints.occlusion_margin_m.is_finite() {
+            return Err(OcclusionError::Config(
+                "occlusion_margin_m must be finite".into(),
+            ));
+        }
+        let n = config.num_particles;
+        Ok(Self {
+            limits: RomLimits::new(&constraints.range_of_motion),
+            config,
+            constraints,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            pos: vec![Vector3::zeros(); n],
+            vel: vec![Vector3::zeros(); n],
+            log_w: vec![0.0; n],
+            w: vec![0.0; n],
+            next_pos: vec![Vector3::zeros(); n],
+            next_vel: vec![Vector3::zeros(); n],
+            last_parent: None,
+            is_initialized: false,
+        })
+    }
+
+    /// Forgets the state (the next step re-initialises).
+    pub fn reset(&mut self) {
+        self.is_initialized = false;
+        self.last_parent = None;
+    }
+
+    /// The particles' positions after the last step (resampled), world, m.
+    pub fn particles_m(&self) -> &[Vector3<f64>] {
+        &self.pos
+    }
+
+    /// Which constraints are on.
+    pub fn constraints(&self) -> &ConstraintConfig {
+        &self.constraints
+    }
+
+    fn gauss3(&mut self, sigma: f64) -> Vector3<f64> {
+        Vector3::new(
+            self.rng.sample::<f64, _>(StandardNormal),
+            self.rng.sample::<f64, _>(StandardNormal),
+            self.rng.sample::<f64, _>(StandardNormal),
+        ) * sigma
+    }
+
+    /// Runs one step. `dt_s` is the time since the previous step (non-finite or negative = 0);
+    /// `observation_m` is the measured joint position when the joint is observed (non-finite =
+    /// not observed); `environment` and `depth` are needed only for the constraints that use
+    /// them. Returns `None` only while the filter has never been initialised (no finite
+    /// measurement and no finite parent yet).
+    pub fn step(
+        &mut self,
+        dt_s: f64,
+        ctx: &ChainContext,
+        observation_m: Option<&Point3<f64>>,
+        environment: Option<&Environment>,
+        mut depth: Option<&mut dyn DepthProbe>,
+    ) -> Option<JointEstimate> {
+        let dt = if dt_s.is_finite() && dt_s > 0.0 {
+            dt_s
+        } else {
+            0.0
+        };
+        let observation = observation_m.filter(|p| finite(p)).copied();
+        let parent = finite(&ctx.parent_m).then_some(ctx.parent_m);
+        let bone_ok = ctx.bone_length_m.is_finite() && ctx.bone_length_m > 0.0;
+        let ctx = ChainContext {
+            bone_length_m: if bone_ok { ctx.bone_length_m } else { f64::NAN },
+            ..*ctx
+        };
+
+        if !self.is_initialized {
+            if let Some(z) = observation {
+                for i in 0..self.pos.len() {
+                    self.pos[i] = z.coords + self.gauss3(self.config.initial_sigma_m);
+                    self.vel[i] = Vector3::zeros();
+                }
+            } else if let (Some(p), true) = (parent, bone_ok) {
+                for i in 0..self.pos.len() {
+                    self.pos[i] = p.coords + self.random_unit() * ctx.bone_length_m;
+                    self.vel[i] = Vector3::zeros();
+                }
+            } else {
+                return None;
+            }
+            self.is_initialized = true;
+            self.last_parent = parent;
+        } else {
+            self.predict(dt, parent);
+        }
+        if parent.is_some() {
+            self.last_parent = parent;
+        }
+
+        let n_valid = self.weigh(&ctx, parent, observation, environment, &mut depth);
+        let mut is_starved = false;
+        if n_valid == 0 {
+            let n = self.reseed(&ctx, parent, observation, environment, &mut depth);
+            if n == 0 {
+                is_starved = true;
+                self.log_w.iter_mut().for_each(|w| *w = 0.0);
+            }
+        }
+        let estimate = self.estimate(observation.is_some(), is_starved);
+        self.systematic_resample();
+        Some(estimate)
+    }
+
+    fn random_unit(&mut self) -> Vector3<f64> {
+        loop {
+            let v = self.gauss3(1.0);
+            if let Some(u) = v.try_normalize(1e-9) {
+                return u;
+            }
+        }
+    }
+
+    fn predict(&mut self, dt: f64, parent: Option<Point3<f64>>) {
+        let carry = match (parent, self.last_parent) {
+            (Some(p), Some(q)) => p - q,
+            _ => Vector3::zeros(),
+        };
+        let sa = self.config.process_accel_sigma_mps2;
+        let vmax = self.config.max_speed_mps;
+        let floor = self.config.min_position_noise_m;
+        for i in 0..self.pos.len() {
+            let a = self.gauss3(sa);
+            let jitter = self.gauss3(floor);
+            let mut v = self.vel[i] + a * dt;
+            let speed = v.norm();
+            if speed > vmax {
+                v *= vmax / speed;
+            }
+            self.pos[i] += carry + self.vel[i] * dt + a * (0.5 * dt * dt) + jitter;
+            self.vel[i] = v;
+        }
+    }
+
+    /// Whether position `p` (world) passes the cheap constraints (distance, range of motion).
+    fn cheap_ok(&self, p: &Vector3<f64>, ctx: &ChainContext, parent: Option<&Point3<f64>>) -> bool {
+        let Some(parent) = parent else {
+            return true;
+        };
+        let set = self.constraints.enabled;
+        if set.skeletal_distance && ctx.bone_length_m.is_finite() {
+            let d = (p - parent.coords).norm();
+            if (d - ctx.bone_length_m).abs() > self.constraints.bone_tolerance_m {
+                return false;
+            }
+        }
+        if set.range_of_motion {
+            match &ctx.rom {
+                RomContext::None => {}
+                RomContext::Shoulder { trunk } => {
+                    if !self.limits.shoulder_ok(&parent.coords, p, trunk) {
+                        return false;
+                    }
+                }
+                RomContext::Elbow {
+                    shoulder_m,
+                    hinge_axis,
+                } => {
+                    if finite(shoulder_m)
+                        && !self.limits.elbow_ok(
+                            &shoulder_m.coords,
+                            &parent.coords,
+                            p,
+                            hinge_axis.as_ref(),
+                        )
+                    {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// Applies the likelihood and constraints; returns the number of valid particles.
+    fn weigh(
+        &mut self,
+        ctx: &ChainContext,
+        parent: Option<Point3<f64>>,
+        observation: Option<Point3<f64>>,
+        environment: Option<&Environment>,
+        depth: &mut Option<&mut dyn DepthProbe>,
+    ) -> usize {
+        let inv_2s2 = 0.5 / (self.config.measurement_sigma_m * self.config.measurement_sigma_m);
+        let mut n_valid = 0;
+        for i in 0..self.pos.len() {
+            let ok = self.full_ok(
+                i,
+                ctx,
+                parent.as_ref(),
+                observation.is_some(),
+                environment,
+                depth,
+            );
+            self.log_w[i] = if !ok {
+                f64::NEG_INFINITY
+            } else if let Some(z) = observation {
+                -(self.pos[i] - z.coords).norm_squared() * inv_2s2
+            } else {
+                0.0
+            };
+            n_valid += usize::from(ok);
+        }
+        n_valid
+    }
+
+    /// All constraints for particle `i`; clamps it to the environment on a hit.
+    fn full_ok(
+        &mut self,
+        i: usize,
+        ctx: &ChainContext,
+        parent: Option<&Point3<f64>>,
+        is_observed: bool,
+        environment: Option<&Environment>,
+        depth: &mut Option<&mut dyn DepthProbe>,
+    ) -> bool {
+        let p = self.pos[i];
+        if !self.cheap_ok(&p, ctx, parent) {
+            return false;
+        }
+        let set = self.constraints.enabled;
+        if set.environment
+            && let (Some(env), Some(parent)) = (environment, parent)
+        {
+            let dir = p - parent.coords;
+            if let Some(t) = env.cast_ray(parent, &dir, 1.0) {
+                // Rebecchi: the particle cannot pass the surface; clamp, then discard.
+                self.pos[i] = parent.coords + dir * t;
+                return false;
+            }
+        }
+        if set.occlusion
+            && !is_observed
+            && let Some(depth) = depth
+        {
+            let v = particle_visibility(
+                &mut **depth,
+                &Point3::from(p),
+                self.constraints.occlusion_margin_m,
+                self.constraints.max_fill_radius_px,
+            );
+            if v == Visibility::WouldBeSeen {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Re-seeds vetoed particles inside the constraints; returns the number of valid ones.
+    fn reseed(
+        &mut self,
+        ctx: &ChainContext,
+        parent: Option<Point3<f64>>,
+        observation: Option<Point3<f64>>,
+        environment: Option<&Environment>,
+        depth: &mut Option<&mut dyn DepthProbe>,
+    ) -> usize {
+        let n = self.pos.len();
+        let max_draws = n.saturating_mul(self.config.reseed_draws_per_particle.max(1));
+        let inv_2s2 = 0.5 / (self.config.measurement_sigma_m * self.config.measurement_sigma_m);
+        let mut filled = 0;
+        let mut draws = 0;
+        let saved_first = self.pos[0];
+        while filled < n && draws < max_draws {
+            draws += 1;
+            let candidate = if let Some(z) = observation {
+                z.coords + self.gauss3(self.config.measurement_sigma_m)
+            } else if let (Some(p), true) = (parent, ctx.bone_length_m.is_finite()) {
+                let tol = self.constraints.bone_tolerance_m;
+                let r = ctx.bone_length_m + tol * (2.0 * self.rng.random::<f64>() - 1.0);
+                p.coords + self.random_unit() * r
+            } else {
+                break;
+            };
+            self.pos[filled] = candidate;
+            if self.full_ok(
+                filled,
+                ctx,
+                parent.as_ref(),
+                observation.is_some(),
+                environment,
+                depth,
+            ) {
+                self.vel[filled] = Vector3::zeros();
+                self.log_w[filled] =
+                    observation.map_or(0.0, |z| -(candidate - z.coords).norm_squared() * inv_2s2);
+                filled += 1;
+            }
+        }
+        if filled == 0 {
+            self.pos[0] = saved_first;
+            return 0;
+        }
+        // Slots not refilled copy accepted particles round-robin so that all weights are valid.
+        for i in filled..n {
+            let k = i % filled;
+            self.pos[i] = self.pos[k];
+            self.vel[i] = self.vel[k];
+            self.log_w[i] = self.log_w[k];
+        }
+        n
+    }
+
+    fn estimate(&mut self, is_observed: bool, is_starved: bool) -> JointEstimate {
+        let max_log = self.log_w.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let mut sum = 0.0;
+        for (w, lw) in self.w.iter_mut().zip(&self.log_w) {
+            *w = if max_log.is_finite() {
+                (lw - max_log).exp()
+            } else {
+                1.0
+            };
+            sum += *w;
+        }
+        let inv = 1.0 / sum;
+        let mut mean = Vector3::zeros();
+        let mut n_valid = 0;
+        for (w, p) in self.w.iter_mut().zip(&self.pos) {
+            *w *= inv;
+            if *w > 0.0 {
+                mean += p * *w;
+                n_valid += 1;
+            }
+        }
+        let mut cov = Matrix3::zeros();
+        let mut sum_w2 = 0.0;
+        for (w, p) in self.w.iter().zip(&self.pos) {
+            if *w > 0.0 {
+                let d = p - mean;
+                cov += d * d.transpose() * *w;
+                sum_w2 += w * w;
+            }
+        }
+        // Unbiased weighted covariance (reliability weights).
+        if sum_w2 < 1.0 {
+            cov /= 1.0 - sum_w2;
+        }
+        JointEstimate {
+            position_m: Point3::from(mean),
+            covariance_m2: cov,
+            ellipsoid_volume_m3: ellipsoid_volume_95_m3(&cov),
+            num_valid_particles: n_valid,
+            is_observed,
+            is_starved,
+        }
+    }
+
+    /// Systematic resampling (one uniform draw, `n` evenly spaced pointers into the CDF).
+    fn systematic_resample(&mut self) {
+        let n = self.pos.len();
+        let step = 1.0 / n as f64;
+        let mut u = self.rng.random::<f64>() * step;
+        let mut cumulative = self.w.first().copied().unwrap_or(1.0);
+        let mut k = 0;
+        for i in 0..n {
+            while u > cumulative && k + 1 < n {
+                k += 1;
+                cumulative += self.w[k];
+            }
+            self.next_pos[i] = self.pos[k];
+            self.next_vel[i] = self.vel[k];
+            u += step;
+        }
+        std::mem::swap(&mut self.pos, &mut self.next_pos);
+        std::mem::swap(&mut self.vel, &mut self.next_vel);
+    }
+}
