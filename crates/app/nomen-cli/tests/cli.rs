@@ -503,3 +503,58 @@ fn refine_joints_estimates_hidden_arms_with_covariance_and_keeps_seen_joints() {
         text(&o.stderr)
     );
 }
+
+#[test]
+fn run_with_the_shipped_cnn_labels_every_skeleton_and_a_missing_model_is_named() {
+    let Some(data) = data_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
+    let o = nomen(&[
+        "simulate",
+        repo.join("scenarios/belmonte_one_without_band.toml")
+            .to_str()
+            .unwrap(),
+        "--out",
+        scene.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let result = scene.join("cnn.jsonl");
+    let model = repo.join("models/cnn_small");
+    let o = nomen(&[
+        "run",
+        scene.join("recording.jsonl").to_str().unwrap(),
+        "--cnn",
+        model.to_str().unwrap(),
+        "--out",
+        result.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let count = |path: &Path, kind: &str| {
+        std::fs::read_to_string(path)
+            .unwrap()
+            .lines()
+            .filter(|l| l.contains(&format!("\"type\":\"{kind}\"")))
+            .count()
+    };
+    assert_eq!(
+        count(&result, "identified"),
+        count(&scene.join("recording.jsonl"), "skeleton")
+    );
+    let o = nomen(&[
+        "run",
+        scene.join("recording.jsonl").to_str().unwrap(),
+        "--cnn",
+        tmp.path().join("no_such_model").to_str().unwrap(),
+        "--out",
+        tmp.path().join("x.jsonl").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("no_such_model"),
+        "{}",
+        text(&o.stderr)
+    );
+}

@@ -47,6 +47,10 @@ pub struct RunArgs {
     /// through, e.g. the `obstacles.obj` that `nomen simulate` writes. Needs `--refine-joints`.
     #[arg(long, value_name = "MESH")]
     pub environment: Option<PathBuf>,
+    /// A model from `nomen train cnn` (e.g. `models/cnn_small`): the engine adds its score as
+    /// one more model of every (IMU, track) window (engine only).
+    #[arg(long, value_name = "MODEL")]
+    pub cnn: Option<PathBuf>,
 }
 
 /// What the engine path of `nomen run` adds to the engine itself.
@@ -58,6 +62,8 @@ pub struct EngineExtras {
     pub refine_joints: bool,
     /// Environment mesh for the refinement.
     pub environment: Option<PathBuf>,
+    /// CNN model for the engine's learned voter.
+    pub cnn: Option<PathBuf>,
 }
 
 fn load_rssi_model(path: &Path) -> Result<nomen_rssi::RssiModel> {
@@ -95,13 +101,14 @@ pub fn run(args: RunArgs) -> Result<()> {
                     .transpose()?,
                 refine_joints: args.refine_joints,
                 environment: args.environment.clone(),
+                cnn: args.cnn.clone(),
             };
             run_file(&args.recording, &args.out, config, args.skip_bad, &extras)?
         }
         Method::Baptizo | Method::Llorca => {
-            if args.refine_joints || args.environment.is_some() {
+            if args.refine_joints || args.environment.is_some() || args.cnn.is_some() {
                 bail!(
-                    "--refine-joints and --environment work with the engine (--method nomen) only"
+                    "--refine-joints, --environment and --cnn work with the engine (--method nomen) only"
                 );
             }
             if args.config.is_some() {
@@ -265,6 +272,9 @@ pub fn run_file(
         engine = engine
             .with_rssi_model(model)
             .with_context(|| format!("{}: the RSSI model", crate::io::source_name(recording)))?;
+    }
+    if let Some(path) = &extras.cnn {
+        engine = engine.with_pair_scorer(Box::new(super::train::load_scorer(path)?));
     }
     let mut refinement = if extras.refine_joints {
         Some(Refinement::new(&registry, extras.environment.as_deref())?)
