@@ -77,7 +77,7 @@ impl KinematicScores {
     }
 }
 
-/// nomen's three correlations for the IMU worn at `site` and the joint `site` of a candidate
+/// nomen's four correlations for the IMU worn at `site` and the joint `site` of a candidate
 /// skeleton (see the module docs). Windows on different grids give all `None`.
 pub fn kinematic_scores(
     imu: &ImuWindow,
@@ -297,4 +297,90 @@ fn lag_samples(t_s: &[f64], cfg: &KinematicConfig) -> usize {
     grid_rate_hz(t_s)
         .map(|r| (cfg.swing_lag_s * r).round().max(1.0) as usize)
         .unwrap_or(1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Point3;
+    use nomen_core::skeleton::Joints;
+
+    /// A forearm (elbow fixed, wrist on a 0.3 m arc) swinging by `angle(t)` about the world y
+    /// axis, seen by the camera, and an IMU on it with its orientation and specific force.
+    fn windows(
+        imu_angle: impl Fn(f64) -> f64,
+        skel_angle: impl Fn(f64) -> f64,
+    ) -> (ImuWindow, SkeletonWindow) {
+        let t_s: Vec<f64> = (0..120).map(|k| k as f64 / 30.0).collect();
+        let q: Vec<UnitQuaternion<f64>> = t_s
+            .iter()
+            .map(|&t| UnitQuaternion::from_axis_angle(&Vector3::y_axis(), imu_angle(t)))
+            .collect();
+        let accel = q
+            .iter()
+            .map(|q| q.inverse() * Vector3::new(0.0, 0.0, 9.81))
+            .collect();
+        let joints = t_s
+            .iter()
+            .map(|&t| {
+                let a = skel_angle(t);
+                let elbow = Point3::new(0.0, 0.0, 1.2);
+                let mut j = Joints::new();
+                j.insert(Joint::LeftElbow, elbow);
+                j.insert(
+                    Joint::LeftWrist,
+                    elbow + Vector3::new(0.3 * a.sin(), 0.0, -0.3 * a.cos()),
+                );
+                j
+            })
+            .collect();
+        (
+            ImuWindow {
+                device: None,
+                t_s: t_s.clone(),
+                accel_mps2: accel,
+                gyro_radps: vec![Vector3::zeros(); t_s.len()],
+                world_from_sensor: q,
+            },
+            SkeletonWindow {
+                camera: None,
+                track: None,
+                t_s,
+                joints_world_m: joints,
+            },
+        )
+    }
+
+    #[test]
+    fn the_wearers_forearm_scores_above_someone_elses() {
+        let mine = |t: f64| 0.6 * (2.0 * std::f64::consts::PI * 0.9 * t).sin();
+        let other = |t: f64| 0.6 * (2.0 * std::f64::consts::PI * 1.4 * t + 1.0).sin();
+        let (geo, cfg) = (GeometricConfig::default(), KinematicConfig::default());
+        let (imu, skel) = windows(mine, mine);
+        let right = kinematic_scores(&imu, &skel, Joint::LeftWrist, &geo, &cfg);
+        let (imu, skel) = windows(mine, other);
+        let wrong = kinematic_scores(&imu, &skel, Joint::LeftWrist, &geo, &cfg);
+        let (r_swing, w_swing) = (right.swing.unwrap(), wrong.swing.unwrap());
+        let (r_incl, w_incl) = (right.inclination.unwrap(), wrong.inclination.unwrap());
+        assert!(
+            r_swing > 0.9 && r_swing > w_swing + 0.3,
+            "{right:?} {wrong:?}"
+        );
+        assert!(r_incl > 0.9 && r_incl > w_incl + 0.3, "{right:?} {wrong:?}");
+    }
+
+    #[test]
+    fn windows_on_different_grids_give_nothing() {
+        let f = |t: f64| t.sin();
+        let (mut imu, skel) = windows(f, f);
+        imu.t_s.pop();
+        let s = kinematic_scores(
+            &imu,
+            &skel,
+            Joint::LeftWrist,
+            &GeometricConfig::default(),
+            &KinematicConfig::default(),
+        );
+        assert_eq!(s, KinematicScores::default());
+    }
 }
