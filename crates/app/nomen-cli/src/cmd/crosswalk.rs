@@ -146,14 +146,8 @@ fn associate(
 /// Runs `nomen experiment crosswalk`.
 pub fn run(args: &CrosswalkArgs) -> Result<()> {
     let data = args.data.as_deref();
-    let (cal_scenario, cal_sim, cal_seed) = super::simulate::simulate_scenario(
-        CALIBRATION.1,
-        CALIBRATION.0,
-        Some(args.seed),
-        data,
-        &mut |_, _| {},
-    )?;
-    eprintln!("{}: simulated with seed {cal_seed}", cal_scenario.name);
+    let (cal_scenario, cal_sim, cal_seed) =
+        super::experiment::simulate_for_experiment(CALIBRATION.1, CALIBRATION.0, args.seed, data)?;
     let mut models: BTreeMap<&str, RssiModel> = BTreeMap::new();
     let mut calibration = Vec::new();
     for (name, kind) in [
@@ -185,9 +179,8 @@ pub fn run(args: &CrosswalkArgs) -> Result<()> {
         let (scenario, sim, seed) = if source == CALIBRATION.0 {
             (cal_scenario.clone(), cal_sim.clone(), cal_seed)
         } else {
-            super::simulate::simulate_scenario(text, source, Some(args.seed), data, &mut |_, _| {})?
+            super::experiment::simulate_for_experiment(text, source, args.seed, data)?
         };
-        eprintln!("{}: simulated with seed {seed}", scenario.name);
         let mut cells = BTreeMap::new();
         for method in METHODS {
             let result = associate(method, &models, &sim.scene.registry, &sim.recording)

@@ -212,14 +212,8 @@ fn belmonte_episodes(args: &EpisodeArgs) -> Result<()> {
     let methods = [("belmonte", Method::Belmonte), ("nomen", Method::Nomen)];
     let mut cells = Vec::new();
     for (source, text) in EPISODES {
-        let (scenario, sim, seed) = super::simulate::simulate_scenario(
-            text,
-            source,
-            Some(args.seed),
-            args.data.as_deref(),
-            &mut |_, _| {},
-        )?;
-        eprintln!("{}: simulated with seed {seed}", scenario.name);
+        let (scenario, sim, seed) =
+            simulate_for_experiment(text, source, args.seed, args.data.as_deref())?;
         for (name, method) in methods {
             let (result, _) = run_batch(&sim.scene.registry, &sim.recording, &method.config())?;
             let scene = SceneData::from_messages(&scenario.name, &sim.truth, &result);
@@ -281,14 +275,8 @@ fn imu_table(args: &ImuTableArgs) -> Result<()> {
                 "wrist"
             }
         );
-        let (scenario, sim, seed) = super::simulate::simulate_scenario(
-            text,
-            &source,
-            Some(args.seed),
-            args.data.as_deref(),
-            &mut |_, _| {},
-        )?;
-        eprintln!("{}: simulated with seed {seed}", scenario.name);
+        let (scenario, sim, seed) =
+            simulate_for_experiment(text, &source, args.seed, args.data.as_deref())?;
         let mut accuracy = std::collections::BTreeMap::new();
         for (name, method) in COLUMNS {
             let config = method.config();
@@ -341,6 +329,20 @@ fn id_accuracy(name: &str, truth: &[Message], result: &[Message]) -> Result<Opti
         bail!("{name}: no skeleton frames to evaluate");
     }
     Ok(report.overall.id_accuracy)
+}
+
+/// Simulates one embedded scenario of an experiment at `seed` and says so on stderr (every
+/// `nomen experiment` prints the seed of each scene it simulates).
+pub(crate) fn simulate_for_experiment(
+    text: &str,
+    source: &str,
+    seed: u64,
+    data: Option<&std::path::Path>,
+) -> Result<(nomen_sim::Scenario, nomen_sim::SimOutput, u64)> {
+    let (scenario, sim, seed) =
+        super::simulate::simulate_scenario(text, source, Some(seed), data, &mut |_, _| {})?;
+    eprintln!("{}: simulated with seed {seed}", scenario.name);
+    Ok((scenario, sim, seed))
 }
 
 pub(crate) fn fmt_pct(v: Option<f64>) -> String {

@@ -202,14 +202,12 @@ pub fn run(args: &GhostingArgs) -> Result<()> {
     let mut scenes = Vec::new();
     let mut calibration = None;
     for (source, text) in SCENES {
-        let (scenario, sim, seed) = super::simulate::simulate_scenario(
+        let (scenario, sim, seed) = super::experiment::simulate_for_experiment(
             text,
             source,
-            Some(args.seed),
+            args.seed,
             args.data.as_deref(),
-            &mut |_, _| {},
         )?;
-        eprintln!("{}: simulated with seed {seed}", scenario.name);
         let registry = &sim.scene.registry;
         let (baptizo, _) =
             nomen_rtls::baptizo::run_baptizo_with(registry, &sim.recording, &baptizo_config)?;
