@@ -28,7 +28,8 @@ const MIN_ESTIMATE_STD_M: f64 = 0.03;
 pub struct Refinement {
     world_from_camera: BTreeMap<CameraId, Isometry3<f64>>,
     environment: Option<Environment>,
-    observations: BTreeMap<(SessionTime, CameraId, TrackId), Joints<JointObservation>>,
+    /// Observations waiting for their decision, by track then time.
+    observations: BTreeMap<(CameraId, TrackId, SessionTime), Joints<JointObservation>>,
     refiners: BTreeMap<(CameraId, TrackId), JointRefiner>,
     /// Joints estimated so far.
     pub num_estimated: u64,
@@ -58,13 +59,13 @@ impl Refinement {
     /// Remembers a skeleton observation until its decision comes out.
     pub fn observe(&mut self, s: &SkeletonObservation) {
         self.observations
-            .insert((s.t, s.camera.clone(), s.track), s.joints.clone());
+            .insert((s.camera.clone(), s.track, s.t), s.joints.clone());
     }
 
     /// Fills `id.joints` with the refined joints of the observation it was decided on (camera
     /// frame, like the observation). A decision without a remembered observation is left as is.
     pub fn refine(&mut self, id: &mut IdentifiedSkeleton) -> Result<()> {
-        let key = (id.t, id.camera.clone(), id.track);
+        let key = (id.camera.clone(), id.track, id.t);
         let Some(observed) = self.observations.remove(&key) else {
             return Ok(());
         };
@@ -123,9 +124,16 @@ impl Refinement {
             }
         }
         id.joints = out;
-        // Tracks the engine has finished with are dropped with their last frame.
-        self.refiners
-            .retain(|(c, t), _| self.observations.keys().any(|k| &k.1 == c && k.2 == *t));
+        // A track with nothing left to refine is finished: its filter goes with its last frame.
+        let track = (id.camera.clone(), id.track);
+        let is_finished = self
+            .observations
+            .range((track.0.clone(), track.1, SessionTime::from_ns(i64::MIN))..)
+            .next()
+            .is_none_or(|(k, _)| (&k.0, k.1) != (&track.0, track.1));
+        if is_finished {
+            self.refiners.remove(&track);
+        }
         Ok(())
     }
 }
