@@ -7,7 +7,15 @@
 //! - skeleton joints go to the world frame (`world_from_camera` from the registry) and through
 //!   a constant-velocity Kalman filter per joint ([`EngineConfig::joint_filter`]);
 //! - IMU samples go through Madgwick's `update_imu` for `world_from_sensor`, giving the
-//!   linear-acceleration magnitude `|R·a − g ẑ|` and the angular-rate magnitude.
+//!   linear-acceleration magnitude `|R·a − g ẑ|` and the angular-rate magnitude;
+//! - location-tag fixes (`rtls_fix`, UWB or BLE tags) are buffered per tag (`tags`);
+//! - RSSI reads feed one Kalman filter per (tag, antenna) when a model was given
+//!   ([`Engine::with_rssi_model`]).
+//!
+//! A new camera track that starts where an ended track of the same camera stopped (within
+//! [`EngineConfig::stitch_max_gap_s`] and walking reach) continues its evidence and label;
+//! two tracks that pass within [`EngineConfig::encounter_distance_m`] across the line of sight
+//! pool their motion evidence when they separate (the SDK may have swapped their ids).
 //!
 //! Every [`EngineConfig::hop_s`] a window of [`EngineConfig::window_s`] ending at a multiple of
 //! the hop is processed once every source has delivered past its end plus the reorder window,
@@ -17,20 +25,26 @@
 //!    is searched every [`EngineConfig::offset_search_interval_s`]. For every track covering
 //!    [`EngineConfig::offset_min_track_s`] of the last [`EngineConfig::offset_estimation_window_s`],
 //!    each IMU of the subject gets a lag curve (mean Pearson correlation of De Marchi's
-//!    acceleration and orientation-change magnitudes, lags ±[`EngineConfig::max_clock_offset_s`]
-//!    in 10 ms steps; near-tied peaks go to the smaller |lag|). The subject's score for a track is
+//!    acceleration and orientation-change magnitudes and nomen's vertical acceleration and
+//!    swing, lags ±[`EngineConfig::max_clock_offset_s`] in 40 ms steps, then 10 ms around the
+//!    coarse peak; near-tied peaks go to the smaller |lag|). The subject's score for a track is
 //!    the mean of its IMUs' peaks; only when the best track beats the next one of its camera by
 //!    [`EngineConfig::offset_margin`] (and reaches [`EngineConfig::offset_min_correlation`]) is
 //!    each IMU's peak lag on it a candidate, and [`EngineConfig::offset_num_consistent`]
 //!    candidates in a row within [`EngineConfig::offset_consistency_s`] make the offset. It is
 //!    refined every [`EngineConfig::offset_refine_interval_s`] against the assigned track;
-//! 2. **evidence**: per camera, a `nomen_evidence::ScoreTensor` (tracks × subjects × sites) of
-//!    `geometric_scores` (De Marchi's acc/vel/ori correlations) for every active track and every
-//!    IMU, resampled onto the track's timestamps at its offset — before the offset is accepted,
-//!    at that (track, IMU) pair's own lag-curve peak, i.e. the max over the lag range, so
-//!    identity can be found meanwhile. `nomen_evidence::fuse` with [`EngineConfig::fusion`]
-//!    gives one score per (track, subject), accumulated by an exponentially weighted mean;
-//! 3. **identity**: per camera, the accumulated track × subject matrix is solved by `nomen_assign::solve` with
+//! 2. **evidence**: per camera, every active track against every subject. IMUs are resampled
+//!    onto the track's timestamps at their offset (before it is accepted, at that pair's own
+//!    lag-curve peak, so identity can be found meanwhile) and scored as
+//!    [`EngineConfig::motion_score`] says: De Marchi's correlations fused by
+//!    [`EngineConfig::fusion`], Belmonte-Hernández's costs, or (default) the mean of De Marchi's
+//!    and nomen's correlations (`nomen_evidence::kinematic`), plus a learned scorer's when one is
+//!    plugged in ([`Engine::with_pair_scorer`]). Tag fixes score by their distance to the
+//!    tag's key joint over the last [`EngineConfig::tag_window_s`]; RSSI by the likelihood of
+//!    the filtered reads at the person's position against the background. Each modality is
+//!    accumulated per (track, subject) by an exponentially weighted mean with its own half-life;
+//! 3. **identity**: per camera, the mean of the modalities a subject has evidence from gives the
+//!    track × subject matrix, solved by `nomen_assign::solve` with
 //!    [`EngineConfig::rejection_threshold`]; the track's current label gets
 //!    [`EngineConfig::switch_margin`] as a bonus (hysteresis). One subject never goes to two
 //!    tracks of one camera; a track below threshold is [`nomen_core::Identity::Anonymous`].
@@ -41,6 +55,8 @@
 //! `t + decision_delay_s`. While all sources send, an observation is emitted at most
 //! `decision_delay_s + hop_s + reorder_window_s` (default 2.25 s) of stream time after `t`
 //! ([`EngineConfig::latency_s`]); a silent source adds at most `silence_timeout_s`.
+//! Every settled tag fix comes back once as a `Message::TagCorrection` on the same schedule:
+//! blended with the key joint of the track labelled with the tag's wearer, raw otherwise.
 //! Rejected messages produce no output.
 //!
 //! Sans-IO and deterministic: no clocks, files, threads or printing; all maps are ordered.
