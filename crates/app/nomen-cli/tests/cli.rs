@@ -21,6 +21,29 @@ fn data_dir() -> Option<PathBuf> {
     }
 }
 
+/// Simulates `scenarios/NAME` into `out` (default seed), failing the test with stderr if it fails.
+fn simulate_library(name: &str, out: &Path, data: &Path) {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
+    let o = nomen(&[
+        "simulate",
+        repo.join("scenarios").join(name).to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+}
+
+/// Number of messages of type `kind` in a recording file.
+fn count(path: &Path, kind: &str) -> usize {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| l.contains(&format!("\"type\":\"{kind}\"")))
+        .count()
+}
+
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
@@ -344,18 +367,7 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
     let Some(data) = data_dir() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let scene = tmp.path().join("scene");
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
-    let o = nomen(&[
-        "simulate",
-        repo.join("scenarios/belmonte_one_without_band.toml")
-            .to_str()
-            .unwrap(),
-        "--out",
-        scene.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    simulate_library("belmonte_one_without_band.toml", &scene, &data);
     let result = scene.join("result.jsonl");
     let o = nomen(&[
         "run",
@@ -365,13 +377,6 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
     ]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     // One decision per skeleton observation, each either a subject or explicitly anonymous.
-    let count = |path: &Path, kind: &str| {
-        std::fs::read_to_string(path)
-            .unwrap()
-            .lines()
-            .filter(|l| l.contains(&format!("\"type\":\"{kind}\"")))
-            .count()
-    };
     let num_skeletons = count(&scene.join("recording.jsonl"), "skeleton");
     assert!(num_skeletons > 0);
     assert_eq!(count(&result, "identified"), num_skeletons);
@@ -433,16 +438,7 @@ fn refine_joints_estimates_hidden_arms_with_covariance_and_keeps_seen_joints() {
     let Some(data) = data_dir() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let scene = tmp.path().join("scene");
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
-    let o = nomen(&[
-        "simulate",
-        repo.join("scenarios/hospital_room.toml").to_str().unwrap(),
-        "--out",
-        scene.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    simulate_library("hospital_room.toml", &scene, &data);
     let result = scene.join("refined.jsonl");
     let o = nomen(&[
         "run",
@@ -510,17 +506,7 @@ fn run_with_the_shipped_cnn_labels_every_skeleton_and_a_missing_model_is_named()
     let tmp = tempfile::tempdir().unwrap();
     let scene = tmp.path().join("scene");
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
-    let o = nomen(&[
-        "simulate",
-        repo.join("scenarios/belmonte_one_without_band.toml")
-            .to_str()
-            .unwrap(),
-        "--out",
-        scene.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    simulate_library("belmonte_one_without_band.toml", &scene, &data);
     let result = scene.join("cnn.jsonl");
     let model = repo.join("models/cnn_small");
     let o = nomen(&[
@@ -532,13 +518,6 @@ fn run_with_the_shipped_cnn_labels_every_skeleton_and_a_missing_model_is_named()
         result.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", text(&o.stderr));
-    let count = |path: &Path, kind: &str| {
-        std::fs::read_to_string(path)
-            .unwrap()
-            .lines()
-            .filter(|l| l.contains(&format!("\"type\":\"{kind}\"")))
-            .count()
-    };
     assert_eq!(
         count(&result, "identified"),
         count(&scene.join("recording.jsonl"), "skeleton")
