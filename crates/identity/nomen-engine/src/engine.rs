@@ -343,9 +343,9 @@ impl Engine {
             let r = &mut self.stats.rejected;
             match e {
                 EngineError::InvalidMessage { .. } => r.num_invalid += 1,
-                EngineError::UnknownDevice { .. } | EngineError::WrongDeviceKind { .. } => {
-                    r.num_unknown_device += 1
-                }
+                EngineError::UnknownDevice { .. }
+                | EngineError::WrongDeviceKind { .. }
+                | EngineError::UnknownAntenna { .. } => r.num_unknown_device += 1,
                 EngineError::UnknownCamera { .. } => r.num_unknown_camera += 1,
                 EngineError::Duplicate { .. } => r.num_duplicate += 1,
                 EngineError::Late { .. } => r.num_late += 1,

@@ -9,7 +9,8 @@ use std::collections::BTreeMap;
 pub struct RejectCounts {
     /// Failed validation (NaN, out of range).
     pub num_invalid: u64,
-    /// IMU sample from a device no subject wears (or that is not an IMU).
+    /// Sensor message from a device no subject wears, from a device of another kind, or from an
+    /// antenna the registry does not list.
     pub num_unknown_device: u64,
     /// Skeleton from an unregistered camera.
     pub num_unknown_camera: u64,

@@ -336,3 +336,41 @@ fn a_walker_relabelled_by_the_camera_is_named_again_within_a_second() {
     assert!(named_from <= 10.0, "named from {named_from} s");
     assert!(accuracy(&walkers, &out, 10.0) > 0.99);
 }
+
+#[test]
+fn rssi_reads_are_checked_and_without_a_model_counted_not_used() {
+    let walkers = three_walkers();
+    let mut registry = registry(&walkers);
+    registry.antennas.push(nomen_core::Antenna {
+        id: nomen_core::AntennaId::new("door"),
+        position_m: Point3::new(0.0, 0.0, 2.0),
+        boresight: None,
+    });
+    registry.subjects[0].wears.push(Wearable {
+        device: DeviceId::new("ana_rfid"),
+        kind: DeviceKind::RfidTag,
+        site: Joint::Chest,
+        clock: ClockModel::default(),
+    });
+    let mut engine = nomen_engine::Engine::new(registry, EngineConfig::default()).unwrap();
+    let read = |antenna: &str, tag: &str, rssi_dbm: f64| {
+        Message::Rssi(nomen_core::RssiRead {
+            t: ns(1.0),
+            tag: DeviceId::new(tag),
+            antenna: nomen_core::AntennaId::new(antenna),
+            rssi_dbm,
+            phase_rad: None,
+        })
+    };
+    let err = engine.push(&read("window", "ana_rfid", -60.0)).unwrap_err();
+    assert!(matches!(err, EngineError::UnknownAntenna { .. }), "{err}");
+    assert!(err.to_string().contains("window"), "{err}");
+    let err = engine.push(&read("door", "ana_tag", -60.0)).unwrap_err();
+    assert!(matches!(err, EngineError::WrongDeviceKind { .. }), "{err}");
+    let err = engine.push(&read("door", "ana_rfid", -6000.0)).unwrap_err();
+    assert!(matches!(err, EngineError::InvalidMessage { .. }), "{err}");
+    engine.push(&read("door", "ana_rfid", -60.0)).unwrap();
+    assert_eq!(engine.stats().num_rssi_without_model, 1);
+    // The unknown antenna and the tag of the wrong kind.
+    assert_eq!(engine.stats().rejected.num_unknown_device, 2);
+}
