@@ -1,52 +1,11 @@
 //! End-to-end tests: the `nomen` binary on real files.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-fn nomen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nomen"))
-        .args(args)
-        .output()
-        .expect("the nomen binary runs")
-}
+mod common;
 
-fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../../shared/data");
-    if dir.join("mocap/cmu/18_01.bvh").is_file() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: shared data not found at {}", dir.display());
-        None
-    }
-}
-
-/// Simulates `scenarios/NAME` into `out` (default seed), failing the test with stderr if it fails.
-fn simulate_library(name: &str, out: &Path, data: &Path) {
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
-    let o = nomen(&[
-        "simulate",
-        repo.join("scenarios").join(name).to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
-}
-
-/// Number of messages of type `kind` in a recording file.
-fn count(path: &Path, kind: &str) -> usize {
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .filter(|l| l.contains(&format!("\"type\":\"{kind}\"")))
-        .count()
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+use common::{count, data_dir, nomen, simulate_library, text};
 
 #[test]
 fn handshake_converts_validates_and_evaluates() {
@@ -505,7 +464,7 @@ fn run_with_the_shipped_cnn_labels_every_skeleton_and_a_missing_model_is_named()
     let Some(data) = data_dir() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let scene = tmp.path().join("scene");
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
+    let repo = common::repo();
     simulate_library("belmonte_one_without_band.toml", &scene, &data);
     let result = scene.join("cnn.jsonl");
     let model = repo.join("models/cnn_small");

@@ -2,33 +2,11 @@
 //! errors a user meets when a method is missing what it needs.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-fn nomen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nomen"))
-        .args(args)
-        .output()
-        .expect("the nomen binary runs")
-}
+mod common;
 
-fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../../shared/data");
-    if dir.join("mocap/cmu/18_01.bvh").is_file() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: shared data not found at {}", dir.display());
-        None
-    }
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..")
-}
+use common::{data_dir, nomen, repo, text};
 
 /// A header with a one-subject registry (a UWB tag wearer, one camera) and nothing else.
 const TINY: &str = concat!(

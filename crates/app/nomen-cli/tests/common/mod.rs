@@ -1,0 +1,57 @@
+//! Helpers shared by the CLI's end-to-end tests: run the binary, find the shared data, simulate a
+//! library scenario, count messages in a recording.
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Runs the `nomen` binary with `args`.
+pub fn nomen(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_nomen"))
+        .args(args)
+        .output()
+        .expect("the nomen binary runs")
+}
+
+/// `../shared/data`, or `None` (after printing `skipping: …`) when it is absent.
+pub fn data_dir() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../../shared/data");
+    if dir.join("mocap/cmu/18_01.bvh").is_file() {
+        Some(dir)
+    } else {
+        eprintln!("skipping: shared data not found at {}", dir.display());
+        None
+    }
+}
+
+/// The repository root.
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..")
+}
+
+/// Process output as text.
+pub fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Simulates `scenarios/NAME` into `out` (default seed), failing the test with stderr if it fails.
+pub fn simulate_library(name: &str, out: &Path, data: &Path) {
+    let o = nomen(&[
+        "simulate",
+        repo().join("scenarios").join(name).to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+}
+
+/// Number of messages of type `kind` in a recording file.
+pub fn count(path: &Path, kind: &str) -> usize {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| l.contains(&format!("\"type\":\"{kind}\"")))
+        .count()
+}
