@@ -29,9 +29,10 @@
 //! (wrist: elbow→wrist, ankle: knee→ankle, elbow: shoulder→elbow, …); the trunk for the pelvis
 //! and the chest (pelvis→chest), since the pelvis is the root and the chest's parent is the pelvis.
 
+use crate::features::{ImuFeatures, SegmentFeatures, compare_features};
+use crate::kinematic::KinematicConfig;
 use crate::signal::{
-    Derivative, differentiate_runs, grid_rate_hz, is_finite3, lowpass_vectors, moving_average,
-    nan3, pearson,
+    Derivative, differentiate_runs, grid_rate_hz, is_finite3, lowpass_vectors, moving_average, nan3,
 };
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -110,22 +111,13 @@ pub fn geometric_scores(
     if imu.t_s.len() != skel.t_s.len() {
         return ModelScores::default();
     }
-    let corr = |a: Vec<f64>, b: Vec<f64>| pearson(&a, &b, cfg.min_samples);
-    ModelScores {
-        acc: corr(
-            imu_accel_magnitude(imu, cfg),
-            joint_accel_magnitude(skel, site, cfg),
-        ),
-        vel: corr(
-            imu_velocity_magnitude(imu, cfg),
-            joint_velocity_magnitude(skel, site, cfg),
-        ),
-        ori: corr(
-            imu_orientation_magnitude(imu, cfg),
-            segment_orientation_magnitude(skel, site, cfg),
-        ),
-        dl: None,
-    }
+    let kin = KinematicConfig::default();
+    compare_features(
+        &ImuFeatures::new(imu, cfg, &kin),
+        &SegmentFeatures::new(skel, site, cfg, &kin),
+        cfg,
+    )
+    .0
 }
 
 /// Whether the IMU window's series all have the grid's length.
@@ -151,7 +143,7 @@ pub(crate) fn imu_linear_accel_world(imu: &ImuWindow, cfg: &GeometricConfig) -> 
 }
 
 /// Norms of vectors, smoothed; NaN stays NaN.
-fn smoothed_norms(v: &[Vector3<f64>], cfg: &GeometricConfig) -> Vec<f64> {
+pub(crate) fn smoothed_norms(v: &[Vector3<f64>], cfg: &GeometricConfig) -> Vec<f64> {
     let mut out: Vec<f64> = v
         .iter()
         .map(|v| if is_finite3(v) { v.norm() } else { f64::NAN })
@@ -180,13 +172,23 @@ pub fn imu_accel_magnitude(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<f64> {
 /// (`v_k = e^{−dt/τ} v_{k−1} + dt·a_k`, `v_0 = 0`; a missing sample only leaks), norm, moving
 /// average. Compare with [`joint_velocity_magnitude`], which applies the same leak.
 pub fn imu_velocity_magnitude(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<f64> {
-    let lin = imu_linear_accel_world(imu, cfg);
+    imu_velocity_magnitude_from(imu, &imu_linear_accel_world(imu, cfg), cfg)
+}
+
+/// [`imu_velocity_magnitude`] from the window's low-passed world linear acceleration `lin`.
+pub(crate) fn imu_velocity_magnitude_from(
+    imu: &ImuWindow,
+    lin: &[Vector3<f64>],
+    cfg: &GeometricConfig,
+) -> Vec<f64> {
     let mut v = Vector3::zeros();
     let mut out = Vec::with_capacity(lin.len());
     let mut is_started = false;
     for (k, a) in lin.iter().enumerate() {
-        if k > 0 {
-            let dt_s = imu.t_s[k] - imu.t_s[k - 1];
+        if k > 0
+            && let (Some(t1), Some(t0)) = (imu.t_s.get(k), imu.t_s.get(k - 1))
+        {
+            let dt_s = t1 - t0;
             v *= leak(dt_s, cfg);
             if is_started && is_finite3(a) {
                 v += a * dt_s;
@@ -281,12 +283,23 @@ pub fn joint_velocity_magnitude(
     let Some(vel) = filtered_joint_derivative(skel, joint, Derivative::Velocity, cfg) else {
         return vec![f64::NAN; skel.t_s.len()];
     };
+    joint_velocity_magnitude_from(skel, &vel, cfg)
+}
+
+/// [`joint_velocity_magnitude`] from the joint's low-passed velocity `vel`.
+pub(crate) fn joint_velocity_magnitude_from(
+    skel: &SkeletonWindow,
+    vel: &[Vector3<f64>],
+    cfg: &GeometricConfig,
+) -> Vec<f64> {
     let mut u = Vector3::zeros();
     let mut last: Option<Vector3<f64>> = None;
     let mut out = Vec::with_capacity(vel.len());
     for (k, v) in vel.iter().enumerate() {
-        if k > 0 {
-            u *= leak(skel.t_s[k] - skel.t_s[k - 1], cfg);
+        if k > 0
+            && let (Some(t1), Some(t0)) = (skel.t_s.get(k), skel.t_s.get(k - 1))
+        {
+            u *= leak(t1 - t0, cfg);
         }
         if is_finite3(v) {
             if let Some(prev) = last {

@@ -1,5 +1,6 @@
 //! nomen's own motion models, beside De Marchi's three: signals that keep the *sign* and the
-//! *timing* of the motion instead of a magnitude relative to the window's first sample.
+//! *timing* of the motion instead of a magnitude relative to the window's first sample, and the
+//! body's turns.
 //!
 //! De Marchi's models compare magnitudes, which throws away direction, and the orientation model
 //! measures the rotation from the window's first sample, which is dominated by slow heading
@@ -13,6 +14,7 @@
 //! | vertical acceleration | world `z` of the linear acceleration (gravity removed with the AHRS tilt, which is observable without a magnetometer), 3 Hz zero-phase low-pass | `z̈` of the joint through the same low-pass |
 //! | vertical velocity | leaky integral of that vertical acceleration | `ż` of the joint through the same leak (see [`crate::geometric`]) |
 //! | inclination | elevation of each sensor axis, `asin((q·e)_z)` | elevation of the carrying segment (the largest \|r\| over the three axes: the mounting is unknown) |
+//! | turn rate | angular rate about the world vertical, `(q·ω)_z`, averaged over about a stride | rate of change of the body's heading (shoulder line, hip line where the shoulders are missing), averaged alike |
 //!
 //! The vertical components are signed, so a foot going up is not confused with one coming down;
 //! the world `z` axis is shared by the camera calibration and the AHRS (gravity), unlike the
@@ -21,14 +23,26 @@
 //! De Marchi's orientation model the twist about the bone is invisible to the camera and only
 //! lowers the correlation.
 //!
+//! The turn rate is what tells apart people who walk alike: gait is periodic, so with an unknown
+//! clock offset of up to half a second the steps of anyone walking at the same cadence can be
+//! lined up with an IMU, but the turns of a walk do not repeat. A rigid segment's angular
+//! velocity is the same wherever the sensor sits on it, and its vertical component needs only
+//! the AHRS tilt; every segment turns with the body, so the body's heading rate is the
+//! skeleton side for any site. On the simulated 8-person body-area-network scene this model,
+//! added to the scores and to the clock-offset search, raised the frames correctly identified
+//! from 52 % to 65 % (seed 1, 3 s windows); over the ten imu-table scenes at seeds 1–3 it is
+//! worth 6 points (60.6 % → 66.9 %, 2 s windows).
+//!
 //! Every score is a Pearson correlation in `-1..=1` (`None` when a signal is missing, constant or
 //! too short), so the fusions treat these models like De Marchi's.
 
+use crate::belmonte::{BelmonteConfig, band_yaw_rate_radps, skeleton_yaw_rate_radps};
+use crate::features::{ImuFeatures, SegmentFeatures, compare_features};
 use crate::geometric::{
     GeometricConfig, carrying_segment, filtered_joint_derivative, imu_linear_accel_world,
     joint_positions, leak,
 };
-use crate::signal::{Derivative, grid_rate_hz, moving_average, pearson};
+use crate::signal::{Derivative, grid_rate_hz, moving_average};
 use crate::window::{ImuWindow, SkeletonWindow};
 use nalgebra::{UnitQuaternion, Vector3};
 use nomen_core::skeleton::Joint;
@@ -42,11 +56,18 @@ pub struct KinematicConfig {
     /// long enough for the camera's bone direction noise to average out, short enough to keep
     /// the swing's timing).
     pub swing_lag_s: f64,
+    /// Length of the moving average over the turn rates, s. Default 1.0 s: about one stride, so
+    /// the shoulders' and the limbs' back-and-forth yaw within a gait cycle averages out and
+    /// the body's turns remain.
+    pub turn_smoothing_s: f64,
 }
 
 impl Default for KinematicConfig {
     fn default() -> Self {
-        Self { swing_lag_s: 0.2 }
+        Self {
+            swing_lag_s: 0.2,
+            turn_smoothing_s: 1.0,
+        }
     }
 }
 
@@ -61,6 +82,9 @@ pub struct KinematicScores {
     pub vertical_vel: Option<f64>,
     /// Inclination of the carrying segment against the best-matching sensor axis.
     pub inclination: Option<f64>,
+    /// Turn rate: the sensor's angular rate about the world vertical against the rate of
+    /// change of the body's heading.
+    pub turn: Option<f64>,
 }
 
 impl KinematicScores {
@@ -71,13 +95,14 @@ impl KinematicScores {
             self.vertical_accel,
             self.vertical_vel,
             self.inclination,
+            self.turn,
         ]
         .into_iter()
         .flatten()
     }
 }
 
-/// nomen's four correlations for the IMU worn at `site` and the joint `site` of a candidate
+/// nomen's five correlations for the IMU worn at `site` and the joint `site` of a candidate
 /// skeleton (see the module docs). Windows on different grids give all `None`.
 pub fn kinematic_scores(
     imu: &ImuWindow,
@@ -89,65 +114,16 @@ pub fn kinematic_scores(
     if imu.t_s.len() != skel.t_s.len() || imu.t_s.is_empty() {
         return KinematicScores::default();
     }
-    let lag = grid_rate_hz(&imu.t_s)
-        .map(|r| (cfg.swing_lag_s * r).round().max(1.0) as usize)
-        .unwrap_or(1);
-    let smooth = |mut v: Vec<f64>| {
-        moving_average(&mut v, geo.moving_average_len);
-        v
-    };
-    let corr = |a: Vec<f64>, b: Vec<f64>| pearson(&smooth(a), &smooth(b), geo.min_samples);
-    let lin = imu_linear_accel_world(imu, geo);
-    KinematicScores {
-        swing: corr(imu_swing(imu, lag), segment_swing(skel, site, lag)),
-        vertical_accel: corr(
-            lin.iter().map(|a| a.z).collect(),
-            filtered_joint_derivative(skel, site, Derivative::Acceleration, geo)
-                .map(|d| d.iter().map(|a| a.z).collect())
-                .unwrap_or_else(|| vec![f64::NAN; skel.t_s.len()]),
-        ),
-        vertical_vel: corr(
-            imu_vertical_velocity(imu, &lin, geo),
-            joint_vertical_velocity(skel, site, geo),
-        ),
-        inclination: inclination_score(imu, skel, site, geo),
-    }
-}
-
-/// The segment's elevation above the horizontal against the elevation of each sensor axis
-/// (`asin((q·e)_z)`, which needs only the AHRS tilt): the largest |Pearson correlation| over the
-/// three axes. The axis along the segment is unknown (mounting), and its sign flips the
-/// correlation's, hence the absolute value; the maximum over three axes lifts wrong pairs a
-/// little, the same for every candidate.
-fn inclination_score(
-    imu: &ImuWindow,
-    skel: &SkeletonWindow,
-    site: Joint,
-    geo: &GeometricConfig,
-) -> Option<f64> {
-    let (from, to) = carrying_segment(site);
-    let mut bone: Vec<f64> = joint_positions(skel, to)
-        .iter()
-        .zip(joint_positions(skel, from))
-        .map(|(b, a)| elevation_rad(&(b - a)))
-        .collect();
-    moving_average(&mut bone, geo.moving_average_len);
-    [Vector3::x(), Vector3::y(), Vector3::z()]
-        .iter()
-        .filter_map(|e| {
-            let mut axis: Vec<f64> = imu
-                .world_from_sensor
-                .iter()
-                .map(|q| elevation_rad(&(q * e)))
-                .collect();
-            moving_average(&mut axis, geo.moving_average_len);
-            pearson(&axis, &bone, geo.min_samples).map(f64::abs)
-        })
-        .reduce(f64::max)
+    compare_features(
+        &ImuFeatures::new(imu, geo, cfg),
+        &SegmentFeatures::new(skel, site, geo, cfg),
+        geo,
+    )
+    .1
 }
 
 /// Elevation of a vector above the horizontal plane, rad (NaN if degenerate).
-fn elevation_rad(d: &Vector3<f64>) -> f64 {
+pub(crate) fn elevation_rad(d: &Vector3<f64>) -> f64 {
     let horizontal = d.x.hypot(d.y);
     if (horizontal > 0.0 || d.z != 0.0) && d.iter().all(|v| v.is_finite()) {
         d.z.atan2(horizontal)
@@ -157,7 +133,7 @@ fn elevation_rad(d: &Vector3<f64>) -> f64 {
 }
 
 /// Rotation angle of the sensor over the last `lag` samples, rad (NaN where unknown).
-fn imu_swing(imu: &ImuWindow, lag: usize) -> Vec<f64> {
+pub(crate) fn imu_swing(imu: &ImuWindow, lag: usize) -> Vec<f64> {
     let ok = |q: &UnitQuaternion<f64>| q.coords.iter().all(|c| c.is_finite());
     (0..imu.t_s.len())
         .map(|k| {
@@ -173,7 +149,7 @@ fn imu_swing(imu: &ImuWindow, lag: usize) -> Vec<f64> {
 }
 
 /// Angle the carrying bone turned over the last `lag` samples, rad (NaN where unknown).
-fn segment_swing(skel: &SkeletonWindow, site: Joint, lag: usize) -> Vec<f64> {
+pub(crate) fn segment_swing(skel: &SkeletonWindow, site: Joint, lag: usize) -> Vec<f64> {
     let (from, to) = carrying_segment(site);
     let dirs: Vec<Option<Vector3<f64>>> = joint_positions(skel, to)
         .iter()
@@ -196,7 +172,11 @@ fn segment_swing(skel: &SkeletonWindow, site: Joint, lag: usize) -> Vec<f64> {
 }
 
 /// Leaky integral of the IMU's vertical linear acceleration, m/s (starts at 0 in the window).
-fn imu_vertical_velocity(imu: &ImuWindow, lin: &[Vector3<f64>], geo: &GeometricConfig) -> Vec<f64> {
+pub(crate) fn imu_vertical_velocity(
+    imu: &ImuWindow,
+    lin: &[Vector3<f64>],
+    geo: &GeometricConfig,
+) -> Vec<f64> {
     let mut v = 0.0;
     let mut started = false;
     let mut out = Vec::with_capacity(lin.len());
@@ -221,11 +201,13 @@ fn imu_vertical_velocity(imu: &ImuWindow, lin: &[Vector3<f64>], geo: &GeometricC
     out
 }
 
-/// The joint's vertical velocity through the IMU integrator's leak, m/s.
-fn joint_vertical_velocity(skel: &SkeletonWindow, site: Joint, geo: &GeometricConfig) -> Vec<f64> {
-    let Some(vel) = filtered_joint_derivative(skel, site, Derivative::Velocity, geo) else {
-        return vec![f64::NAN; skel.t_s.len()];
-    };
+/// The joint's vertical velocity through the IMU integrator's leak, m/s, from its low-passed
+/// velocity `vel`.
+pub(crate) fn joint_vertical_velocity(
+    skel: &SkeletonWindow,
+    vel: &[Vector3<f64>],
+    geo: &GeometricConfig,
+) -> Vec<f64> {
     let mut u = 0.0;
     let mut last: Option<f64> = None;
     let mut out = Vec::with_capacity(vel.len());
@@ -292,8 +274,37 @@ pub fn segment_swing_signal(
     v
 }
 
+/// The sensor's angular rate about the world vertical, `(world_from_sensor · ω)_z`, averaged
+/// over `cfg.turn_smoothing_s`, rad/s. The rate of a rigid segment is the same wherever and
+/// however the sensor sits on it, and its vertical component needs only the AHRS tilt.
+pub fn imu_turn_rate_signal(imu: &ImuWindow, cfg: &KinematicConfig) -> Vec<f64> {
+    let belmonte = BelmonteConfig {
+        moving_average_len: smoothing_samples(&imu.t_s, cfg),
+        ..BelmonteConfig::default()
+    };
+    band_yaw_rate_radps(imu, &belmonte)
+}
+
+/// The body's turn rate: the derivative of its heading (shoulder line, hip line where the
+/// shoulders are missing), averaged over `cfg.turn_smoothing_s`, rad/s. Every segment turns
+/// with the body, so this is compared with the sensor's vertical rate wherever it is worn.
+pub fn body_turn_rate_signal(skel: &SkeletonWindow, cfg: &KinematicConfig) -> Vec<f64> {
+    let belmonte = BelmonteConfig {
+        moving_average_len: smoothing_samples(&skel.t_s, cfg),
+        ..BelmonteConfig::default()
+    };
+    skeleton_yaw_rate_radps(skel, &belmonte)
+}
+
+/// The turn-rate smoothing in samples of a grid (at least one).
+fn smoothing_samples(t_s: &[f64], cfg: &KinematicConfig) -> usize {
+    grid_rate_hz(t_s)
+        .map(|r| (cfg.turn_smoothing_s * r).round().max(1.0) as usize)
+        .unwrap_or(1)
+}
+
 /// The swing lag in samples of a grid (at least one).
-fn lag_samples(t_s: &[f64], cfg: &KinematicConfig) -> usize {
+pub(crate) fn lag_samples(t_s: &[f64], cfg: &KinematicConfig) -> usize {
     grid_rate_hz(t_s)
         .map(|r| (cfg.swing_lag_s * r).round().max(1.0) as usize)
         .unwrap_or(1)
@@ -367,6 +378,89 @@ mod tests {
             "{right:?} {wrong:?}"
         );
         assert!(r_incl > 0.9 && r_incl > w_incl + 0.3, "{right:?} {wrong:?}");
+    }
+
+    /// A person whose heading follows `heading(t)` (shoulders across it), and an IMU on the
+    /// pelvis, mounted tilted, turning with the body.
+    fn turning(
+        imu_heading: impl Fn(f64) -> f64,
+        skel_heading: impl Fn(f64) -> f64,
+    ) -> (ImuWindow, SkeletonWindow) {
+        let t_s: Vec<f64> = (0..150).map(|k| k as f64 / 30.0).collect();
+        let mount = UnitQuaternion::from_euler_angles(0.4, -0.3, 1.2);
+        let dt = 1e-4;
+        let q: Vec<UnitQuaternion<f64>> = t_s
+            .iter()
+            .map(|&t| UnitQuaternion::from_axis_angle(&Vector3::z_axis(), imu_heading(t)) * mount)
+            .collect();
+        let gyro = t_s
+            .iter()
+            .zip(&q)
+            .map(|(&t, q)| {
+                let rate = (imu_heading(t + dt) - imu_heading(t - dt)) / (2.0 * dt);
+                q.inverse() * Vector3::new(0.0, 0.0, rate)
+            })
+            .collect();
+        let accel = q
+            .iter()
+            .map(|q| q.inverse() * Vector3::new(0.0, 0.0, 9.81))
+            .collect();
+        let joints = t_s
+            .iter()
+            .map(|&t| {
+                let psi = skel_heading(t);
+                let across = Vector3::new(psi.cos(), psi.sin(), 0.0) * 0.2;
+                let chest = Point3::new(0.0, 0.0, 1.4);
+                let mut j = Joints::new();
+                j.insert(Joint::LeftShoulder, chest - across);
+                j.insert(Joint::RightShoulder, chest + across);
+                j.insert(Joint::Pelvis, Point3::new(0.0, 0.0, 1.0));
+                j.insert(Joint::Chest, chest);
+                j
+            })
+            .collect();
+        (
+            ImuWindow {
+                device: None,
+                t_s: t_s.clone(),
+                accel_mps2: accel,
+                gyro_radps: gyro,
+                world_from_sensor: q,
+            },
+            SkeletonWindow {
+                camera: None,
+                track: None,
+                t_s,
+                joints_world_m: joints,
+            },
+        )
+    }
+
+    #[test]
+    fn the_turn_rate_follows_the_wearers_turns_whatever_the_mounting() {
+        // A 90° turn over a second, at 1.5 s for the wearer and at 3 s for someone else.
+        let turn_at = |t0: f64| {
+            move |t: f64| {
+                let x = ((t - t0) / 1.0).clamp(0.0, 1.0);
+                std::f64::consts::FRAC_PI_2 * (3.0 * x * x - 2.0 * x * x * x)
+            }
+        };
+        let (geo, cfg) = (GeometricConfig::default(), KinematicConfig::default());
+        let (imu, skel) = turning(turn_at(1.5), turn_at(1.5));
+        let right = kinematic_scores(&imu, &skel, Joint::Pelvis, &geo, &cfg);
+        let (imu, skel) = turning(turn_at(1.5), turn_at(3.0));
+        let wrong = kinematic_scores(&imu, &skel, Joint::Pelvis, &geo, &cfg);
+        let (r, w) = (right.turn.unwrap(), wrong.turn.unwrap());
+        assert!(r > 0.95, "{right:?}");
+        assert!(r > w + 0.5, "{right:?} {wrong:?}");
+        // The sensor side is the body's vertical rate, not the mounting's.
+        let rate = imu_turn_rate_signal(&imu, &cfg);
+        let peak = rate
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        assert!((1.0..2.0).contains(&peak), "{peak}");
     }
 
     #[test]

@@ -6,6 +6,8 @@
 //!
 //! - [`geometric`]: De Marchi's three correlations ([`geometric_scores`]) and the magnitude
 //!   signals behind them, public so the engine can run [`best_lag`] on longer buffers.
+//! - [`features`]: the per-side signals of every model ([`ImuFeatures`], [`SegmentFeatures`]),
+//!   built once per window and correlated with many candidates ([`compare_features`]).
 //! - [`signal`]: [`pearson`] and the clock-offset search [`best_lag`].
 //! - [`belmonte`]: Belmonte-Hernández's pitch and yaw-rate costs ([`belmonte_costs`]).
 //! - [`fusion`]: [`ScoreTensor`] → [`ScoreMatrix`] by [`fuse`] (mean, max, threshold, voting).
@@ -20,6 +22,7 @@ mod error;
 pub use error::{EvidenceError, Result};
 
 pub mod belmonte;
+pub mod features;
 pub mod fusion;
 pub mod geometric;
 pub mod kinematic;
@@ -28,6 +31,7 @@ pub mod signal;
 pub mod window;
 
 pub use belmonte::{BelmonteConfig, BelmonteCosts, SensorAxis, Side, belmonte_costs};
+pub use features::{ImuFeatures, SegmentFeatures, compare_features};
 pub use fusion::{Fusion, FusionConfig, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{
     GeometricConfig, carrying_segment, geometric_scores, imu_accel_magnitude,
@@ -35,8 +39,9 @@ pub use geometric::{
     joint_velocity_magnitude, segment_orientation_magnitude,
 };
 pub use kinematic::{
-    KinematicConfig, KinematicScores, imu_swing_signal, imu_vertical_accel, joint_vertical_accel,
-    kinematic_scores, segment_swing_signal,
+    KinematicConfig, KinematicScores, body_turn_rate_signal, imu_swing_signal,
+    imu_turn_rate_signal, imu_vertical_accel, joint_vertical_accel, kinematic_scores,
+    segment_swing_signal,
 };
 pub use scorer::PairScorer;
 pub use signal::{LagConfig, best_lag, best_lag_with, pearson};

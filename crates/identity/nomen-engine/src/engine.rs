@@ -14,10 +14,11 @@ use nomen_core::{
     TagCorrection, TrackId,
 };
 use nomen_evidence::{
-    GeometricConfig, ImuWindow, PairScorer, ScoreTensor, Side, SkeletonWindow, belmonte_costs,
-    fuse, geometric_scores, imu_accel_magnitude, imu_orientation_magnitude, imu_swing_signal,
-    imu_vertical_accel, joint_accel_magnitude, joint_vertical_accel, kinematic_scores,
-    segment_orientation_magnitude, segment_swing_signal,
+    GeometricConfig, ImuFeatures, ImuWindow, PairScorer, ScoreTensor, SegmentFeatures, Side,
+    SkeletonWindow, belmonte_costs, body_turn_rate_signal, compare_features, fuse,
+    imu_accel_magnitude, imu_orientation_magnitude, imu_swing_signal, imu_turn_rate_signal,
+    imu_vertical_accel, joint_accel_magnitude, joint_vertical_accel, segment_orientation_magnitude,
+    segment_swing_signal,
 };
 use nomen_filters::kalman::JointKalman;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
@@ -38,6 +39,15 @@ const COARSE_LAG_STEPS: usize = 4;
 /// Longest gap between two IMU samples across which the engine interpolates, ns (a dropout of
 /// a few packets at 50–100 Hz; longer gaps are missing data).
 const MAX_IMU_GAP_NS: i64 = 60_000_000;
+
+/// The lag search correlates every this-many-th camera sample (15 Hz from 30 Hz): its signals
+/// are low-passed at 3 Hz or smoothed over longer spans, so half the samples carry the same
+/// curve at half the cost.
+const LAG_DECIMATION: usize = 2;
+
+/// The IMU side of the lag search keeps every this-many-th sample (33 Hz from 100 Hz, still
+/// above the track's 15 Hz), for the same reason.
+const IMU_LAG_DECIMATION: usize = 3;
 
 /// A track that stopped less than this before a new one started is not yet considered ended
 /// (three frames at 30 Hz), ns.
@@ -862,11 +872,10 @@ impl Engine {
                 };
                 // Unknown offsets: a coarse grid over the whole range, then the fine grid
                 // around the coarse peak (a quarter of the work of the fine grid throughout).
+                // A known offset is only read at itself: the IMU's correlation there tells
+                // which track its wearer is (refinement is separate, below).
                 let offsets: Vec<i64> = if imu.is_offset_known {
-                    full.iter()
-                        .map(|o| o + imu.offset_ns)
-                        .filter(|o| (o - imu.offset_ns).abs() <= refine_range)
-                        .collect()
+                    vec![imu.offset_ns]
                 } else {
                     full.iter().step_by(COARSE_LAG_STEPS).copied().collect()
                 };
@@ -1060,8 +1069,10 @@ impl Engine {
         let mut sites: Vec<Joint> = self.imus.iter().map(|m| m.site).collect();
         sites.sort_unstable();
         sites.dedup();
-        let mut imu_win = ImuWindow::default();
         for c in 0..self.cameras.len() {
+            let mut grids: Vec<Vec<i64>> = Vec::new();
+            let mut imu_cache: BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures)> =
+                BTreeMap::new();
             // Tracks with a few samples in the window; the IMU models need more (below).
             let keys: Vec<(usize, TrackId)> = self
                 .tracks
@@ -1096,6 +1107,16 @@ impl Engine {
                     t_s: grid.iter().map(|&t| t as f64 * 1e-9).collect(),
                     joints_world_m: tr.samples.range(a..b).map(|s| s.joints.clone()).collect(),
                 };
+                // Tracks of one camera mostly share their frame times: an IMU's window and
+                // features are built once per (grid, offset), a track's once per site.
+                let grid_index = match grids.iter().position(|g| *g == grid) {
+                    Some(g) => g,
+                    None => {
+                        grids.push(grid.clone());
+                        grids.len() - 1
+                    }
+                };
+                let mut segments: Vec<(Joint, SegmentFeatures)> = Vec::new();
                 for (i, imu) in self.imus.iter().enumerate() {
                     let offset = if imu.is_offset_known {
                         imu.offset_ns
@@ -1104,21 +1125,46 @@ impl Engine {
                     } else {
                         continue;
                     };
-                    // Settled samples only: device times before `end` on the current clock estimate.
-                    let until = end - imu.offset_ns;
-                    imu_window_on_grid(
-                        &imu.series(),
-                        offset,
-                        &grid,
-                        MAX_IMU_GAP_NS,
-                        until,
-                        &mut imu_win,
-                    );
-                    imu_win.device = Some(imu.device.clone());
-                    let mut scores =
-                        geometric_scores(&imu_win, &skel, imu.site, &self.config.geometric);
+                    let cached = imu_cache.entry((i, offset, grid_index)).or_insert_with(|| {
+                        let mut win = ImuWindow::default();
+                        // Settled samples only: device times before `end` on the current clock
+                        // estimate.
+                        imu_window_on_grid(
+                            &imu.series(),
+                            offset,
+                            &grid,
+                            MAX_IMU_GAP_NS,
+                            end - imu.offset_ns,
+                            &mut win,
+                        );
+                        win.device = Some(imu.device.clone());
+                        let features =
+                            ImuFeatures::new(&win, &self.config.geometric, &self.config.kinematic);
+                        (win, features)
+                    });
+                    let (imu_win, imu_features) = (&cached.0, &cached.1);
+                    let segment = match segments.iter().position(|(j, _)| *j == imu.site) {
+                        Some(k) => k,
+                        None => {
+                            segments.push((
+                                imu.site,
+                                SegmentFeatures::new(
+                                    &skel,
+                                    imu.site,
+                                    &self.config.geometric,
+                                    &self.config.kinematic,
+                                ),
+                            ));
+                            segments.len() - 1
+                        }
+                    };
+                    let Some((_, seg_features)) = segments.get(segment) else {
+                        continue;
+                    };
+                    let (mut scores, k) =
+                        compare_features(imu_features, seg_features, &self.config.geometric);
                     if let Some(scorer) = &self.pair_scorer {
-                        scores.dl = scorer.score(&imu_win, &skel, imu.site);
+                        scores.dl = scorer.score(imu_win, &skel, imu.site);
                     }
                     if self.config.motion_score == MotionScore::Belmonte
                         && let Some(side) = match imu.site {
@@ -1132,7 +1178,7 @@ impl Engine {
                             _ => None,
                         }
                     {
-                        let costs = belmonte_costs(&imu_win, &skel, side, &self.config.belmonte);
+                        let costs = belmonte_costs(imu_win, &skel, side, &self.config.belmonte);
                         if let (Some(p), Some(y)) = (costs.pitch_mse, costs.yaw_rate_mse) {
                             let sp = self.config.belmonte_pitch_sigma_rad;
                             let sy = self.config.belmonte_yaw_rate_sigma_radps;
@@ -1145,13 +1191,6 @@ impl Engine {
                         }
                     }
                     if self.config.motion_score == MotionScore::Nomen {
-                        let k = kinematic_scores(
-                            &imu_win,
-                            &skel,
-                            imu.site,
-                            &self.config.geometric,
-                            &self.config.kinematic,
-                        );
                         let cell = nomen_sums
                             .entry((row, imu.subject))
                             .or_insert((0.0, 0usize));
@@ -1176,6 +1215,9 @@ impl Engine {
                     let _ = tensor.set(row, imu.subject, imu.site, scores);
                 }
             }
+            let decay = self.decay_per_hop;
+            let tag_decay = self.tag_decay_per_hop;
+            let rssi_decay = self.rssi_decay_per_hop;
             let matrix = match self.config.motion_score {
                 MotionScore::DeMarchi => Some(fuse(
                     &tensor,
@@ -1184,9 +1226,6 @@ impl Engine {
                 )),
                 MotionScore::Nomen | MotionScore::Belmonte => None,
             };
-            let decay = self.decay_per_hop;
-            let tag_decay = self.tag_decay_per_hop;
-            let rssi_decay = self.rssi_decay_per_hop;
             let rssi_matrix = match self.rssi.as_mut() {
                 Some(rssi) => {
                     let tracks: Vec<Option<&TrackState>> =
@@ -1815,15 +1854,24 @@ fn imu_lag_signals(imu: &ImuState, lo: i64, hi: i64, config: &EngineConfig) -> O
         world_from_sensor: series.world_from_sensor.get(a..b)?.to_vec(),
     };
     let cfg = lag_geometric(config);
-    // Device times: the lag curve shifts them by each candidate offset itself.
+    let models = [
+        imu_accel_magnitude(&window, &cfg),
+        imu_orientation_magnitude(&window, &cfg),
+        imu_vertical_accel(&window, &cfg),
+        imu_swing_signal(&window, &cfg, &config.kinematic),
+        imu_turn_rate_signal(&window, &config.kinematic),
+    ];
+    // Device times (the lag curve shifts them by each candidate offset itself), thinned like
+    // the track's: interpolation walks every IMU sample once per candidate offset.
+    let keep = |v: &[f64]| {
+        v.iter()
+            .step_by(IMU_LAG_DECIMATION)
+            .copied()
+            .collect::<Vec<f64>>()
+    };
     Some(LagSignals {
-        t_ns,
-        models: vec![
-            imu_accel_magnitude(&window, &cfg),
-            imu_orientation_magnitude(&window, &cfg),
-            imu_vertical_accel(&window, &cfg),
-            imu_swing_signal(&window, &cfg, &config.kinematic),
-        ],
+        t_ns: t_ns.iter().step_by(IMU_LAG_DECIMATION).copied().collect(),
+        models: models.iter().map(|m| keep(m)).collect(),
     })
 }
 
@@ -1848,13 +1896,23 @@ fn track_lag_signals(
         joints_world_m: tr.samples.range(a..b).map(|s| s.joints.clone()).collect(),
     };
     let cfg = lag_geometric(config);
+    let models = [
+        joint_accel_magnitude(&skel, site, &cfg),
+        segment_orientation_magnitude(&skel, site, &cfg),
+        joint_vertical_accel(&skel, site, &cfg),
+        segment_swing_signal(&skel, site, &cfg, &config.kinematic),
+        body_turn_rate_signal(&skel, &config.kinematic),
+    ];
+    // The signals are built at the camera's rate, then every `LAG_DECIMATION`-th sample is
+    // correlated: the models are low-passed well below the decimated Nyquist rate.
+    let keep = |v: &[f64]| {
+        v.iter()
+            .step_by(LAG_DECIMATION)
+            .copied()
+            .collect::<Vec<f64>>()
+    };
     Some(LagSignals {
-        t_ns,
-        models: vec![
-            joint_accel_magnitude(&skel, site, &cfg),
-            segment_orientation_magnitude(&skel, site, &cfg),
-            joint_vertical_accel(&skel, site, &cfg),
-            segment_swing_signal(&skel, site, &cfg, &config.kinematic),
-        ],
+        t_ns: t_ns.iter().step_by(LAG_DECIMATION).copied().collect(),
+        models: models.iter().map(|m| keep(m)).collect(),
     })
 }

@@ -84,6 +84,7 @@ pub(crate) fn imu_window_on_grid(
 /// Linear interpolation of `(t_ns, v)` (increasing times) at `t_query − shift_ns` for every
 /// query time (increasing); `NaN` outside, across gaps longer than `max_gap_ns`, or next to a
 /// `NaN`.
+#[cfg(test)]
 pub(crate) fn interpolate(
     t_ns: &[i64],
     v: &[f64],
@@ -92,23 +93,21 @@ pub(crate) fn interpolate(
     max_gap_ns: i64,
     out: &mut Vec<f64>,
 ) {
+    let mut weights = Vec::new();
+    interpolation_weights(t_ns, shift_ns, t_query, max_gap_ns, &mut weights);
     out.clear();
-    let n = t_ns.len().min(v.len());
-    let mut k = 0usize;
-    for &q in t_query {
-        let d = q - shift_ns;
-        while k < n && t_ns[k] < d {
-            k += 1;
-        }
-        let value = match (k.checked_sub(1), (k < n).then_some(k)) {
-            (_, Some(b)) if t_ns[b] == d => v[b],
-            (Some(a), Some(b)) if t_ns[b] - t_ns[a] <= max_gap_ns => {
-                let f = (d - t_ns[a]) as f64 / (t_ns[b] - t_ns[a]) as f64;
-                v[a] * (1.0 - f) + v[b] * f
-            }
+    out.extend(weights.iter().map(|w| interpolated(v, *w)));
+}
+
+/// The value of `v` at interpolation weight `w` (`NaN` for none or next to a `NaN`).
+fn interpolated(v: &[f64], w: Option<(usize, f64)>) -> f64 {
+    match w {
+        Some((i, f)) => match (v.get(i), v.get(i + 1)) {
+            (Some(x), _) if f == 0.0 => *x,
+            (Some(x), Some(y)) => x * (1.0 - f) + y * f,
             _ => f64::NAN,
-        };
-        out.push(value);
+        },
+        None => f64::NAN,
     }
 }
 
@@ -132,16 +131,53 @@ pub(crate) fn lag_curve(
     out: &mut Vec<f64>,
 ) {
     out.clear();
+    let mut weights = Vec::with_capacity(track.t_ns.len());
     for &offset in offsets_ns {
+        // Where each track time falls among the IMU's samples at this offset, once for every
+        // model.
+        interpolation_weights(&imu.t_ns, offset, &track.t_ns, max_gap_ns, &mut weights);
         let (mut sum, mut num) = (0.0, 0usize);
         for (a, b) in imu.models.iter().zip(&track.models) {
-            interpolate(&imu.t_ns, a, offset, &track.t_ns, max_gap_ns, scratch);
+            scratch.clear();
+            scratch.extend(weights.iter().map(|w| interpolated(a, *w)));
             if let Some(r) = pearson(scratch, b, min_samples) {
                 sum += r;
                 num += 1;
             }
         }
         out.push(if num > 0 { sum / num as f64 } else { f64::NAN });
+    }
+}
+
+/// For each query time (increasing), the IMU sample `i` at or before `t_query − shift_ns` and
+/// the fraction `f` of the way to sample `i + 1` (`f = 0` on an exact hit); `None` outside the
+/// samples or across a gap longer than `max_gap_ns`. [`interpolate`] with these weights.
+fn interpolation_weights(
+    t_ns: &[i64],
+    shift_ns: i64,
+    t_query: &[i64],
+    max_gap_ns: i64,
+    out: &mut Vec<Option<(usize, f64)>>,
+) {
+    out.clear();
+    let n = t_ns.len();
+    // Start the walk at the first query's place instead of the buffer's start.
+    let mut k = t_query
+        .first()
+        .map_or(0, |&q| t_ns.partition_point(|&t| t < q - shift_ns));
+    for &q in t_query {
+        let d = q - shift_ns;
+        while k < n && t_ns[k] < d {
+            k += 1;
+        }
+        let w = match (k.checked_sub(1), (k < n).then_some(k)) {
+            (_, Some(b)) if t_ns[b] == d => Some((b, 0.0)),
+            (Some(a), Some(b)) if t_ns[b] - t_ns[a] <= max_gap_ns => {
+                Some((a, (d - t_ns[a]) as f64 / (t_ns[b] - t_ns[a]) as f64))
+            }
+            _ => None,
+        };
+        out.push(w);
     }
 }
 

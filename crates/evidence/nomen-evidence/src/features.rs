@@ -1,0 +1,327 @@
+//! Features: every signal one side of an (IMU, joint) comparison contributes to De Marchi's
+//! models ([`crate::geometric`]) and to nomen's ([`crate::kinematic`]), built once per window and
+//! compared with many candidates.
+//!
+//! An engine compares each IMU with the same joint of every track, and each track with the IMUs
+//! of every subject. Filtering, differentiating and integrating a window costs far more than
+//! correlating two finished signals, so [`ImuFeatures`] is built once per (IMU, window grid) and
+//! [`SegmentFeatures`] once per (track, site), and [`compare_features`] only runs the Pearson
+//! correlations. [`crate::geometric_scores`] and [`crate::kinematic_scores`] are this same path
+//! for one pair.
+
+use crate::geometric::{
+    GeometricConfig, carrying_segment, filtered_joint_derivative, imu_linear_accel_world,
+    imu_orientation_magnitude, imu_velocity_magnitude_from, joint_positions,
+    joint_velocity_magnitude_from, segment_orientation_magnitude, smoothed_norms,
+};
+use crate::kinematic::{
+    KinematicConfig, KinematicScores, body_turn_rate_signal, elevation_rad, imu_swing,
+    imu_turn_rate_signal, imu_vertical_velocity, joint_vertical_velocity, lag_samples,
+    segment_swing,
+};
+use crate::signal::{Derivative, moving_average, pearson};
+use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
+use nalgebra::Vector3;
+use nomen_core::skeleton::Joint;
+
+/// The IMU side of every model, on its window's grid (`NaN` where missing).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ImuFeatures {
+    /// Linear-acceleration magnitude ([`crate::imu_accel_magnitude`]).
+    pub accel_magnitude: Vec<f64>,
+    /// Velocity magnitude ([`crate::imu_velocity_magnitude`]).
+    pub velocity_magnitude: Vec<f64>,
+    /// Orientation-change magnitude ([`crate::imu_orientation_magnitude`]).
+    pub orientation_magnitude: Vec<f64>,
+    /// Swing angle over the swing lag, smoothed.
+    pub swing: Vec<f64>,
+    /// World-vertical linear acceleration, smoothed.
+    pub vertical_accel: Vec<f64>,
+    /// Leaky vertical velocity, smoothed.
+    pub vertical_velocity: Vec<f64>,
+    /// Elevation of each sensor axis (x, y, z), smoothed.
+    pub axis_elevation: [Vec<f64>; 3],
+    /// Angular rate about the world vertical ([`crate::imu_turn_rate_signal`]).
+    pub turn_rate: Vec<f64>,
+}
+
+impl ImuFeatures {
+    /// Every IMU-side signal of `imu`'s window.
+    pub fn new(imu: &ImuWindow, geo: &GeometricConfig, kin: &KinematicConfig) -> Self {
+        let smooth = |mut v: Vec<f64>| {
+            moving_average(&mut v, geo.moving_average_len);
+            v
+        };
+        let lin = imu_linear_accel_world(imu, geo);
+        let elevation = |e: Vector3<f64>| {
+            smooth(
+                imu.world_from_sensor
+                    .iter()
+                    .map(|q| elevation_rad(&(q * e)))
+                    .collect(),
+            )
+        };
+        ImuFeatures {
+            accel_magnitude: smoothed_norms(&lin, geo),
+            velocity_magnitude: imu_velocity_magnitude_from(imu, &lin, geo),
+            orientation_magnitude: imu_orientation_magnitude(imu, geo),
+            swing: smooth(imu_swing(imu, lag_samples(&imu.t_s, kin))),
+            vertical_accel: smooth(lin.iter().map(|a| a.z).collect()),
+            vertical_velocity: smooth(imu_vertical_velocity(imu, &lin, geo)),
+            axis_elevation: [
+                elevation(Vector3::x()),
+                elevation(Vector3::y()),
+                elevation(Vector3::z()),
+            ],
+            turn_rate: imu_turn_rate_signal(imu, kin),
+        }
+    }
+
+    /// Grid length.
+    pub fn len(&self) -> usize {
+        self.accel_magnitude.len()
+    }
+
+    /// Whether the grid is empty.
+    pub fn is_empty(&self) -> bool {
+        self.accel_magnitude.is_empty()
+    }
+}
+
+/// The skeleton side of every model for the joint carrying a sensor at one site, on the
+/// window's grid (`NaN` where missing).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SegmentFeatures {
+    /// Joint acceleration magnitude ([`crate::joint_accel_magnitude`]).
+    pub accel_magnitude: Vec<f64>,
+    /// Joint velocity magnitude through the IMU's leak ([`crate::joint_velocity_magnitude`]).
+    pub velocity_magnitude: Vec<f64>,
+    /// Orientation change of the carrying segment ([`crate::segment_orientation_magnitude`]).
+    pub orientation_magnitude: Vec<f64>,
+    /// Angle the carrying bone turned over the swing lag, smoothed.
+    pub swing: Vec<f64>,
+    /// The joint's vertical acceleration, smoothed.
+    pub vertical_accel: Vec<f64>,
+    /// The joint's vertical velocity through the IMU's leak, smoothed.
+    pub vertical_velocity: Vec<f64>,
+    /// Elevation of the carrying bone, smoothed.
+    pub elevation: Vec<f64>,
+    /// The body's turn rate ([`crate::body_turn_rate_signal`]; the same for every site).
+    pub turn_rate: Vec<f64>,
+}
+
+impl SegmentFeatures {
+    /// Every skeleton-side signal for a sensor worn at `site`.
+    pub fn new(
+        skel: &SkeletonWindow,
+        site: Joint,
+        geo: &GeometricConfig,
+        kin: &KinematicConfig,
+    ) -> Self {
+        let n = skel.t_s.len();
+        let smooth = |mut v: Vec<f64>| {
+            moving_average(&mut v, geo.moving_average_len);
+            v
+        };
+        let missing = || vec![f64::NAN; n];
+        let acc = filtered_joint_derivative(skel, site, Derivative::Acceleration, geo);
+        let vel = filtered_joint_derivative(skel, site, Derivative::Velocity, geo);
+        let (from, to) = carrying_segment(site);
+        let elevation = joint_positions(skel, to)
+            .iter()
+            .zip(joint_positions(skel, from))
+            .map(|(b, a)| elevation_rad(&(b - a)))
+            .collect();
+        SegmentFeatures {
+            accel_magnitude: acc
+                .as_deref()
+                .map_or_else(missing, |a| smoothed_norms(a, geo)),
+            velocity_magnitude: vel
+                .as_deref()
+                .map_or_else(missing, |v| joint_velocity_magnitude_from(skel, v, geo)),
+            orientation_magnitude: segment_orientation_magnitude(skel, site, geo),
+            swing: smooth(segment_swing(skel, site, lag_samples(&skel.t_s, kin))),
+            vertical_accel: smooth(
+                acc.as_deref()
+                    .map_or_else(missing, |a| a.iter().map(|a| a.z).collect()),
+            ),
+            vertical_velocity: smooth(
+                vel.as_deref()
+                    .map_or_else(missing, |v| joint_vertical_velocity(skel, v, geo)),
+            ),
+            elevation: smooth(elevation),
+            turn_rate: body_turn_rate_signal(skel, kin),
+        }
+    }
+
+    /// Grid length.
+    pub fn len(&self) -> usize {
+        self.accel_magnitude.len()
+    }
+
+    /// Whether the grid is empty.
+    pub fn is_empty(&self) -> bool {
+        self.accel_magnitude.is_empty()
+    }
+}
+
+/// De Marchi's three correlations and nomen's five for one IMU and one candidate segment whose
+/// features were built on the same grid; all `None` if the grids' lengths differ.
+pub fn compare_features(
+    imu: &ImuFeatures,
+    seg: &SegmentFeatures,
+    geo: &GeometricConfig,
+) -> (ModelScores, KinematicScores) {
+    if imu.len() != seg.len() || imu.is_empty() {
+        return (ModelScores::default(), KinematicScores::default());
+    }
+    let corr = |a: &[f64], b: &[f64]| pearson(a, b, geo.min_samples);
+    let geometric = ModelScores {
+        acc: corr(&imu.accel_magnitude, &seg.accel_magnitude),
+        vel: corr(&imu.velocity_magnitude, &seg.velocity_magnitude),
+        ori: corr(&imu.orientation_magnitude, &seg.orientation_magnitude),
+        dl: None,
+    };
+    // The axis along the segment is unknown (mounting) and its sign flips the correlation's:
+    // the largest |r| over the three axes (it lifts wrong pairs a little, the same for all).
+    let inclination = imu
+        .axis_elevation
+        .iter()
+        .filter_map(|axis| corr(axis, &seg.elevation).map(f64::abs))
+        .reduce(f64::max);
+    let kinematic = KinematicScores {
+        swing: corr(&imu.swing, &seg.swing),
+        vertical_accel: corr(&imu.vertical_accel, &seg.vertical_accel),
+        vertical_vel: corr(&imu.vertical_velocity, &seg.vertical_velocity),
+        inclination,
+        turn: corr(&imu.turn_rate, &seg.turn_rate),
+    };
+    (geometric, kinematic)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{
+        imu_accel_magnitude, imu_velocity_magnitude, joint_accel_magnitude,
+        joint_velocity_magnitude,
+    };
+    use nalgebra::{Point3, UnitQuaternion};
+    use nomen_core::skeleton::Joints;
+
+    /// A forearm swinging and turning, and an IMU on it, with a little disagreement so that no
+    /// correlation is exactly 1.
+    fn windows() -> (ImuWindow, SkeletonWindow) {
+        let t_s: Vec<f64> = (0..120).map(|k| k as f64 / 30.0).collect();
+        let swing = |t: f64| 0.5 * (2.0 * std::f64::consts::PI * 0.9 * t).sin();
+        let heading = |t: f64| 0.4 * t;
+        let q: Vec<UnitQuaternion<f64>> = t_s
+            .iter()
+            .map(|&t| {
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), heading(t))
+                    * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), swing(t + 0.05))
+            })
+            .collect();
+        let joints = t_s
+            .iter()
+            .map(|&t| {
+                let (a, h) = (swing(t), heading(t));
+                let elbow = Point3::new(0.1 * t, 0.0, 1.2);
+                let along = Vector3::new(h.cos(), h.sin(), 0.0);
+                let mut j = Joints::new();
+                j.insert(Joint::LeftElbow, elbow);
+                j.insert(
+                    Joint::LeftWrist,
+                    elbow + along * (0.3 * a.sin()) - Vector3::z() * (0.3 * a.cos()),
+                );
+                let across = Vector3::new(-h.sin(), h.cos(), 0.0) * 0.2;
+                j.insert(
+                    Joint::LeftShoulder,
+                    Point3::new(0.1 * t, 0.0, 1.45) + across,
+                );
+                j.insert(
+                    Joint::RightShoulder,
+                    Point3::new(0.1 * t, 0.0, 1.45) - across,
+                );
+                j
+            })
+            .collect();
+        let imu = ImuWindow {
+            device: None,
+            t_s: t_s.clone(),
+            accel_mps2: q
+                .iter()
+                .enumerate()
+                .map(|(k, q)| q.inverse() * Vector3::new(0.3 * (k as f64 * 0.7).sin(), 0.0, 9.81))
+                .collect(),
+            gyro_radps: q
+                .iter()
+                .map(|q| q.inverse() * Vector3::new(0.0, 0.2, 0.4))
+                .collect(),
+            world_from_sensor: q,
+        };
+        let skel = SkeletonWindow {
+            camera: None,
+            track: None,
+            t_s,
+            joints_world_m: joints,
+        };
+        (imu, skel)
+    }
+
+    #[test]
+    fn features_compare_like_the_signal_builders_they_are_made_of() {
+        let (imu, skel) = windows();
+        let (geo, kin) = (GeometricConfig::default(), KinematicConfig::default());
+        let site = Joint::LeftWrist;
+        let (scores, k) = compare_features(
+            &ImuFeatures::new(&imu, &geo, &kin),
+            &SegmentFeatures::new(&skel, site, &geo, &kin),
+            &geo,
+        );
+        let expect = |a: Vec<f64>, b: Vec<f64>| pearson(&a, &b, geo.min_samples);
+        assert_eq!(
+            scores.acc,
+            expect(
+                imu_accel_magnitude(&imu, &geo),
+                joint_accel_magnitude(&skel, site, &geo)
+            )
+        );
+        assert_eq!(
+            scores.vel,
+            expect(
+                imu_velocity_magnitude(&imu, &geo),
+                joint_velocity_magnitude(&skel, site, &geo)
+            )
+        );
+        assert_eq!(
+            k.turn,
+            expect(
+                imu_turn_rate_signal(&imu, &kin),
+                body_turn_rate_signal(&skel, &kin)
+            )
+        );
+        // The swing and the inclination follow the forearm, which moves the same on both sides.
+        assert!(k.swing.is_some_and(|r| r > 0.8), "{k:?}");
+        assert!(k.inclination.is_some_and(|r| r > 0.8), "{k:?}");
+        // The one-pair entry points are this path.
+        assert_eq!(scores, crate::geometric_scores(&imu, &skel, site, &geo));
+        assert_eq!(k, crate::kinematic_scores(&imu, &skel, site, &geo, &kin));
+    }
+
+    #[test]
+    fn features_on_different_grids_compare_to_nothing() {
+        let (imu, skel) = windows();
+        let (geo, kin) = (GeometricConfig::default(), KinematicConfig::default());
+        let mut shorter = skel.clone();
+        shorter.t_s.pop();
+        shorter.joints_world_m.pop();
+        let (scores, k) = compare_features(
+            &ImuFeatures::new(&imu, &geo, &kin),
+            &SegmentFeatures::new(&shorter, Joint::LeftWrist, &geo, &kin),
+            &geo,
+        );
+        assert_eq!(scores, ModelScores::default());
+        assert_eq!(k, KinematicScores::default());
+    }
+}
