@@ -33,6 +33,86 @@ pub enum MotionScore {
     Belmonte,
 }
 
+/// Weights of the models in [`MotionScore::Nomen`]'s score: the window score of a (track,
+/// subject) pair is `Σ w·r / Σ w` over every correlation `r` present (each IMU of the subject,
+/// each model).
+///
+/// The defaults are each model's linear-discriminant weight `(μ_match − μ_other)/σ²`, scaled to
+/// mean 1, measured on the CNN training scenes (`scenarios/train/*.toml` at seeds 101 and 102,
+/// full body-area networks, true clock offsets, 2 s windows; 38 k pair windows): none of them
+/// is an evaluation scene. Separations `d′` were 0.71 (acceleration), 0.58 (velocity), 0.57
+/// (orientation), 0.89 (swing), 0.87 (vertical acceleration), 1.12 (vertical velocity), 0.85
+/// (inclination) and 0.96 (turn rate). All weights 1 give the plain mean.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ModelWeights {
+    /// De Marchi's acceleration magnitude.
+    pub acc: f64,
+    /// De Marchi's velocity magnitude.
+    pub vel: f64,
+    /// De Marchi's orientation-change magnitude.
+    pub ori: f64,
+    /// A learned scorer's score (`ModelScores::dl`), when one is plugged in.
+    pub dl: f64,
+    /// Swing angle.
+    pub swing: f64,
+    /// Vertical acceleration.
+    pub vertical_accel: f64,
+    /// Vertical velocity.
+    pub vertical_vel: f64,
+    /// Segment inclination.
+    pub inclination: f64,
+    /// Turn rate.
+    pub turn: f64,
+}
+
+impl Default for ModelWeights {
+    fn default() -> Self {
+        Self {
+            acc: 0.83,
+            vel: 0.66,
+            ori: 0.77,
+            dl: 1.0,
+            swing: 0.95,
+            vertical_accel: 1.04,
+            vertical_vel: 1.33,
+            inclination: 1.58,
+            turn: 0.85,
+        }
+    }
+}
+
+impl ModelWeights {
+    /// All weights 1: the plain mean.
+    pub fn equal() -> Self {
+        Self {
+            acc: 1.0,
+            vel: 1.0,
+            ori: 1.0,
+            dl: 1.0,
+            swing: 1.0,
+            vertical_accel: 1.0,
+            vertical_vel: 1.0,
+            inclination: 1.0,
+            turn: 1.0,
+        }
+    }
+
+    fn all(&self) -> [(&'static str, f64); 9] {
+        [
+            ("acc", self.acc),
+            ("vel", self.vel),
+            ("ori", self.ori),
+            ("dl", self.dl),
+            ("swing", self.swing),
+            ("vertical_accel", self.vertical_accel),
+            ("vertical_vel", self.vertical_vel),
+            ("inclination", self.inclination),
+            ("turn", self.turn),
+        ]
+    }
+}
+
 /// Configuration of [`crate::Engine`]. Durations in seconds on the session clock.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -67,6 +147,8 @@ pub struct EngineConfig {
     pub motion_score: MotionScore,
     /// nomen's own motion models ([`MotionScore::Nomen`]).
     pub kinematic: KinematicConfig,
+    /// Weights of the models in [`MotionScore::Nomen`]'s mean (see [`ModelWeights`]).
+    pub model_weights: ModelWeights,
     /// Belmonte-Hernández's signals ([`MotionScore::Belmonte`]).
     pub belmonte: BelmonteConfig,
     /// Pitch error scale of the Belmonte similarity, rad. Default 0.3 rad (17°).
@@ -142,6 +224,15 @@ pub struct EngineConfig {
     pub offset_refine_interval_s: f64,
     /// Lag range around the current estimate searched when refining, s. Default 0.1 s.
     pub offset_refine_range_s: f64,
+    /// Shortest coverage, s, of the offset-estimation buffer by a track labelled with an IMU's
+    /// wearer for its lag curve to join that IMU's summed curve. Default 2 s.
+    pub offset_label_min_track_s: f64,
+    /// Curves the summed lag curve of an IMU against its wearer's labelled tracks needs before
+    /// its peak may be accepted as the clock offset; 0 disables this path. Default 4.
+    pub offset_label_curves: usize,
+    /// How far the summed curve's peak must stand above every lag more than 0.15 s from it.
+    /// Default 0.05.
+    pub offset_label_margin: f64,
     /// A track with no observation for this long is forgotten, s. Default 5 s.
     pub track_timeout_s: f64,
     /// Trust the registry's per-device clock offsets (wearables synchronised by PTP/NTP or
@@ -194,6 +285,7 @@ impl Default for EngineConfig {
             fusion: Fusion::Max,
             motion_score: MotionScore::Nomen,
             kinematic: KinematicConfig::default(),
+            model_weights: ModelWeights::default(),
             belmonte: BelmonteConfig::default(),
             belmonte_pitch_sigma_rad: 0.3,
             belmonte_yaw_rate_sigma_radps: 2.0,
@@ -220,6 +312,9 @@ impl Default for EngineConfig {
             offset_tie_tolerance: 0.02,
             offset_refine_interval_s: 5.0,
             offset_refine_range_s: 0.1,
+            offset_label_min_track_s: 2.0,
+            offset_label_curves: 4,
+            offset_label_margin: 0.05,
             track_timeout_s: 5.0,
             known_clock_offsets: false,
             stitch_max_gap_s: 3.0,
@@ -277,6 +372,8 @@ impl EngineConfig {
             ("switch_margin", self.switch_margin),
             ("max_clock_offset_s", self.max_clock_offset_s),
             ("offset_refine_range_s", self.offset_refine_range_s),
+            ("offset_label_min_track_s", self.offset_label_min_track_s),
+            ("offset_label_margin", self.offset_label_margin),
             ("offset_margin", self.offset_margin),
             ("offset_consistency_s", self.offset_consistency_s),
             ("offset_tie_tolerance", self.offset_tie_tolerance),
@@ -323,6 +420,13 @@ impl EngineConfig {
             return Err(EngineError::InvalidConfig(
                 "offset_num_consistent must be >= 1".into(),
             ));
+        }
+        for (name, w) in self.model_weights.all() {
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(EngineError::InvalidConfig(format!(
+                    "model_weights.{name} must be >= 0, got {w}"
+                )));
+            }
         }
         self.madgwick.validate()?;
         Ok(())

@@ -49,6 +49,10 @@ const LAG_DECIMATION: usize = 2;
 /// above the track's 15 Hz), for the same reason.
 const IMU_LAG_DECIMATION: usize = 3;
 
+/// A summed lag curve's peak must stand above every lag farther than this from it, ns (a third
+/// of a stride: the neighbouring stride peaks of a walk lie beyond it).
+const OFFSET_PEAK_SEPARATION_NS: i64 = 150_000_000;
+
 /// A track that stopped less than this before a new one started is not yet considered ended
 /// (three frames at 30 Hz), ns.
 const STITCH_MIN_GAP_NS: i64 = 100_000_000;
@@ -85,6 +89,12 @@ struct ImuState {
     candidates: VecDeque<Option<i64>>,
     /// Lag-curve peak per track from the latest search, used before the offset is accepted.
     pair_offsets: BTreeMap<(usize, TrackId), i64>,
+    /// Sum and count, per coarse lag, of the lag curves against the tracks labelled with the
+    /// wearer (see [`Engine::update_offsets`]).
+    label_curve: Vec<(f64, usize)>,
+    /// Curves summed into `label_curve`.
+    num_label_curves: usize,
+    last_label_search_end: i64,
 }
 
 impl ImuState {
@@ -239,6 +249,9 @@ impl Engine {
                     last_search_end: i64::MIN,
                     candidates: VecDeque::new(),
                     pair_offsets: BTreeMap::new(),
+                    label_curve: Vec::new(),
+                    num_label_curves: 0,
+                    last_label_search_end: i64::MIN,
                 });
             }
             subject_imus.push(mine);
@@ -996,6 +1009,111 @@ impl Engine {
                 entry.num_updates += 1;
             }
         }
+        // Unaccepted IMUs whose wearer the decisions put on a track: the coarse lag curve
+        // against that track is summed over searches, so tracks too short for the joint search
+        // above still add up; the sum's peak is accepted once it is clear of every lag more
+        // than `OFFSET_PEAK_SEPARATION_NS` away.
+        let coarse: Vec<i64> = full.iter().step_by(COARSE_LAG_STEPS).copied().collect();
+        let label_min = ns(self.config.offset_label_min_track_s);
+        for i in 0..self.imus.len() {
+            let Some(imu) = self.imus.get(i) else {
+                continue;
+            };
+            if imu.is_offset_known
+                || self.config.offset_label_curves == 0
+                || end.saturating_sub(imu.last_label_search_end) < search_every
+            {
+                continue;
+            }
+            let (subject, site) = (imu.subject, imu.site);
+            let mut added: Vec<Vec<f64>> = Vec::new();
+            if let Some(imu_sig) = imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config) {
+                for (key, tr) in self
+                    .tracks
+                    .iter()
+                    .filter(|(_, tr)| tr.label == Some(subject) && !tr.is_superseded)
+                {
+                    if covered_span(tr, lo, hi) < label_min {
+                        continue;
+                    }
+                    let sig = skel_cache
+                        .entry((*key, site))
+                        .or_insert_with(|| track_lag_signals(tr, site, lo, hi, &self.config));
+                    let Some(sig) = sig.as_ref() else {
+                        continue;
+                    };
+                    lag_curve(
+                        &imu_sig,
+                        sig,
+                        &coarse,
+                        MAX_IMU_GAP_NS,
+                        self.config.geometric.min_samples,
+                        &mut scratch,
+                        &mut curve,
+                    );
+                    added.push(curve.clone());
+                }
+            }
+            let Some(imu) = self.imus.get_mut(i) else {
+                continue;
+            };
+            imu.last_label_search_end = end;
+            if imu.label_curve.len() != coarse.len() {
+                imu.label_curve = vec![(0.0, 0); coarse.len()];
+            }
+            for c in &added {
+                for (acc, v) in imu.label_curve.iter_mut().zip(c) {
+                    if v.is_finite() {
+                        acc.0 += v;
+                        acc.1 += 1;
+                    }
+                }
+            }
+            imu.num_label_curves += added.len();
+            if imu.num_label_curves < self.config.offset_label_curves {
+                continue;
+            }
+            let mean: Vec<f64> = imu
+                .label_curve
+                .iter()
+                .map(|(sum, n)| if *n > 0 { sum / *n as f64 } else { f64::NAN })
+                .collect();
+            let Some((k, peak)) = mean
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.is_finite())
+                .max_by(|a, b| a.1.total_cmp(b.1))
+                .map(|(k, v)| (k, *v))
+            else {
+                continue;
+            };
+            let Some(&offset) = coarse.get(k) else {
+                continue;
+            };
+            let rival = coarse
+                .iter()
+                .zip(&mean)
+                .filter(|(o, v)| (*o - offset).abs() > OFFSET_PEAK_SEPARATION_NS && v.is_finite())
+                .map(|(_, v)| *v)
+                .fold(f64::NEG_INFINITY, f64::max);
+            if peak < self.config.offset_min_correlation
+                || peak - rival < self.config.offset_label_margin
+            {
+                continue;
+            }
+            imu.offset_ns = offset;
+            imu.is_offset_known = true;
+            // Refined at once (below) from the coarse step to the fine one.
+            imu.last_refine_end = end - refine_every;
+            let entry = self
+                .stats
+                .clock_offsets
+                .entry(imu.device.clone())
+                .or_default();
+            entry.offset_ns = offset;
+            entry.correlation = peak;
+            entry.num_updates += 1;
+        }
         // Refinement of accepted offsets against the track the wearer is assigned to.
         for i in 0..self.imus.len() {
             let Some(imu) = self.imus.get(i) else {
@@ -1091,7 +1209,7 @@ impl Engine {
             let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &sites);
             let mut device_scores: Vec<((usize, TrackId), usize, f64)> = Vec::new();
             // (row, subject) → (sum, count) of every correlation ([`MotionScore::Nomen`]).
-            let mut nomen_sums: BTreeMap<(usize, usize), (f64, usize)> = BTreeMap::new();
+            let mut nomen_sums: BTreeMap<(usize, usize), (f64, f64)> = BTreeMap::new();
             for (row, key) in keys.iter().enumerate() {
                 let Some(tr) = self.tracks.get(key) else {
                     continue;
@@ -1185,22 +1303,32 @@ impl Engine {
                             let similarity = (-0.5 * (p / (sp * sp) + y / (sy * sy))).exp();
                             let cell = nomen_sums
                                 .entry((row, imu.subject))
-                                .or_insert((0.0, 0usize));
+                                .or_insert((0.0, 0.0));
                             cell.0 += similarity;
-                            cell.1 += 1;
+                            cell.1 += 1.0;
                         }
                     }
                     if self.config.motion_score == MotionScore::Nomen {
                         let cell = nomen_sums
                             .entry((row, imu.subject))
-                            .or_insert((0.0, 0usize));
-                        for v in [scores.acc, scores.vel, scores.ori, scores.dl]
-                            .into_iter()
-                            .flatten()
-                            .chain(k.present())
-                        {
-                            cell.0 += v;
-                            cell.1 += 1;
+                            .or_insert((0.0, 0.0));
+                        let w = &self.config.model_weights;
+                        let weighted = [
+                            (scores.acc, w.acc),
+                            (scores.vel, w.vel),
+                            (scores.ori, w.ori),
+                            (scores.dl, w.dl),
+                            (k.swing, w.swing),
+                            (k.vertical_accel, w.vertical_accel),
+                            (k.vertical_vel, w.vertical_vel),
+                            (k.inclination, w.inclination),
+                            (k.turn, w.turn),
+                        ];
+                        for (v, w) in weighted {
+                            if let Some(v) = v {
+                                cell.0 += w * v;
+                                cell.1 += w;
+                            }
                         }
                     }
                     let models = [scores.acc, scores.vel, scores.ori];
@@ -1253,8 +1381,8 @@ impl Engine {
                         Some(m) => m.get(row, b),
                         None => nomen_sums
                             .get(&(row, b))
-                            .filter(|(_, n)| *n > 0)
-                            .map(|(sum, n)| sum / *n as f64),
+                            .filter(|(_, w)| *w > 0.0)
+                            .map(|(sum, w)| sum / w),
                     };
                     if let Some(v) = imu_score {
                         accumulate(tr.evidence.entry(b).or_default(), v, decay);

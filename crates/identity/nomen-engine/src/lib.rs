@@ -69,7 +69,7 @@ mod signal;
 mod stats;
 mod tags;
 
-pub use config::{EngineConfig, MotionScore};
+pub use config::{EngineConfig, ModelWeights, MotionScore};
 pub use engine::Engine;
 pub use error::{EngineError, Result};
 pub use nomen_evidence::{Fusion, FusionConfig, GeometricConfig, KinematicConfig};

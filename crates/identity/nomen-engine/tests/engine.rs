@@ -5,7 +5,7 @@ mod common;
 
 use common::{Person, accuracy, num_skeletons, recording, registry};
 use nomen_core::{DeviceId, Identity, ImuSample, Message, SessionTime, TrackId};
-use nomen_engine::{Engine, EngineConfig, EngineError, run_batch};
+use nomen_engine::{Engine, EngineConfig, EngineError, ModelWeights, run_batch};
 
 fn two_people() -> Vec<Person> {
     vec![
@@ -166,6 +166,32 @@ fn a_clock_offset_of_0_4_s_is_estimated_within_two_samples() {
 }
 
 #[test]
+fn an_offset_is_also_found_from_the_tracks_its_wearer_is_given() {
+    // The joint search never declares a winner here (its margin cannot be met), so only the
+    // lag curves summed against the tracks the decisions label with the wearer can find the
+    // offsets; with that path off, none is found.
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.3;
+    people[1].imu_offset_s = -0.2;
+    let msgs = recording(&people, 24.0);
+    let config = EngineConfig {
+        offset_margin: 5.0,
+        ..EngineConfig::default()
+    };
+    let (_, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    let ana = stats.clock_offsets[&DeviceId::new("ana_imu")].offset_ns as f64 * 1e-9;
+    let ben = stats.clock_offsets[&DeviceId::new("ben_imu")].offset_ns as f64 * 1e-9;
+    assert!((ana - 0.3).abs() <= 0.03, "ana offset {ana}");
+    assert!((ben + 0.2).abs() <= 0.03, "ben offset {ben}");
+    let off = EngineConfig {
+        offset_label_curves: 0,
+        ..config
+    };
+    let (_, stats) = run_batch(&registry(&people), &msgs, &off).unwrap();
+    assert!(stats.clock_offsets.is_empty(), "{:?}", stats.clock_offsets);
+}
+
+#[test]
 fn a_track_id_change_mid_walk_is_reidentified() {
     let mut people = two_people();
     people[0].track_change = Some((12.0, 11));
@@ -187,4 +213,26 @@ fn a_track_id_change_mid_walk_is_reidentified() {
             .all(|i| i.subject().map(|s| s.as_str()) == Some("ana"))
     );
     assert!(accuracy(&people, &out, 16.0) > 0.98);
+}
+
+#[test]
+fn a_negative_model_weight_is_refused_by_name() {
+    let people = two_people();
+    let config = EngineConfig {
+        model_weights: ModelWeights {
+            turn: -0.5,
+            ..ModelWeights::default()
+        },
+        ..EngineConfig::default()
+    };
+    let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), config) else {
+        panic!("a negative weight was accepted");
+    };
+    assert!(why.contains("model_weights.turn"), "{why}");
+    // Equal weights are the plain mean, and valid.
+    let equal = EngineConfig {
+        model_weights: ModelWeights::equal(),
+        ..EngineConfig::default()
+    };
+    assert!(Engine::new(registry(&people), equal).is_ok());
 }
