@@ -233,6 +233,10 @@ pub struct EngineConfig {
     /// How far the summed curve's peak must stand above every lag more than 0.15 s from it.
     /// Default 0.05.
     pub offset_label_margin: f64,
+    /// Lowest summed-curve peak accepted as an offset. Default 0.15: a mean over many short
+    /// tracks, lower than one long track's peak (`offset_min_correlation`); on the simulated
+    /// wrist scenes right peaks were 0.2–0.3 and stood 0.08–0.15 above the rest.
+    pub offset_label_min_correlation: f64,
     /// A track with no observation for this long is forgotten, s. Default 5 s.
     pub track_timeout_s: f64,
     /// Trust the registry's per-device clock offsets (wearables synchronised by PTP/NTP or
@@ -315,6 +319,7 @@ impl Default for EngineConfig {
             offset_label_min_track_s: 2.0,
             offset_label_curves: 4,
             offset_label_margin: 0.05,
+            offset_label_min_correlation: 0.15,
             track_timeout_s: 5.0,
             known_clock_offsets: false,
             stitch_max_gap_s: 3.0,
@@ -396,6 +401,10 @@ impl EngineConfig {
         }
         for (name, v) in [
             ("min_window_coverage", self.min_window_coverage),
+            (
+                "offset_label_min_correlation",
+                self.offset_label_min_correlation,
+            ),
             ("rejection_threshold", self.rejection_threshold),
             ("offset_min_correlation", self.offset_min_correlation),
         ] {

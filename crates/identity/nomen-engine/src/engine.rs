@@ -833,8 +833,10 @@ impl Engine {
     /// each of the subject's IMUs gets a lag curve over `offset_estimation_window_s`; the
     /// subject's score for a track is the mean of its IMUs' peaks. When the best track beats the
     /// next one of its camera by `offset_margin`, each unaccepted IMU's peak lag on that track is
-    /// a candidate; `offset_num_consistent` agreeing candidates in a row make the offset. An
-    /// accepted offset is refined every `offset_refine_interval_s` against the assigned track.
+    /// a candidate; `offset_num_consistent` agreeing candidates in a row make the offset. Lag
+    /// curves against the tracks labelled with an IMU's wearer are summed per IMU: a clear peak
+    /// of the sum accepts an offset, or moves an accepted one (see the crate docs). An accepted
+    /// offset is refined every `offset_refine_interval_s` against the assigned track.
     fn update_offsets(&mut self, end: i64) {
         let max_off = ns(self.config.max_clock_offset_s);
         let span = ns(self.config.offset_estimation_window_s);
@@ -941,7 +943,11 @@ impl Engine {
                     let e = track_score.entry(*key).or_insert((0.0, 0));
                     e.0 += value;
                     e.1 += 1;
-                    peaks.insert((i, *key), offset);
+                    // A peak at the end of the searched range only says the best lag lies
+                    // beyond it: it scores the track but is no offset candidate.
+                    if offset.abs() < max_off - LAG_STEP_NS / 2 || imu.is_offset_known {
+                        peaks.insert((i, *key), offset);
+                    }
                 }
             }
             // The best track and its margin over the next one of the same camera.
@@ -998,6 +1004,8 @@ impl Engine {
                 let offset = agreed.get(agreed.len() / 2).copied().unwrap_or(last);
                 imu.offset_ns = offset;
                 imu.is_offset_known = true;
+                imu.label_curve.clear();
+                imu.num_label_curves = 0;
                 imu.last_refine_end = end;
                 let entry = self
                     .stats
@@ -1019,9 +1027,14 @@ impl Engine {
             let Some(imu) = self.imus.get(i) else {
                 continue;
             };
-            if imu.is_offset_known
-                || self.config.offset_label_curves == 0
-                || end.saturating_sub(imu.last_label_search_end) < search_every
+            // Accepted offsets are checked the same way, at the refinement's pace.
+            let every = if imu.is_offset_known {
+                refine_every
+            } else {
+                search_every
+            };
+            if self.config.offset_label_curves == 0
+                || end.saturating_sub(imu.last_label_search_end) < every
             {
                 continue;
             }
@@ -1078,10 +1091,16 @@ impl Engine {
                 .iter()
                 .map(|(sum, n)| if *n > 0 { sum / *n as f64 } else { f64::NAN })
                 .collect();
+            // The peak must lie inside the searched range (see the joint search).
             let Some((k, peak)) = mean
                 .iter()
                 .enumerate()
-                .filter(|(_, v)| v.is_finite())
+                .filter(|(k, v)| {
+                    v.is_finite()
+                        && coarse
+                            .get(*k)
+                            .is_some_and(|o| o.abs() < max_off - LAG_STEP_NS / 2)
+                })
                 .max_by(|a, b| a.1.total_cmp(b.1))
                 .map(|(k, v)| (k, *v))
             else {
@@ -1096,10 +1115,21 @@ impl Engine {
                 .filter(|(o, v)| (*o - offset).abs() > OFFSET_PEAK_SEPARATION_NS && v.is_finite())
                 .map(|(_, v)| *v)
                 .fold(f64::NEG_INFINITY, f64::max);
-            if peak < self.config.offset_min_correlation
+            if peak < self.config.offset_label_min_correlation
                 || peak - rival < self.config.offset_label_margin
             {
                 continue;
+            }
+            // A fresh sum from here on: for an accepted offset, the check of the next curves.
+            imu.label_curve.clear();
+            imu.num_label_curves = 0;
+            if imu.is_offset_known {
+                if (offset - imu.offset_ns).abs() <= OFFSET_PEAK_SEPARATION_NS {
+                    continue;
+                }
+                // The wearer's tracks clearly peak elsewhere: the accepted offset was wrong
+                // (a stride away, or found on someone else's track).
+                self.stats.num_offsets_moved += 1;
             }
             imu.offset_ns = offset;
             imu.is_offset_known = true;
@@ -1301,17 +1331,13 @@ impl Engine {
                             let sp = self.config.belmonte_pitch_sigma_rad;
                             let sy = self.config.belmonte_yaw_rate_sigma_radps;
                             let similarity = (-0.5 * (p / (sp * sp) + y / (sy * sy))).exp();
-                            let cell = nomen_sums
-                                .entry((row, imu.subject))
-                                .or_insert((0.0, 0.0));
+                            let cell = nomen_sums.entry((row, imu.subject)).or_insert((0.0, 0.0));
                             cell.0 += similarity;
                             cell.1 += 1.0;
                         }
                     }
                     if self.config.motion_score == MotionScore::Nomen {
-                        let cell = nomen_sums
-                            .entry((row, imu.subject))
-                            .or_insert((0.0, 0.0));
+                        let cell = nomen_sums.entry((row, imu.subject)).or_insert((0.0, 0.0));
                         let w = &self.config.model_weights;
                         let weighted = [
                             (scores.acc, w.acc),

@@ -25,14 +25,24 @@
 //!    is searched every [`EngineConfig::offset_search_interval_s`]. For every track covering
 //!    [`EngineConfig::offset_min_track_s`] of the last [`EngineConfig::offset_estimation_window_s`],
 //!    each IMU of the subject gets a lag curve (mean Pearson correlation of De Marchi's
-//!    acceleration and orientation-change magnitudes and nomen's vertical acceleration and
-//!    swing, lags ±[`EngineConfig::max_clock_offset_s`] in 40 ms steps, then 10 ms around the
-//!    coarse peak; near-tied peaks go to the smaller |lag|). The subject's score for a track is
-//!    the mean of its IMUs' peaks; only when the best track beats the next one of its camera by
-//!    [`EngineConfig::offset_margin`] (and reaches [`EngineConfig::offset_min_correlation`]) is
-//!    each IMU's peak lag on it a candidate, and [`EngineConfig::offset_num_consistent`]
-//!    candidates in a row within [`EngineConfig::offset_consistency_s`] make the offset. It is
-//!    refined every [`EngineConfig::offset_refine_interval_s`] against the assigned track;
+//!    acceleration and orientation-change magnitudes and nomen's vertical acceleration, swing
+//!    and turn rate, at 15 Hz on the track side and 33 Hz on the IMU's; lags
+//!    ±[`EngineConfig::max_clock_offset_s`] in 40 ms steps, then 10 ms around the coarse peak;
+//!    near-tied peaks go to the smaller |lag|; a peak at the end of the range is no candidate).
+//!    The subject's score for a track is the mean of its IMUs' peaks; only when the best track
+//!    beats the next one of its camera by [`EngineConfig::offset_margin`] (and reaches
+//!    [`EngineConfig::offset_min_correlation`]) is each IMU's peak lag on it a candidate, and
+//!    [`EngineConfig::offset_num_consistent`] candidates in a row within
+//!    [`EngineConfig::offset_consistency_s`] make the offset. Tracks too short for that still
+//!    count once the decisions put the wearer on them: each IMU sums its coarse lag curves
+//!    against the tracks labelled with its wearer, and after
+//!    [`EngineConfig::offset_label_curves`] curves a peak standing
+//!    [`EngineConfig::offset_label_margin`] above every lag more than 0.15 s away is accepted
+//!    too. The same sum, restarted at acceptance and taken every
+//!    [`EngineConfig::offset_refine_interval_s`], moves an accepted offset whose wearer's tracks
+//!    clearly peak elsewhere (a stride away, or first found on someone else's track). Accepted
+//!    offsets are refined every [`EngineConfig::offset_refine_interval_s`] against the assigned
+//!    track;
 //! 2. **evidence**: per camera, every active track against every subject. IMUs are resampled
 //!    onto the track's timestamps at their offset (before it is accepted, at that pair's own
 //!    lag-curve peak, so identity can be found meanwhile) and scored as

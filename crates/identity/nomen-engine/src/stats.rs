@@ -77,6 +77,9 @@ pub struct EngineStats {
     pub num_tag_corrections: u64,
     /// Close encounters after which two tracks' evidence was pooled (possible id swap).
     pub num_encounters: u64,
+    /// Accepted clock offsets moved to a clearly better peak of the lag curves summed against
+    /// the wearer's labelled tracks.
+    pub num_offsets_moved: u64,
     /// Clock offset estimates per IMU, once made.
     pub clock_offsets: BTreeMap<DeviceId, ClockOffsetEstimate>,
 }
