@@ -1236,6 +1236,17 @@ impl Engine {
             if keys.is_empty() {
                 continue;
             }
+            // Every frame time of the camera in the window (any of its tracks).
+            let mut frame_times: Vec<i64> = keys
+                .iter()
+                .filter_map(|k| self.tracks.get(k))
+                .flat_map(|tr| {
+                    let (a, b) = sample_range(tr, start, end);
+                    tr.samples.range(a..b).map(|s| s.t)
+                })
+                .collect();
+            frame_times.sort_unstable();
+            frame_times.dedup();
             let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &sites);
             let mut device_scores: Vec<((usize, TrackId), usize, f64)> = Vec::new();
             // (row, subject) → (sum, count) of every correlation ([`MotionScore::Nomen`]).
@@ -1248,15 +1259,29 @@ impl Engine {
                 if b < a + 8 || covered_span(tr, start, end) < min_span {
                     continue;
                 }
-                let grid: Vec<i64> = tr.samples.range(a..b).map(|s| s.t).collect();
+                // The camera's frame times from the track's first sample in the window on; a
+                // frame the track missed is a gap (no joints). Tracks seen since before the
+                // window share one grid, so an IMU's window and features are built once per
+                // (grid, offset), and a track's once per site.
+                let first = tr.samples.get(a).map_or(start, |s| s.t);
+                let grid: Vec<i64> = frame_times
+                    .get(frame_times.partition_point(|&t| t < first)..)
+                    .unwrap_or(&[])
+                    .to_vec();
+                let mut samples = tr.samples.range(a..b).peekable();
+                let joints_world_m = grid
+                    .iter()
+                    .map(|&t| match samples.next_if(|s| s.t == t) {
+                        Some(s) => s.joints.clone(),
+                        None => Joints::new(),
+                    })
+                    .collect();
                 let skel = SkeletonWindow {
                     camera: None,
                     track: Some(key.1),
                     t_s: grid.iter().map(|&t| t as f64 * 1e-9).collect(),
-                    joints_world_m: tr.samples.range(a..b).map(|s| s.joints.clone()).collect(),
+                    joints_world_m,
                 };
-                // Tracks of one camera mostly share their frame times: an IMU's window and
-                // features are built once per (grid, offset), a track's once per site.
                 let grid_index = match grids.iter().position(|g| *g == grid) {
                     Some(g) => g,
                     None => {

@@ -68,6 +68,29 @@ pub(crate) fn check_finite_all(field: &str, values: &[f64]) -> Result<()> {
     Ok(())
 }
 
+/// [`check_range`] naming the field only when the value fails (validation runs on every
+/// message; formatting names up front costs more than the checks).
+pub(crate) fn check_range_lazy(
+    field: impl FnOnce() -> String,
+    value: f64,
+    min: f64,
+    max: f64,
+    unit: &'static str,
+) -> Result<()> {
+    if value.is_finite() && value >= min && value <= max {
+        return Ok(());
+    }
+    check_range(&field(), value, min, max, unit)
+}
+
+/// [`check_finite_all`] naming the field only when a value fails.
+pub(crate) fn check_finite_all_lazy(field: impl FnOnce() -> String, values: &[f64]) -> Result<()> {
+    if values.iter().all(|v| v.is_finite()) {
+        return Ok(());
+    }
+    check_finite_all(&field(), values)
+}
+
 /// Checks that `value` is finite and in `min..=max`.
 pub(crate) fn check_range(
     field: &str,

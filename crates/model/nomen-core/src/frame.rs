@@ -4,7 +4,7 @@
 //! A transform is named `target_from_source`: `world_from_camera.apply(p_in_camera)` gives the
 //! point in the world frame.
 
-use crate::error::{CoreError, Result, check_finite_all};
+use crate::error::{CoreError, Result, check_finite_all_lazy};
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -34,8 +34,8 @@ impl RigidTransform {
 
     /// Checks that all numbers are finite and the quaternion is not degenerate.
     pub fn validate(&self, field: &str) -> Result<()> {
-        check_finite_all(&format!("{field}.rotation_wxyz"), &self.rotation_wxyz)?;
-        check_finite_all(&format!("{field}.translation_m"), &self.translation_m)?;
+        check_finite_all_lazy(|| format!("{field}.rotation_wxyz"), &self.rotation_wxyz)?;
+        check_finite_all_lazy(|| format!("{field}.translation_m"), &self.translation_m)?;
         let n2: f64 = self.rotation_wxyz.iter().map(|v| v * v).sum();
         if !(0.25..=4.0).contains(&n2) {
             return Err(CoreError::Invalid(format!(

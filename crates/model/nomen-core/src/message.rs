@@ -1,7 +1,7 @@
 //! The message vocabulary: what flows into the engine, what it outputs, and the ground truth the
 //! simulator writes for the evaluator. Recordings are sequences of these (see `nomen-recording`).
 
-use crate::error::{Result, check_finite_all, check_range};
+use crate::error::{Result, check_finite_all, check_finite_all_lazy, check_range};
 use crate::ids::{CameraId, DeviceId, SubjectId, TagId, TrackId};
 use crate::sensor::{ImuSample, RssiRead, RtlsFix, UwbRange};
 use crate::skeleton::{JointObservation, Joints, SkeletonObservation};
@@ -173,7 +173,7 @@ impl Message {
             Message::Identified(m) => {
                 check_range("confidence", m.confidence, 0.0, 1.0, "")?;
                 for (i, e) in m.evidence.iter().enumerate() {
-                    check_finite_all(&format!("evidence[{i}].score"), &[e.score])?;
+                    check_finite_all_lazy(|| format!("evidence[{i}].score"), &[e.score])?;
                 }
                 // The joints follow the skeleton rules (finite, plausible, finite covariance).
                 SkeletonObservation {
@@ -193,7 +193,7 @@ impl Message {
             }
             Message::TruthSkeleton(m) => {
                 for (j, p) in m.joints_world_m.iter() {
-                    check_finite_all(&format!("joints_world_m.{j}"), p.coords.as_slice())?;
+                    check_finite_all_lazy(|| format!("joints_world_m.{j}"), p.coords.as_slice())?;
                 }
                 Ok(())
             }

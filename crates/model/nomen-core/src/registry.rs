@@ -1,6 +1,6 @@
 //! The registry: who exists, what they wear and where, and where the fixed infrastructure is.
 
-use crate::error::{CoreError, Result, check_finite_all, check_range};
+use crate::error::{CoreError, Result, check_finite_all_lazy, check_range_lazy};
 use crate::frame::RigidTransform;
 use crate::ids::{AnchorId, AntennaId, CameraId, DeviceId, SubjectId};
 use crate::skeleton::Joint;
@@ -144,7 +144,7 @@ impl Registry {
                         w.device, s.id
                     )));
                 }
-                check_finite_all(&format!("clock of '{}'", w.device), &[w.clock.drift_ppm])?;
+                check_finite_all_lazy(|| format!("clock of '{}'", w.device), &[w.clock.drift_ppm])?;
             }
         }
         let mut cameras = BTreeSet::new();
@@ -158,8 +158,8 @@ impl Registry {
             c.world_from_camera
                 .validate(&format!("camera '{}'.world_from_camera", c.id))?;
             if let Some(fps) = c.fps_hz {
-                check_range(
-                    &format!("camera '{}'.fps_hz", c.id),
+                check_range_lazy(
+                    || format!("camera '{}'.fps_hz", c.id),
                     fps,
                     0.1,
                     10_000.0,
@@ -167,8 +167,8 @@ impl Registry {
                 )?;
             }
             if let Some(k) = &c.intrinsics {
-                check_finite_all(
-                    &format!("camera '{}'.intrinsics", c.id),
+                check_finite_all_lazy(
+                    || format!("camera '{}'.intrinsics", c.id),
                     &[k.fx_px, k.fy_px, k.cx_px, k.cy_px],
                 )?;
                 if k.fx_px <= 0.0 || k.fy_px <= 0.0 {
@@ -187,8 +187,8 @@ impl Registry {
                     a.id
                 )));
             }
-            check_finite_all(
-                &format!("anchor '{}'.position_m", a.id),
+            check_finite_all_lazy(
+                || format!("anchor '{}'.position_m", a.id),
                 a.position_m.coords.as_slice(),
             )?;
         }
@@ -200,12 +200,12 @@ impl Registry {
                     a.id
                 )));
             }
-            check_finite_all(
-                &format!("antenna '{}'.position_m", a.id),
+            check_finite_all_lazy(
+                || format!("antenna '{}'.position_m", a.id),
                 a.position_m.coords.as_slice(),
             )?;
             if let Some(b) = &a.boresight {
-                check_finite_all(&format!("antenna '{}'.boresight", a.id), b.as_slice())?;
+                check_finite_all_lazy(|| format!("antenna '{}'.boresight", a.id), b.as_slice())?;
                 if b.norm() < 1e-9 {
                     return Err(CoreError::Invalid(format!(
                         "antenna '{}' has a zero boresight",

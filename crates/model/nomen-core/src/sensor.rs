@@ -1,6 +1,8 @@
 //! Messages from wearables and radio systems.
 
-use crate::error::{CoreError, Result, check_finite_all, check_range};
+use crate::error::{
+    CoreError, Result, check_finite_all, check_finite_all_lazy, check_range, check_range_lazy,
+};
 use crate::ids::{AnchorId, AntennaId, DeviceId, TagId};
 use crate::time::SessionTime;
 use nalgebra::{Point3, Vector3};
@@ -39,8 +41,8 @@ impl ImuSample {
         check_finite_all("accel_mps2", self.accel_mps2.as_slice())?;
         check_finite_all("gyro_radps", self.gyro_radps.as_slice())?;
         for (i, v) in self.accel_mps2.iter().enumerate() {
-            check_range(
-                &format!("accel_mps2[{i}]"),
+            check_range_lazy(
+                || format!("accel_mps2[{i}]"),
                 *v,
                 -MAX_ACCEL_MPS2,
                 MAX_ACCEL_MPS2,
@@ -48,8 +50,8 @@ impl ImuSample {
             )?;
         }
         for (i, v) in self.gyro_radps.iter().enumerate() {
-            check_range(
-                &format!("gyro_radps[{i}]"),
+            check_range_lazy(
+                || format!("gyro_radps[{i}]"),
                 *v,
                 -MAX_GYRO_RADPS,
                 MAX_GYRO_RADPS,
@@ -58,7 +60,7 @@ impl ImuSample {
         }
         if let Some(m) = &self.mag_ut {
             for (i, v) in m.iter().enumerate() {
-                check_range(&format!("mag_ut[{i}]"), *v, -MAX_MAG_UT, MAX_MAG_UT, "µT")?;
+                check_range_lazy(|| format!("mag_ut[{i}]"), *v, -MAX_MAG_UT, MAX_MAG_UT, "µT")?;
             }
         }
         if let Some(q) = &self.orientation_wxyz {
@@ -95,8 +97,8 @@ impl RtlsFix {
     /// Checks finiteness, coordinate bounds and a symmetric covariance with non-negative diagonal.
     pub fn validate(&self) -> Result<()> {
         for (i, v) in self.position_m.iter().enumerate() {
-            check_range(
-                &format!("position_m[{i}]"),
+            check_range_lazy(
+                || format!("position_m[{i}]"),
                 *v,
                 -crate::skeleton::MAX_COORDINATE_M,
                 crate::skeleton::MAX_COORDINATE_M,
@@ -108,7 +110,7 @@ impl RtlsFix {
         }
         if let Some(c) = &self.covariance_m2 {
             for (r, row) in c.iter().enumerate() {
-                check_finite_all(&format!("covariance_m2[{r}]"), row)?;
+                check_finite_all_lazy(|| format!("covariance_m2[{r}]"), row)?;
                 if row[r] < 0.0 {
                     return Err(CoreError::Invalid(format!(
                         "covariance_m2[{r}][{r}] is negative"

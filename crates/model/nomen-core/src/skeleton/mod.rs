@@ -3,7 +3,7 @@
 
 pub mod sets;
 
-use crate::error::{CoreError, Result, check_finite_all, check_range};
+use crate::error::{CoreError, Result, check_finite_all_lazy, check_range_lazy};
 use crate::ids::{CameraId, TrackId};
 use crate::time::SessionTime;
 use nalgebra::Point3;
@@ -350,8 +350,8 @@ impl SkeletonObservation {
     /// Checks finiteness and plausibility of every joint that is not `Missing`.
     pub fn validate(&self) -> Result<()> {
         for (j, obs) in self.joints.iter() {
-            check_range(
-                &format!("joints.{j}.confidence"),
+            check_range_lazy(
+                || format!("joints.{j}.confidence"),
                 obs.confidence,
                 0.0,
                 1.0,
@@ -360,14 +360,14 @@ impl SkeletonObservation {
             if obs.state == JointState::Missing {
                 continue;
             }
-            let field = format!("joints.{j}.position_m");
-            check_finite_all(&field, obs.position_m.coords.as_slice())?;
+            let field = || format!("joints.{j}.position_m");
+            check_finite_all_lazy(field, obs.position_m.coords.as_slice())?;
             if let Some(c) = &obs.covariance_m2 {
-                check_finite_all(&format!("joints.{j}.covariance_m2"), c.as_flattened())?;
+                check_finite_all_lazy(|| format!("joints.{j}.covariance_m2"), c.as_flattened())?;
             }
             for (axis, v) in obs.position_m.coords.iter().enumerate() {
-                check_range(
-                    &format!("{field}[{axis}]"),
+                check_range_lazy(
+                    || format!("{}[{axis}]", field()),
                     *v,
                     -MAX_COORDINATE_M,
                     MAX_COORDINATE_M,
