@@ -21,7 +21,6 @@ use crate::kinematic::{
 };
 use crate::signal::{Derivative, moving_average, pearson};
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
-use nalgebra::Vector3;
 use nomen_core::skeleton::Joint;
 
 /// The IMU side of every model, on its window's grid (`NaN` where missing).
@@ -53,14 +52,22 @@ impl ImuFeatures {
             v
         };
         let lin = imu_linear_accel_world(imu, geo);
-        let elevation = |e: Vector3<f64>| {
-            smooth(
-                imu.world_from_sensor
-                    .iter()
-                    .map(|q| elevation_rad(&(q * e)))
-                    .collect(),
-            )
-        };
+        // The world `z` of each sensor axis is the bottom row of the rotation matrix; the axes
+        // are unit vectors, so their elevation is its arcsine.
+        let mut axis_elevation: [Vec<f64>; 3] = Default::default();
+        for q in &imu.world_from_sensor {
+            let row = if q.coords.iter().all(|c| c.is_finite()) {
+                let m = q.to_rotation_matrix();
+                let m = m.matrix();
+                [m[(2, 0)], m[(2, 1)], m[(2, 2)]]
+            } else {
+                [f64::NAN; 3]
+            };
+            for (axis, z) in axis_elevation.iter_mut().zip(row) {
+                axis.push(z.clamp(-1.0, 1.0).asin());
+            }
+        }
+        let [ex, ey, ez] = axis_elevation;
         ImuFeatures {
             accel_magnitude: smoothed_norms(&lin, geo),
             velocity_magnitude: imu_velocity_magnitude_from(imu, &lin, geo),
@@ -68,11 +75,7 @@ impl ImuFeatures {
             swing: smooth(imu_swing(imu, lag_samples(&imu.t_s, kin))),
             vertical_accel: smooth(lin.iter().map(|a| a.z).collect()),
             vertical_velocity: smooth(imu_vertical_velocity(imu, &lin, geo)),
-            axis_elevation: [
-                elevation(Vector3::x()),
-                elevation(Vector3::y()),
-                elevation(Vector3::z()),
-            ],
+            axis_elevation: [smooth(ex), smooth(ey), smooth(ez)],
             turn_rate: imu_turn_rate_signal(imu, kin),
         }
     }
@@ -206,7 +209,7 @@ mod tests {
         imu_accel_magnitude, imu_velocity_magnitude, joint_accel_magnitude,
         joint_velocity_magnitude,
     };
-    use nalgebra::{Point3, UnitQuaternion};
+    use nalgebra::{Point3, UnitQuaternion, Vector3};
     use nomen_core::skeleton::Joints;
 
     /// A forearm swinging and turning, and an IMU on it, with a little disagreement so that no
