@@ -851,6 +851,8 @@ impl Engine {
         let refine_range = ns(self.config.offset_refine_range_s);
         let mut skel_cache: BTreeMap<((usize, TrackId), Joint), Option<LagSignals>> =
             BTreeMap::new();
+        // An IMU's buffer, per (IMU, offset it was cut with), for the three uses below.
+        let mut imu_cache: BTreeMap<(usize, i64), Option<LagSignals>> = BTreeMap::new();
         let mut scratch = Vec::new();
         let mut curve = Vec::new();
         let mut fine = Vec::new();
@@ -881,7 +883,12 @@ impl Engine {
                 };
                 imu.last_search_end = end;
                 let imu = &*imu;
-                let Some(imu_sig) = imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config)
+                let Some(imu_sig) = imu_cache
+                    .entry((i, imu.offset_ns))
+                    .or_insert_with(|| {
+                        imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config)
+                    })
+                    .as_ref()
                 else {
                     continue;
                 };
@@ -1040,7 +1047,11 @@ impl Engine {
             }
             let (subject, site) = (imu.subject, imu.site);
             let mut added: Vec<Vec<f64>> = Vec::new();
-            if let Some(imu_sig) = imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config) {
+            if let Some(imu_sig) = imu_cache
+                .entry((i, imu.offset_ns))
+                .or_insert_with(|| imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config))
+                .as_ref()
+            {
                 for (key, tr) in self
                     .tracks
                     .iter()
@@ -1158,7 +1169,11 @@ impl Engine {
                 .map(|o| o + imu.offset_ns)
                 .collect();
             let mut best: Option<(i64, f64)> = None;
-            if let Some(imu_sig) = imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config) {
+            if let Some(imu_sig) = imu_cache
+                .entry((i, imu.offset_ns))
+                .or_insert_with(|| imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config))
+                .as_ref()
+            {
                 for tr in self
                     .tracks
                     .values()
@@ -2042,16 +2057,7 @@ fn imu_lag_signals(imu: &ImuState, lo: i64, hi: i64, config: &EngineConfig) -> O
     ];
     // Device times (the lag curve shifts them by each candidate offset itself), thinned like
     // the track's: interpolation walks every IMU sample once per candidate offset.
-    let keep = |v: &[f64]| {
-        v.iter()
-            .step_by(IMU_LAG_DECIMATION)
-            .copied()
-            .collect::<Vec<f64>>()
-    };
-    Some(LagSignals {
-        t_ns: t_ns.iter().step_by(IMU_LAG_DECIMATION).copied().collect(),
-        models: models.iter().map(|m| keep(m)).collect(),
-    })
+    Some(LagSignals::every_nth(&t_ns, &models, IMU_LAG_DECIMATION))
 }
 
 /// A track's acceleration and carrying-segment orientation-change magnitudes at `site` on its
@@ -2084,14 +2090,5 @@ fn track_lag_signals(
     ];
     // The signals are built at the camera's rate, then every `LAG_DECIMATION`-th sample is
     // correlated: the models are low-passed well below the decimated Nyquist rate.
-    let keep = |v: &[f64]| {
-        v.iter()
-            .step_by(LAG_DECIMATION)
-            .copied()
-            .collect::<Vec<f64>>()
-    };
-    Some(LagSignals {
-        t_ns: t_ns.iter().step_by(LAG_DECIMATION).copied().collect(),
-        models: models.iter().map(|m| keep(m)).collect(),
-    })
+    Some(LagSignals::every_nth(&t_ns, &models, LAG_DECIMATION))
 }

@@ -117,6 +117,20 @@ pub(crate) struct LagSignals {
     pub(crate) models: Vec<Vec<f64>>,
 }
 
+impl LagSignals {
+    /// Every `step`-th time and the same samples of every model (built at the full rate).
+    pub(crate) fn every_nth(t_ns: &[i64], models: &[Vec<f64>], step: usize) -> LagSignals {
+        let step = step.max(1);
+        LagSignals {
+            t_ns: t_ns.iter().step_by(step).copied().collect(),
+            models: models
+                .iter()
+                .map(|m| m.iter().step_by(step).copied().collect())
+                .collect(),
+        }
+    }
+}
+
 /// The lag curve: for each candidate offset in `offsets_ns` (session = device + offset), the
 /// mean over models of the Pearson correlation between the IMU's signals (device clock, shifted
 /// by the offset and interpolated onto the track's times) and the track's. `NaN` where no model
