@@ -912,7 +912,7 @@ impl Engine {
                         continue;
                     };
                     lag_curve(
-                        &imu_sig,
+                        imu_sig,
                         sig,
                         &offsets,
                         MAX_IMU_GAP_NS,
@@ -935,7 +935,7 @@ impl Engine {
                                 .filter(|o| o.abs() <= max_off && (o - offset).abs() <= reach),
                         );
                         lag_curve(
-                            &imu_sig,
+                            imu_sig,
                             sig,
                             &fine,
                             MAX_IMU_GAP_NS,
@@ -1067,7 +1067,7 @@ impl Engine {
                         continue;
                     };
                     lag_curve(
-                        &imu_sig,
+                        imu_sig,
                         sig,
                         &coarse,
                         MAX_IMU_GAP_NS,
@@ -1186,7 +1186,7 @@ impl Engine {
                         continue;
                     };
                     lag_curve(
-                        &imu_sig,
+                        imu_sig,
                         &sig,
                         &offsets,
                         MAX_IMU_GAP_NS,
