@@ -856,7 +856,27 @@ impl Engine {
         let mut scratch = Vec::new();
         let mut curve = Vec::new();
         let mut fine = Vec::new();
-        for b in 0..self.subjects.len() {
+        // Every subject's mean peak per track; the accepted offsets of a subject are read at
+        // themselves only. Subjects with nothing to search still score the tracks, so a track
+        // that clearly belongs to someone else is no candidate for a searching subject.
+        let any_due = self
+            .imus
+            .iter()
+            .any(|m| !m.is_offset_known && end.saturating_sub(m.last_search_end) >= search_every);
+        // Nothing to search: the loops below do nothing.
+        let num_scored = if any_due { self.subjects.len() } else { 0 };
+        let candidates: Vec<(usize, TrackId)> = self
+            .tracks
+            .iter()
+            .filter(|(_, tr)| covered_span(tr, lo, hi) >= min_track)
+            .map(|(k, _)| *k)
+            .collect();
+        // Per subject: mean peak per track; per (IMU, track): the peak lag, when clear.
+        let mut subject_scores: Vec<BTreeMap<(usize, TrackId), f64>> =
+            vec![BTreeMap::new(); self.subjects.len()];
+        let mut peaks: BTreeMap<(usize, (usize, TrackId)), i64> = BTreeMap::new();
+        let mut due = vec![false; self.subjects.len()];
+        for b in 0..num_scored {
             let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
             };
@@ -865,23 +885,17 @@ impl Engine {
                     !m.is_offset_known && end.saturating_sub(m.last_search_end) >= search_every
                 })
             });
-            if !is_due {
-                continue;
+            if let Some(d) = due.get_mut(b) {
+                *d = is_due;
             }
-            let candidates: Vec<(usize, TrackId)> = self
-                .tracks
-                .iter()
-                .filter(|(_, tr)| covered_span(tr, lo, hi) >= min_track)
-                .map(|(k, _)| *k)
-                .collect();
-            // Per track: sum and count of the IMUs' peaks; per (IMU, track): the peak lag.
             let mut track_score: BTreeMap<(usize, TrackId), (f64, usize)> = BTreeMap::new();
-            let mut peaks: BTreeMap<(usize, (usize, TrackId)), i64> = BTreeMap::new();
             for &i in &mine {
                 let Some(imu) = self.imus.get_mut(i) else {
                     continue;
                 };
-                imu.last_search_end = end;
+                if is_due {
+                    imu.last_search_end = end;
+                }
                 let imu = &*imu;
                 let Some(imu_sig) = imu_cache
                     .entry((i, imu.offset_ns))
@@ -952,28 +966,49 @@ impl Engine {
                     e.1 += 1;
                     // A peak at the end of the searched range only says the best lag lies
                     // beyond it: it scores the track but is no offset candidate.
-                    if offset.abs() < max_off - LAG_STEP_NS / 2 || imu.is_offset_known {
+                    if is_due && !imu.is_offset_known && offset.abs() < max_off - LAG_STEP_NS / 2 {
                         peaks.insert((i, *key), offset);
                     }
                 }
             }
-            // The best track and its margin over the next one of the same camera.
-            let scores: Vec<((usize, TrackId), f64)> = track_score
-                .iter()
-                .map(|(k, (s, n))| (*k, s / *n as f64))
-                .collect();
+            if let Some(scores) = subject_scores.get_mut(b) {
+                *scores = track_score
+                    .iter()
+                    .map(|(k, (s, n))| (*k, s / *n as f64))
+                    .collect();
+            }
+        }
+        for b in 0..num_scored {
+            if !due.get(b).copied().unwrap_or(false) {
+                continue;
+            }
+            let Some(mine) = self.subject_imus.get(b).cloned() else {
+                continue;
+            };
+            let Some(scores) = subject_scores.get(b) else {
+                continue;
+            };
+            // The best track, its margin over the next one of the same camera, and over every
+            // other subject's score on it (two people walking alike must not both claim it).
             let best = scores
                 .iter()
-                .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
-                .copied();
+                .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
+                .map(|(k, v)| (*k, *v));
             let winner = best.and_then(|(key, top)| {
                 let second = scores
                     .iter()
-                    .filter(|(k, _)| k.0 == key.0 && *k != key)
+                    .filter(|(k, _)| k.0 == key.0 && **k != key)
                     .map(|(_, v)| *v)
                     .fold(0.0f64, f64::max);
+                let other = subject_scores
+                    .iter()
+                    .enumerate()
+                    .filter(|(c, _)| *c != b)
+                    .filter_map(|(_, s)| s.get(&key).copied())
+                    .fold(f64::NEG_INFINITY, f64::max);
                 (top >= self.config.offset_min_correlation
-                    && top - second >= self.config.offset_margin)
+                    && top - second >= self.config.offset_margin
+                    && top - other >= self.config.offset_subject_margin)
                     .then_some((key, top))
             });
             for &i in &mine {
@@ -1168,7 +1203,9 @@ impl Engine {
                 .filter(|o| o.abs() <= refine_range)
                 .map(|o| o + imu.offset_ns)
                 .collect();
-            let mut best: Option<(i64, f64)> = None;
+            // The curves against every track labelled with the wearer, weighted by how much of
+            // the buffer each covers: a long track's peak is sharper than a short one's.
+            let mut sum = vec![(0.0, 0.0); offsets.len()];
             if let Some(imu_sig) = imu_cache
                 .entry((i, imu.offset_ns))
                 .or_insert_with(|| imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config))
@@ -1179,7 +1216,8 @@ impl Engine {
                     .values()
                     .filter(|tr| tr.label == Some(imu.subject))
                 {
-                    if covered_span(tr, lo, hi) < min_track {
+                    let covered = covered_span(tr, lo, hi);
+                    if covered < min_track {
                         continue;
                     }
                     let Some(sig) = track_lag_signals(tr, imu.site, lo, hi, &self.config) else {
@@ -1194,13 +1232,20 @@ impl Engine {
                         &mut scratch,
                         &mut curve,
                     );
-                    if let Some(found) = curve_peak(&offsets, &curve, 0.0)
-                        && best.is_none_or(|b| found.1 > b.1)
-                    {
-                        best = Some(found);
+                    let w = covered as f64 * 1e-9;
+                    for (acc, v) in sum.iter_mut().zip(&curve) {
+                        if v.is_finite() {
+                            acc.0 += w * v;
+                            acc.1 += w;
+                        }
                     }
                 }
             }
+            let mean: Vec<f64> = sum
+                .iter()
+                .map(|(s, w)| if *w > 0.0 { s / w } else { f64::NAN })
+                .collect();
+            let best = curve_peak(&offsets, &mean, 0.0);
             let Some(imu) = self.imus.get_mut(i) else {
                 continue;
             };

@@ -35,6 +35,8 @@ pub struct Person {
     pub imu_until_s: f64,
     /// Device clock: `session = device + offset`.
     pub imu_offset_s: f64,
+    /// Whether the camera sees the person (a wearer out of view sends IMU data only).
+    pub is_in_view: bool,
 }
 
 impl Person {
@@ -49,6 +51,7 @@ impl Person {
             track_change: None,
             imu_until_s: f64::INFINITY,
             imu_offset_s: 0.0,
+            is_in_view: true,
         }
     }
 
@@ -130,7 +133,7 @@ pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
     let num_frames = (duration_s * 30.0) as usize;
     for k in 0..num_frames {
         let t = k as f64 / 30.0;
-        for p in people {
+        for p in people.iter().filter(|p| p.is_in_view) {
             let mut joints = Joints::new();
             let pelvis = Point3::new(1.0, p.y_m, 0.95);
             let mut put = |j, pw: Point3<f64>| {
