@@ -44,5 +44,5 @@ pub use kinematic::{
     segment_swing_signal,
 };
 pub use scorer::PairScorer;
-pub use signal::{LagConfig, best_lag, best_lag_with, pearson};
+pub use signal::{LagConfig, PearsonSums, best_lag, best_lag_with, first_finite, pearson};
 pub use window::{ImuWindow, ModelScores, SkeletonWindow};

@@ -50,6 +50,83 @@ pub fn pearson(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
     r.is_finite().then(|| r.clamp(-1.0, 1.0))
 }
 
+/// One-pass sums for a Pearson correlation, for callers that produce the pairs on the fly (the
+/// clock-offset lag search interpolates one side per candidate lag) and cannot afford
+/// [`pearson`]'s two passes over a buffer. Values are taken relative to shifts given up front
+/// (e.g. each signal's mean over its buffer), which keeps the one-pass variance accurate.
+/// [`PearsonSums::correlation`] agrees with [`pearson`] on the same pairs to rounding.
+#[derive(Debug, Clone, Copy)]
+pub struct PearsonSums {
+    shift_x: f64,
+    shift_y: f64,
+    n: usize,
+    sx: f64,
+    sy: f64,
+    sxx: f64,
+    syy: f64,
+    sxy: f64,
+    qx: f64,
+    qy: f64,
+}
+
+impl PearsonSums {
+    /// Empty sums with values taken relative to `shift_x` and `shift_y`.
+    pub fn new(shift_x: f64, shift_y: f64) -> PearsonSums {
+        PearsonSums {
+            shift_x,
+            shift_y,
+            n: 0,
+            sx: 0.0,
+            sy: 0.0,
+            sxx: 0.0,
+            syy: 0.0,
+            sxy: 0.0,
+            qx: 0.0,
+            qy: 0.0,
+        }
+    }
+
+    /// Adds the pair `(x, y)` if both are finite.
+    #[inline]
+    pub fn push(&mut self, x: f64, y: f64) {
+        if x.is_finite() && y.is_finite() {
+            let (dx, dy) = (x - self.shift_x, y - self.shift_y);
+            self.n += 1;
+            self.sx += dx;
+            self.sy += dy;
+            self.sxx += dx * dx;
+            self.syy += dy * dy;
+            self.sxy += dx * dy;
+            self.qx += x * x;
+            self.qy += y * y;
+        }
+    }
+
+    /// The correlation, with [`pearson`]'s rules: `None` with fewer than `min_samples` (at
+    /// least 3) pairs or a constant signal.
+    pub fn correlation(&self, min_samples: usize) -> Option<f64> {
+        if self.n < min_samples.max(MIN_PEARSON_SAMPLES) {
+            return None;
+        }
+        let n = self.n as f64;
+        let vxx = self.sxx - self.sx * self.sx / n;
+        let vyy = self.syy - self.sy * self.sy / n;
+        let vxy = self.sxy - self.sx * self.sy / n;
+        let is_constant = |v: f64, q: f64| !(v > 1e-12 * q && v > f64::MIN_POSITIVE);
+        if is_constant(vxx, self.qx) || is_constant(vyy, self.qy) {
+            return None;
+        }
+        let r = vxy / (vxx.sqrt() * vyy.sqrt());
+        r.is_finite().then(|| r.clamp(-1.0, 1.0))
+    }
+}
+
+/// The first finite value of `v` (0 if none): a shift for [`PearsonSums`] that costs nothing
+/// to find and lies within the data's range.
+pub fn first_finite(v: &[f64]) -> f64 {
+    v.iter().copied().find(|x| x.is_finite()).unwrap_or(0.0)
+}
+
 /// Configuration of [`best_lag_with`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -323,6 +400,28 @@ mod tests {
         assert!(pearson(&[1.0; 10], &y[..10], 3).is_none());
         assert!(pearson(&[1.0, 2.0], &[1.0, 2.0], 1).is_none());
         assert!(pearson(&[], &[], 0).is_none());
+    }
+
+    #[test]
+    fn one_pass_sums_agree_with_pearson() {
+        // Large offsets and a gap: the shifts keep the one-pass variance accurate.
+        let mut x: Vec<f64> = (0..200).map(|i| 1e4 + (i as f64 * 0.17).sin()).collect();
+        let y: Vec<f64> = (0..200)
+            .map(|i| -50.0 + (i as f64 * 0.17 + 0.4).sin() + 0.3 * (i as f64 * 0.05).cos())
+            .collect();
+        x[0] = f64::NAN;
+        let mut sums = PearsonSums::new(first_finite(&x), first_finite(&y));
+        for (a, b) in x.iter().zip(&y) {
+            sums.push(*a, *b);
+        }
+        let (r1, r2) = (sums.correlation(3).unwrap(), pearson(&x, &y, 3).unwrap());
+        assert!((r1 - r2).abs() < 1e-9, "{r1} vs {r2}");
+        assert!(sums.correlation(500).is_none());
+        let mut constant = PearsonSums::new(0.0, 0.0);
+        for b in &y[..10] {
+            constant.push(1.0, *b);
+        }
+        assert!(constant.correlation(3).is_none());
     }
 
     #[test]

@@ -853,7 +853,8 @@ impl Engine {
             BTreeMap::new();
         // An IMU's buffer, per (IMU, offset it was cut with), for the three uses below.
         let mut imu_cache: BTreeMap<(usize, i64), Option<LagSignals>> = BTreeMap::new();
-        let mut scratch = Vec::new();
+        // Interpolation weights, reused by every lag curve.
+        let mut weights = Vec::new();
         let mut curve = Vec::new();
         let mut fine = Vec::new();
         // Every subject's mean peak per track; the accepted offsets of a subject are read at
@@ -931,7 +932,7 @@ impl Engine {
                         &offsets,
                         MAX_IMU_GAP_NS,
                         self.config.geometric.min_samples,
-                        &mut scratch,
+                        &mut weights,
                         &mut curve,
                     );
                     let Some((mut offset, mut value)) =
@@ -954,7 +955,7 @@ impl Engine {
                             &fine,
                             MAX_IMU_GAP_NS,
                             self.config.geometric.min_samples,
-                            &mut scratch,
+                            &mut weights,
                             &mut curve,
                         );
                         if let Some(found) = curve_peak(&fine, &curve, 0.0) {
@@ -1107,7 +1108,7 @@ impl Engine {
                         &coarse,
                         MAX_IMU_GAP_NS,
                         self.config.geometric.min_samples,
-                        &mut scratch,
+                        &mut weights,
                         &mut curve,
                     );
                     added.push(curve.clone());
@@ -1229,7 +1230,7 @@ impl Engine {
                         &offsets,
                         MAX_IMU_GAP_NS,
                         self.config.geometric.min_samples,
-                        &mut scratch,
+                        &mut weights,
                         &mut curve,
                     );
                     let w = covered as f64 * 1e-9;

@@ -4,7 +4,7 @@
 //! and, for the clock offset, correlates magnitude signals over many candidate offsets.
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
-use nomen_evidence::{ImuWindow, pearson};
+use nomen_evidence::{ImuWindow, PearsonSums, first_finite};
 
 /// Settled IMU samples on the device clock, all the same length, time increasing.
 pub(crate) struct ImuSeries<'a> {
@@ -141,20 +141,28 @@ pub(crate) fn lag_curve(
     offsets_ns: &[i64],
     max_gap_ns: i64,
     min_samples: usize,
-    scratch: &mut Vec<f64>,
+    weights: &mut Vec<Option<(usize, f64)>>,
     out: &mut Vec<f64>,
 ) {
     out.clear();
-    let mut weights = Vec::with_capacity(track.t_ns.len());
+    // Each model's first value, the shift of the one-pass sums.
+    let shifts: Vec<(f64, f64)> = imu
+        .models
+        .iter()
+        .zip(&track.models)
+        .map(|(a, b)| (first_finite(a), first_finite(b)))
+        .collect();
     for &offset in offsets_ns {
         // Where each track time falls among the IMU's samples at this offset, once for every
         // model.
-        interpolation_weights(&imu.t_ns, offset, &track.t_ns, max_gap_ns, &mut weights);
+        interpolation_weights(&imu.t_ns, offset, &track.t_ns, max_gap_ns, weights);
         let (mut sum, mut num) = (0.0, 0usize);
-        for (a, b) in imu.models.iter().zip(&track.models) {
-            scratch.clear();
-            scratch.extend(weights.iter().map(|w| interpolated(a, *w)));
-            if let Some(r) = pearson(scratch, b, min_samples) {
+        for ((a, b), (sa, sb)) in imu.models.iter().zip(&track.models).zip(&shifts) {
+            let mut sums = PearsonSums::new(*sa, *sb);
+            for (w, y) in weights.iter().zip(b) {
+                sums.push(interpolated(a, *w), *y);
+            }
+            if let Some(r) = sums.correlation(min_samples) {
                 sum += r;
                 num += 1;
             }
