@@ -30,8 +30,10 @@
 //!    ±[`EngineConfig::max_clock_offset_s`] in 40 ms steps, then 10 ms around the coarse peak;
 //!    near-tied peaks go to the smaller |lag|; a peak at the end of the range is no candidate).
 //!    The subject's score for a track is the mean of its IMUs' peaks; only when the best track
-//!    beats the next one of its camera by [`EngineConfig::offset_margin`] (and reaches
-//!    [`EngineConfig::offset_min_correlation`]) is each IMU's peak lag on it a candidate, and
+//!    beats the next one of its camera by [`EngineConfig::offset_margin`], beats every other
+//!    subject's score on that track by [`EngineConfig::offset_subject_margin`] (two people
+//!    walking alike must not both take one track's lags) and reaches
+//!    [`EngineConfig::offset_min_correlation`] is each IMU's peak lag on it a candidate, and
 //!    [`EngineConfig::offset_num_consistent`] candidates in a row within
 //!    [`EngineConfig::offset_consistency_s`] make the offset. Tracks too short for that still
 //!    count once the decisions put the wearer on them: each IMU sums its coarse lag curves
@@ -41,8 +43,8 @@
 //!    too. The same sum, restarted at acceptance and taken every
 //!    [`EngineConfig::offset_refine_interval_s`], moves an accepted offset whose wearer's tracks
 //!    clearly peak elsewhere (a stride away, or first found on someone else's track). Accepted
-//!    offsets are refined every [`EngineConfig::offset_refine_interval_s`] against the assigned
-//!    track;
+//!    offsets are refined every [`EngineConfig::offset_refine_interval_s`] against the tracks
+//!    labelled with the wearer (their fine lag curves averaged, weighted by coverage);
 //! 2. **evidence**: per camera, every active track against every subject. IMUs are resampled
 //!    onto the track's timestamps at their offset (before it is accepted, at that pair's own
 //!    lag-curve peak, so identity can be found meanwhile) and scored as
