@@ -2,7 +2,9 @@
 
 use crate::config::{EngineConfig, MotionScore, ns};
 use crate::error::{EngineError, Result};
-use crate::signal::{ImuSeries, LagSignals, curve_peak, imu_window_on_grid, lag_curve};
+use crate::signal::{
+    ImuSeries, LagSignals, curve_peak, imu_window_on_grid, is_contradicted, lag_curve,
+};
 use crate::stats::EngineStats;
 use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m, fix_similarity};
 use nalgebra::{Isometry3, Matrix3, Point3, UnitQuaternion, Vector3};
@@ -1138,6 +1140,29 @@ impl Engine {
                 .iter()
                 .map(|(sum, n)| if *n > 0 { sum / *n as f64 } else { f64::NAN })
                 .collect();
+            // An accepted offset at which the wearer's tracks hardly correlate, while another
+            // lag does better, was most likely found on someone else's track: it is withdrawn
+            // and searched for again.
+            if imu.is_offset_known
+                && !self.config.known_clock_offsets
+                && is_contradicted(
+                    &coarse,
+                    &mean,
+                    imu.offset_ns,
+                    self.config.offset_withdraw_below,
+                    self.config.offset_label_margin,
+                )
+            {
+                imu.is_offset_known = false;
+                imu.candidates.clear();
+                imu.pair_offsets.clear();
+                imu.label_curve.clear();
+                imu.num_label_curves = 0;
+                imu.last_search_end = i64::MIN;
+                self.stats.clock_offsets.remove(&imu.device);
+                self.stats.num_offsets_withdrawn += 1;
+                continue;
+            }
             // The peak must lie inside the searched range (see the joint search).
             let Some((k, peak)) = mean
                 .iter()

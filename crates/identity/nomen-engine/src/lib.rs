@@ -42,7 +42,9 @@
 //!    [`EngineConfig::offset_label_margin`] above every lag more than 0.15 s away is accepted
 //!    too. The same sum, restarted at acceptance and taken every
 //!    [`EngineConfig::offset_refine_interval_s`], moves an accepted offset whose wearer's tracks
-//!    clearly peak elsewhere (a stride away, or first found on someone else's track). Accepted
+//!    clearly peak elsewhere (a stride away, or first found on someone else's track), and
+//!    withdraws one at which that sum stays below [`EngineConfig::offset_withdraw_below`] while
+//!    another lag does better (the IMU is then searched for again). Accepted
 //!    offsets are refined every [`EngineConfig::offset_refine_interval_s`] against the tracks
 //!    labelled with the wearer (their fine lag curves averaged, weighted by coverage);
 //! 2. **evidence**: per camera, every active track against every subject. IMUs are resampled

@@ -249,6 +249,30 @@ pub(crate) fn curve_peak(
     Some((refined, peak))
 }
 
+/// Whether a summed lag curve (`curve` over `offsets_ns`) contradicts an accepted `offset_ns`:
+/// its value at the grid point nearest the offset is below `below` and some lag reaches at
+/// least `margin` more. A curve with no finite value contradicts nothing.
+pub(crate) fn is_contradicted(
+    offsets_ns: &[i64],
+    curve: &[f64],
+    offset_ns: i64,
+    below: f64,
+    margin: f64,
+) -> bool {
+    let at = offsets_ns
+        .iter()
+        .enumerate()
+        .min_by_key(|(_, o)| (**o - offset_ns).abs())
+        .and_then(|(k, _)| curve.get(k).copied())
+        .unwrap_or(f64::NAN);
+    let best = curve
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    at < below && best - at >= margin
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -265,6 +289,22 @@ mod tests {
         // A shift of +10 reads the sample 10 earlier.
         interpolate(&t, &v, 10, &[20], 20, &mut out);
         assert!((out[0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_offset_is_contradicted_only_by_a_low_value_there_and_a_better_lag() {
+        let offsets = [-200, -100, 0, 100, 200];
+        let curve = [0.02, 0.03, 0.01, 0.25, 0.1];
+        // Low at 0 (nearest grid point to 20) and 0.24 higher at 100.
+        assert!(is_contradicted(&offsets, &curve, 20, 0.05, 0.05));
+        // At the peak itself: no.
+        assert!(!is_contradicted(&offsets, &curve, 100, 0.05, 0.05));
+        // Low everywhere (no better lag): no.
+        let flat = [0.02, 0.03, 0.01, 0.04, 0.0];
+        assert!(!is_contradicted(&offsets, &flat, 0, 0.05, 0.05));
+        // Disabled, and no evidence at all.
+        assert!(!is_contradicted(&offsets, &curve, 20, -1.0, 0.05));
+        assert!(!is_contradicted(&offsets, &[f64::NAN; 5], 0, 0.05, 0.05));
     }
 
     #[test]

@@ -80,6 +80,9 @@ pub struct EngineStats {
     /// Accepted clock offsets moved to a clearly better peak of the lag curves summed against
     /// the wearer's labelled tracks.
     pub num_offsets_moved: u64,
+    /// Accepted clock offsets withdrawn because the wearer's labelled tracks hardly correlate at
+    /// them and better at another lag (see `EngineConfig::offset_withdraw_below`).
+    pub num_offsets_withdrawn: u64,
     /// Clock offset estimates per IMU, once made.
     pub clock_offsets: BTreeMap<DeviceId, ClockOffsetEstimate>,
 }
