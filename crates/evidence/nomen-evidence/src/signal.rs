@@ -53,7 +53,8 @@ pub fn pearson(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
 /// One-pass sums for a Pearson correlation, for callers that produce the pairs on the fly (the
 /// clock-offset lag search interpolates one side per candidate lag) and cannot afford
 /// [`pearson`]'s two passes over a buffer. Values are taken relative to shifts given up front
-/// (e.g. each signal's mean over its buffer), which keeps the one-pass variance accurate.
+/// (each signal's mean is best; any value within the data's range, such as its first finite
+/// value, keeps the one-pass variance accurate for signals that vary).
 /// [`PearsonSums::correlation`] agrees with [`pearson`] on the same pairs to rounding.
 #[derive(Debug, Clone, Copy)]
 pub struct PearsonSums {
@@ -112,8 +113,12 @@ impl PearsonSums {
         let vxx = self.sxx - self.sx * self.sx / n;
         let vyy = self.syy - self.sy * self.sy / n;
         let vxy = self.sxy - self.sx * self.sy / n;
-        let is_constant = |v: f64, q: f64| !(v > 1e-12 * q && v > f64::MIN_POSITIVE);
-        if is_constant(vxx, self.qx) || is_constant(vyy, self.qy) {
+        // Constant: a spread that is rounding noise relative to the values' size, or to the
+        // shifted sums it was computed from (a shift far from a nearly constant signal).
+        let is_constant = |v: f64, q: f64, shifted: f64| {
+            !(v > 1e-12 * q && v > 1e-12 * shifted && v > f64::MIN_POSITIVE)
+        };
+        if is_constant(vxx, self.qx, self.sxx) || is_constant(vyy, self.qy, self.syy) {
             return None;
         }
         let r = vxy / (vxx.sqrt() * vyy.sqrt());
@@ -422,6 +427,12 @@ mod tests {
             constant.push(1.0, *b);
         }
         assert!(constant.correlation(3).is_none());
+        // Nearly constant next to a far shift: rounding noise is no variance.
+        let mut far = PearsonSums::new(1e9, 0.0);
+        for (k, b) in y[..10].iter().enumerate() {
+            far.push(1e-3 + 1e-19 * k as f64, *b);
+        }
+        assert!(far.correlation(3).is_none());
     }
 
     #[test]

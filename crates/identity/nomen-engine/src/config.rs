@@ -226,8 +226,8 @@ pub struct EngineConfig {
     /// Local maxima of a lag curve within this of its highest value are near-ties; the one with
     /// the smallest |lag| wins. Default 0.02.
     pub offset_tie_tolerance: f64,
-    /// How often an offset is re-estimated against the track its wearer is assigned to, s.
-    /// Default 5 s.
+    /// How often an accepted offset is re-estimated against the tracks labelled with its wearer
+    /// (their lag curves averaged, weighted by coverage), s. Default 5 s.
     pub offset_refine_interval_s: f64,
     /// Lag range around the current estimate searched when refining, s. Default 0.1 s.
     pub offset_refine_range_s: f64,

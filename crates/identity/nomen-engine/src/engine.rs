@@ -86,7 +86,8 @@ struct ImuState {
     offset_ns: i64,
     is_offset_known: bool,
     last_refine_end: i64,
-    last_search_end: i64,
+    /// The registry's offset: the prior, restored when an accepted offset is withdrawn.
+    registry_offset_ns: i64,
     /// Offset candidates of the latest searches, oldest first (`None`: no clear winner).
     candidates: VecDeque<Option<i64>>,
     /// Lag-curve peak per track from the latest search, used before the offset is accepted.
@@ -178,6 +179,8 @@ pub struct Engine {
     tag_window_ns: i64,
     subjects: Vec<SubjectId>,
     subject_imus: Vec<Vec<usize>>,
+    /// Window end of the latest joint offset search.
+    last_search_end: i64,
     cameras: Vec<CameraState>,
     camera_index: BTreeMap<CameraId, usize>,
     imus: Vec<ImuState>,
@@ -248,7 +251,7 @@ impl Engine {
                     offset_ns: w.clock.offset_ns,
                     is_offset_known: config.known_clock_offsets,
                     last_refine_end: i64::MIN,
-                    last_search_end: i64::MIN,
+                    registry_offset_ns: w.clock.offset_ns,
                     candidates: VecDeque::new(),
                     pair_offsets: BTreeMap::new(),
                     label_curve: Vec::new(),
@@ -286,6 +289,7 @@ impl Engine {
             config,
             subjects: registry.subjects.iter().map(|s| s.id.clone()).collect(),
             subject_imus,
+            last_search_end: i64::MIN,
             cameras,
             camera_index,
             imus,
@@ -834,11 +838,14 @@ impl Engine {
     /// `offset_search_interval_s` jointly with its wearer's identity: for every candidate track,
     /// each of the subject's IMUs gets a lag curve over `offset_estimation_window_s`; the
     /// subject's score for a track is the mean of its IMUs' peaks. When the best track beats the
-    /// next one of its camera by `offset_margin`, each unaccepted IMU's peak lag on that track is
-    /// a candidate; `offset_num_consistent` agreeing candidates in a row make the offset. Lag
-    /// curves against the tracks labelled with an IMU's wearer are summed per IMU: a clear peak
-    /// of the sum accepts an offset, or moves an accepted one (see the crate docs). An accepted
-    /// offset is refined every `offset_refine_interval_s` against the assigned track.
+    /// next one of its camera by `offset_margin` and every other subject's score on it by
+    /// `offset_subject_margin` (a subject with accepted offsets is read at them only), each
+    /// unaccepted IMU's peak lag on that track is a candidate; `offset_num_consistent` agreeing
+    /// candidates in a row make the offset. Lag curves against the tracks labelled with an IMU's
+    /// wearer are summed per IMU: a clear peak of the sum accepts an offset, or moves an accepted
+    /// one, and a sum that contradicts an accepted offset withdraws it (see the crate docs). An
+    /// accepted offset is refined every `offset_refine_interval_s` against the tracks labelled
+    /// with its wearer (their curves averaged, weighted by coverage).
     fn update_offsets(&mut self, end: i64) {
         let max_off = ns(self.config.max_clock_offset_s);
         let span = ns(self.config.offset_estimation_window_s);
@@ -862,10 +869,13 @@ impl Engine {
         // Every subject's mean peak per track; the accepted offsets of a subject are read at
         // themselves only. Subjects with nothing to search still score the tracks, so a track
         // that clearly belongs to someone else is no candidate for a searching subject.
-        let any_due = self
-            .imus
-            .iter()
-            .any(|m| !m.is_offset_known && end.saturating_sub(m.last_search_end) >= search_every);
+        // One search phase for everyone: subjects whose offsets are withdrawn or who are new
+        // join the next search instead of adding their own.
+        let is_search_time = end.saturating_sub(self.last_search_end) >= search_every;
+        let any_due = is_search_time && self.imus.iter().any(|m| !m.is_offset_known);
+        if any_due {
+            self.last_search_end = end;
+        }
         // Nothing to search: the loops below do nothing.
         let num_scored = if any_due { self.subjects.len() } else { 0 };
         let candidates: Vec<(usize, TrackId)> = self
@@ -874,7 +884,7 @@ impl Engine {
             .filter(|(_, tr)| covered_span(tr, lo, hi) >= min_track)
             .map(|(k, _)| *k)
             .collect();
-        // Per subject: mean peak per track; per (IMU, track): the peak lag, when clear.
+        // Per subject: mean peak per track; per (IMU, track) of a searching subject: peak lag.
         let mut subject_scores: Vec<BTreeMap<(usize, TrackId), f64>> =
             vec![BTreeMap::new(); self.subjects.len()];
         let mut peaks: BTreeMap<(usize, (usize, TrackId)), i64> = BTreeMap::new();
@@ -883,23 +893,17 @@ impl Engine {
             let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
             };
-            let is_due = mine.iter().any(|&i| {
-                self.imus.get(i).is_some_and(|m| {
-                    !m.is_offset_known && end.saturating_sub(m.last_search_end) >= search_every
-                })
-            });
+            let is_due = mine
+                .iter()
+                .any(|&i| self.imus.get(i).is_some_and(|m| !m.is_offset_known));
             if let Some(d) = due.get_mut(b) {
                 *d = is_due;
             }
             let mut track_score: BTreeMap<(usize, TrackId), (f64, usize)> = BTreeMap::new();
             for &i in &mine {
-                let Some(imu) = self.imus.get_mut(i) else {
+                let Some(imu) = self.imus.get(i) else {
                     continue;
                 };
-                if is_due {
-                    imu.last_search_end = end;
-                }
-                let imu = &*imu;
                 let Some(imu_sig) = imu_cache
                     .entry((i, imu.offset_ns))
                     .or_insert_with(|| {
@@ -1011,7 +1015,8 @@ impl Engine {
                     .fold(f64::NEG_INFINITY, f64::max);
                 (top >= self.config.offset_min_correlation
                     && top - second >= self.config.offset_margin
-                    && top - other >= self.config.offset_subject_margin)
+                    && (self.config.offset_subject_margin < 0.0
+                        || top - other >= self.config.offset_subject_margin))
                     .then_some((key, top))
             });
             for &i in &mine {
@@ -1158,7 +1163,7 @@ impl Engine {
                 imu.pair_offsets.clear();
                 imu.label_curve.clear();
                 imu.num_label_curves = 0;
-                imu.last_search_end = i64::MIN;
+                imu.offset_ns = imu.registry_offset_ns;
                 self.stats.clock_offsets.remove(&imu.device);
                 self.stats.num_offsets_withdrawn += 1;
                 continue;
@@ -1216,7 +1221,7 @@ impl Engine {
             entry.correlation = peak;
             entry.num_updates += 1;
         }
-        // Refinement of accepted offsets against the track the wearer is assigned to.
+        // Refinement of accepted offsets against the tracks labelled with the wearer.
         for i in 0..self.imus.len() {
             let Some(imu) = self.imus.get(i) else {
                 continue;

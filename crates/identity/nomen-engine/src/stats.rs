@@ -83,6 +83,7 @@ pub struct EngineStats {
     /// Accepted clock offsets withdrawn because the wearer's labelled tracks hardly correlate at
     /// them and better at another lag (see `EngineConfig::offset_withdraw_below`).
     pub num_offsets_withdrawn: u64,
-    /// Clock offset estimates per IMU, once made.
+    /// Clock offset estimates per IMU, once made; an estimate that is withdrawn is removed until
+    /// the IMU's offset is found again.
     pub clock_offsets: BTreeMap<DeviceId, ClockOffsetEstimate>,
 }
