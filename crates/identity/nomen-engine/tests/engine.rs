@@ -269,6 +269,32 @@ fn a_track_id_change_mid_walk_is_reidentified() {
 }
 
 #[test]
+fn out_of_range_offset_thresholds_are_refused_by_name() {
+    let people = two_people();
+    for (name, config) in [
+        (
+            "offset_subject_margin",
+            EngineConfig {
+                offset_subject_margin: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "offset_withdraw_below",
+            EngineConfig {
+                offset_withdraw_below: 1.5,
+                ..EngineConfig::default()
+            },
+        ),
+    ] {
+        let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), config) else {
+            panic!("{name} out of range was accepted");
+        };
+        assert!(why.contains(name), "{why}");
+    }
+}
+
+#[test]
 fn a_negative_model_weight_is_refused_by_name() {
     let people = two_people();
     let config = EngineConfig {
