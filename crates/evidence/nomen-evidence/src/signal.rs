@@ -29,25 +29,12 @@ pub fn pearson(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
     if n < min_samples.max(MIN_PEARSON_SAMPLES) {
         return None;
     }
-    let (mx, my) = (sx / n as f64, sy / n as f64);
-    let (mut sxx, mut syy, mut sxy, mut qx, mut qy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    // Second pass: the sums about the exact means.
+    let mut sums = PearsonSums::new(sx / n as f64, sy / n as f64);
     for (a, b) in x.iter().zip(y) {
-        if a.is_finite() && b.is_finite() {
-            let (da, db) = (a - mx, b - my);
-            sxx += da * da;
-            syy += db * db;
-            sxy += da * db;
-            qx += a * a;
-            qy += b * b;
-        }
+        sums.push(*a, *b);
     }
-    // Constant signal: its spread is rounding noise relative to its size.
-    let is_constant = |s: f64, q: f64| !(s > 1e-12 * q && s > f64::MIN_POSITIVE);
-    if is_constant(sxx, qx) || is_constant(syy, qy) {
-        return None;
-    }
-    let r = sxy / (sxx.sqrt() * syy.sqrt());
-    r.is_finite().then(|| r.clamp(-1.0, 1.0))
+    sums.correlation(min_samples)
 }
 
 /// One-pass sums for a Pearson correlation, for callers that produce the pairs on the fly (the

@@ -884,21 +884,14 @@ impl Engine {
             .filter(|(_, tr)| covered_span(tr, lo, hi) >= min_track)
             .map(|(k, _)| *k)
             .collect();
-        // Per subject: mean peak per track; per (IMU, track) of a searching subject: peak lag.
+        // Per subject: mean peak per track; per (unaccepted IMU, track): the peak lag.
         let mut subject_scores: Vec<BTreeMap<(usize, TrackId), f64>> =
             vec![BTreeMap::new(); self.subjects.len()];
         let mut peaks: BTreeMap<(usize, (usize, TrackId)), i64> = BTreeMap::new();
-        let mut due = vec![false; self.subjects.len()];
         for b in 0..num_scored {
             let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
             };
-            let is_due = mine
-                .iter()
-                .any(|&i| self.imus.get(i).is_some_and(|m| !m.is_offset_known));
-            if let Some(d) = due.get_mut(b) {
-                *d = is_due;
-            }
             let mut track_score: BTreeMap<(usize, TrackId), (f64, usize)> = BTreeMap::new();
             for &i in &mine {
                 let Some(imu) = self.imus.get(i) else {
@@ -973,7 +966,7 @@ impl Engine {
                     e.1 += 1;
                     // A peak at the end of the searched range only says the best lag lies
                     // beyond it: it scores the track but is no offset candidate.
-                    if is_due && !imu.is_offset_known && offset.abs() < max_off - LAG_STEP_NS / 2 {
+                    if !imu.is_offset_known && offset.abs() < max_off - LAG_STEP_NS / 2 {
                         peaks.insert((i, *key), offset);
                     }
                 }
@@ -986,12 +979,16 @@ impl Engine {
             }
         }
         for b in 0..num_scored {
-            if !due.get(b).copied().unwrap_or(false) {
-                continue;
-            }
             let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
             };
+            // Only subjects with an IMU still unaccepted search.
+            if !mine
+                .iter()
+                .any(|&i| self.imus.get(i).is_some_and(|m| !m.is_offset_known))
+            {
+                continue;
+            }
             let Some(scores) = subject_scores.get(b) else {
                 continue;
             };
