@@ -168,6 +168,58 @@ impl SegmentFeatures {
     }
 }
 
+/// The five signals a clock-offset search correlates at many lags, IMU side: linear-acceleration
+/// magnitude, orientation-change magnitude, vertical acceleration, swing and turn rate (the
+/// same values as [`crate::imu_accel_magnitude`], [`crate::imu_orientation_magnitude`],
+/// [`crate::imu_vertical_accel`], [`crate::imu_swing_signal`] and
+/// [`crate::imu_turn_rate_signal`], with the acceleration filtered once for two of them).
+pub fn imu_lag_models(
+    imu: &ImuWindow,
+    geo: &GeometricConfig,
+    kin: &KinematicConfig,
+) -> [Vec<f64>; 5] {
+    let lin = imu_linear_accel_world(imu, geo);
+    let mut vertical: Vec<f64> = lin.iter().map(|a| a.z).collect();
+    moving_average(&mut vertical, geo.moving_average_len);
+    let mut swing = imu_swing(imu, lag_samples(&imu.t_s, kin));
+    moving_average(&mut swing, geo.moving_average_len);
+    [
+        smoothed_norms(&lin, geo),
+        imu_orientation_magnitude(imu, geo),
+        vertical,
+        swing,
+        imu_turn_rate_signal(imu, kin),
+    ]
+}
+
+/// [`imu_lag_models`]' skeleton side for a sensor worn at `site`: the same values as
+/// [`crate::joint_accel_magnitude`], [`crate::segment_orientation_magnitude`],
+/// [`crate::joint_vertical_accel`], [`crate::segment_swing_signal`] and
+/// [`crate::body_turn_rate_signal`], with the joint differentiated once for two of them.
+pub fn segment_lag_models(
+    skel: &SkeletonWindow,
+    site: Joint,
+    geo: &GeometricConfig,
+    kin: &KinematicConfig,
+) -> [Vec<f64>; 5] {
+    let n = skel.t_s.len();
+    let acc = filtered_joint_derivative(skel, site, Derivative::Acceleration, geo);
+    let mut vertical: Vec<f64> = acc
+        .as_deref()
+        .map_or_else(|| vec![f64::NAN; n], |a| a.iter().map(|a| a.z).collect());
+    moving_average(&mut vertical, geo.moving_average_len);
+    let mut swing = segment_swing(skel, site, lag_samples(&skel.t_s, kin));
+    moving_average(&mut swing, geo.moving_average_len);
+    [
+        acc.as_deref()
+            .map_or_else(|| vec![f64::NAN; n], |a| smoothed_norms(a, geo)),
+        segment_orientation_magnitude(skel, site, geo),
+        vertical,
+        swing,
+        body_turn_rate_signal(skel, kin),
+    ]
+}
+
 /// De Marchi's three correlations and nomen's five for one IMU and one candidate segment whose
 /// features were built on the same grid; all `None` if the grids' lengths differ.
 pub fn compare_features(
@@ -270,6 +322,42 @@ mod tests {
             joints_world_m: joints,
         };
         (imu, skel)
+    }
+
+    #[test]
+    fn lag_models_equal_the_single_signal_builders() {
+        let (imu, skel) = windows();
+        let (geo, kin) = (GeometricConfig::default(), KinematicConfig::default());
+        let site = Joint::LeftWrist;
+        let same = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        let [acc, ori, vertical, swing, turn] = imu_lag_models(&imu, &geo, &kin);
+        assert!(acc.iter().any(|v| v.is_finite()));
+        assert!(same(&acc, &imu_accel_magnitude(&imu, &geo)));
+        assert!(same(&ori, &imu_orientation_magnitude(&imu, &geo)));
+        assert!(same(&vertical, &crate::imu_vertical_accel(&imu, &geo)));
+        assert!(same(&swing, &crate::imu_swing_signal(&imu, &geo, &kin)));
+        assert!(same(&turn, &imu_turn_rate_signal(&imu, &kin)));
+        let [acc, ori, vertical, swing, turn] = segment_lag_models(&skel, site, &geo, &kin);
+        assert!(acc.iter().any(|v| v.is_finite()));
+        assert!(same(&acc, &joint_accel_magnitude(&skel, site, &geo)));
+        assert!(same(
+            &ori,
+            &segment_orientation_magnitude(&skel, site, &geo)
+        ));
+        assert!(same(
+            &vertical,
+            &crate::joint_vertical_accel(&skel, site, &geo)
+        ));
+        assert!(same(
+            &swing,
+            &crate::segment_swing_signal(&skel, site, &geo, &kin)
+        ));
+        assert!(same(&turn, &body_turn_rate_signal(&skel, &kin)));
+        // A joint the window lacks: every model missing, as the single builders give.
+        let [acc, _, vertical, ..] = segment_lag_models(&skel, Joint::RightAnkle, &geo, &kin);
+        assert!(acc.iter().chain(&vertical).all(|v| v.is_nan()));
     }
 
     #[test]

@@ -31,7 +31,9 @@ pub mod signal;
 pub mod window;
 
 pub use belmonte::{BelmonteConfig, BelmonteCosts, SensorAxis, Side, belmonte_costs};
-pub use features::{ImuFeatures, SegmentFeatures, compare_features};
+pub use features::{
+    ImuFeatures, SegmentFeatures, compare_features, imu_lag_models, segment_lag_models,
+};
 pub use fusion::{Fusion, FusionConfig, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{
     GeometricConfig, carrying_segment, geometric_scores, imu_accel_magnitude,

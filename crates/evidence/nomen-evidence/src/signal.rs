@@ -277,26 +277,11 @@ pub(crate) fn lowpass_vectors(x: &mut [Vector3<f64>], butter: &ButterworthConfig
         return;
     };
     let runs = finite_runs(x.len(), |i| is_finite3(&x[i]));
-    let mut input = Vec::new();
-    let mut output = Vec::new();
     let mut covered = vec![false; x.len()];
     for run in runs {
-        let seg = &mut x[run.clone()];
-        let mut is_ok = true;
-        for axis in 0..3 {
-            input.clear();
-            input.extend(seg.iter().map(|v| v[axis]));
-            output.clear();
-            output.resize(input.len(), 0.0);
-            if filter.filter(&input, &mut output).is_err() {
-                is_ok = false;
-                break;
-            }
-            for (v, o) in seg.iter_mut().zip(&output) {
-                v[axis] = *o;
-            }
-        }
-        if is_ok {
+        if let Some(seg) = x.get_mut(run.clone())
+            && filter.filter_vectors(seg).is_ok()
+        {
             covered[run].iter_mut().for_each(|c| *c = true);
         }
     }

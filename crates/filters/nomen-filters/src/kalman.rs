@@ -16,6 +16,13 @@
 //! on statically sized nalgebra 0.35 matrices — the same nalgebra as the workspace — so a step
 //! does not allocate. The filter is zero-latency: [`JointKalman::step`] predicts to the
 //! measurement time and then updates, so the estimate refers to the measurement instant.
+//!
+//! While every measurement covariance is diagonal (the usual case: pose SDKs report one
+//! confidence per joint), the three axes never couple: `F`, `Q` and `H` are per-axis and a
+//! block-diagonal covariance stays block-diagonal. The filter then runs three 2-state filters
+//! with the same Joseph-form update written out for a scalar measurement, about a tenth of the
+//! 6-state work; the first full `R` switches it to [`adskalman`] for good. Both paths agree to
+//! rounding (a test runs them side by side).
 
 use crate::error::{FilterError, Result, check_positive};
 use adskalman::{
@@ -133,12 +140,105 @@ pub(crate) fn is_usable_covariance(r: &Matrix3<f64>) -> bool {
         && (r - r.transpose()).abs().max() <= 1e-9 * (1.0 + r.abs().max())
 }
 
+/// One axis of a decoupled estimate: position (m), velocity (m/s) and their covariance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Axis {
+    p: f64,
+    v: f64,
+    pp: f64,
+    pv: f64,
+    vv: f64,
+}
+
+impl Axis {
+    /// `F P Fᵀ + Q` with `F = [1 dt; 0 1]` and the white-acceleration `Q` of PSD `q`.
+    fn predict(&mut self, dt: f64, q: f64) {
+        self.p += dt * self.v;
+        self.pp += dt * (2.0 * self.pv + dt * self.vv) + q * dt.powi(3) / 3.0;
+        self.pv += dt * self.vv + q * dt.powi(2) / 2.0;
+        self.vv += q * dt;
+    }
+
+    /// Joseph-form update with a position measurement `z` of variance `r`:
+    /// `P ← (I − KH) P (I − KH)ᵀ + K r Kᵀ`, `H = [1 0]`.
+    fn update(&mut self, z: f64, r: f64) -> bool {
+        let s = self.pp + r;
+        if !(s.is_finite() && s > 0.0) {
+            return false;
+        }
+        let (k0, k1) = (self.pp / s, self.pv / s);
+        let innovation = z - self.p;
+        self.p += k0 * innovation;
+        self.v += k1 * innovation;
+        let a = 1.0 - k0;
+        let (pp, pv, vv) = (self.pp, self.pv, self.vv);
+        self.pp = a * a * pp + k0 * k0 * r;
+        self.pv = a * (pv - k1 * pp) + k0 * k1 * r;
+        self.vv = k1 * k1 * pp - 2.0 * k1 * pv + vv + k1 * k1 * r;
+        true
+    }
+}
+
+/// The estimate: three decoupled axes while every `R` was diagonal, else the full 6-state form.
+#[derive(Debug, Clone)]
+enum Estimate {
+    Axes([Axis; 3]),
+    /// Boxed: rare, and three times the size of the axes.
+    Full(Box<StateAndCovariance<f64, U6>>),
+}
+
+impl Estimate {
+    fn state(&self) -> Vector6<f64> {
+        match self {
+            Estimate::Axes(axes) => {
+                let mut x = Vector6::zeros();
+                for (i, a) in axes.iter().enumerate() {
+                    x[i] = a.p;
+                    x[i + 3] = a.v;
+                }
+                x
+            }
+            Estimate::Full(e) => *e.state(),
+        }
+    }
+
+    fn covariance(&self) -> Matrix6<f64> {
+        match self {
+            Estimate::Axes(axes) => {
+                let mut p = Matrix6::zeros();
+                for (i, a) in axes.iter().enumerate() {
+                    p[(i, i)] = a.pp;
+                    p[(i, i + 3)] = a.pv;
+                    p[(i + 3, i)] = a.pv;
+                    p[(i + 3, i + 3)] = a.vv;
+                }
+                p
+            }
+            Estimate::Full(e) => *e.covariance(),
+        }
+    }
+
+    fn to_full(&self) -> StateAndCovariance<f64, U6> {
+        match self {
+            Estimate::Axes(_) => StateAndCovariance::new(self.state(), self.covariance()),
+            Estimate::Full(e) => (**e).clone(),
+        }
+    }
+}
+
+/// True when the off-diagonal entries of `r` are exactly zero.
+fn is_diagonal(r: &Matrix3<f64>) -> bool {
+    (0..3).all(|i| (0..3).all(|j| i == j || r[(i, j)] == 0.0))
+}
+
 /// Constant-velocity Kalman filter for one joint.
 #[derive(Debug, Clone)]
 pub struct JointKalman {
     config: ConstantVelocityConfig,
-    estimate: Option<StateAndCovariance<f64, U6>>,
+    estimate: Option<Estimate>,
     last_t: Option<SessionTime>,
+    /// Use the 6-state [`adskalman`] form even for diagonal `R` (tests compare the two paths).
+    is_full_only: bool,
 }
 
 impl JointKalman {
@@ -149,7 +249,16 @@ impl JointKalman {
             config,
             estimate: None,
             last_t: None,
+            is_full_only: false,
         })
+    }
+
+    /// The same filter computed with the 6-state [`adskalman`] algebra throughout (the
+    /// reference the per-axis form is tested against).
+    pub fn new_full(config: ConstantVelocityConfig) -> Result<Self> {
+        let mut kf = Self::new(config)?;
+        kf.is_full_only = true;
+        Ok(kf)
     }
 
     /// True once a measurement has initialised the state.
@@ -159,26 +268,28 @@ impl JointKalman {
 
     /// Position estimate, if initialised.
     pub fn position(&self) -> Option<Point3<f64>> {
-        self.estimate
-            .as_ref()
-            .map(|e| Point3::from(e.state().fixed_rows::<3>(0).into_owned()))
+        self.estimate.as_ref().map(|e| match e {
+            Estimate::Axes([x, y, z]) => Point3::new(x.p, y.p, z.p),
+            Estimate::Full(e) => Point3::from(e.state().fixed_rows::<3>(0).into_owned()),
+        })
     }
 
     /// Velocity estimate, if initialised.
     pub fn velocity(&self) -> Option<Vector3<f64>> {
-        self.estimate
-            .as_ref()
-            .map(|e| e.state().fixed_rows::<3>(3).into_owned())
+        self.estimate.as_ref().map(|e| match e {
+            Estimate::Axes([x, y, z]) => Vector3::new(x.v, y.v, z.v),
+            Estimate::Full(e) => e.state().fixed_rows::<3>(3).into_owned(),
+        })
     }
 
     /// Full state `[p; v]`, if initialised.
     pub fn state(&self) -> Option<Vector6<f64>> {
-        self.estimate.as_ref().map(|e| *e.state())
+        self.estimate.as_ref().map(Estimate::state)
     }
 
     /// State covariance, if initialised.
     pub fn covariance(&self) -> Option<Matrix6<f64>> {
-        self.estimate.as_ref().map(|e| *e.covariance())
+        self.estimate.as_ref().map(Estimate::covariance)
     }
 
     /// Time of the last [`Self::step`], if any.
@@ -195,14 +306,22 @@ impl JointKalman {
                 reason: format!("must be finite and >= 0, got {dt_s}"),
             });
         }
-        if let Some(estimate) = &mut self.estimate {
-            let (f, q) = constant_velocity_model(dt_s, self.config.accel_psd_m2ps3);
-            let model = Transition {
-                f,
-                ft: f.transpose(),
-                q,
-            };
-            *estimate = model.predict(estimate);
+        match &mut self.estimate {
+            Some(Estimate::Axes(axes)) => {
+                for a in axes {
+                    a.predict(dt_s, self.config.accel_psd_m2ps3);
+                }
+            }
+            Some(Estimate::Full(estimate)) => {
+                let (f, q) = constant_velocity_model(dt_s, self.config.accel_psd_m2ps3);
+                let model = Transition {
+                    f,
+                    ft: f.transpose(),
+                    q,
+                };
+                **estimate = model.predict(estimate);
+            }
+            None => {}
         }
         Ok(())
     }
@@ -213,17 +332,38 @@ impl JointKalman {
         if !z.iter().all(|v| v.is_finite()) || !is_usable_covariance(r) {
             return Ok(UpdateOutcome::RejectedAsMissing);
         }
-        let Some(prior) = &self.estimate else {
-            let mut p = Matrix6::zeros();
-            p.fixed_view_mut::<3, 3>(0, 0).copy_from(r);
+        let is_separable = !self.is_full_only && is_diagonal(r);
+        let Some(prior) = &mut self.estimate else {
             let v2 = self.config.initial_velocity_std_mps.powi(2);
-            p.fixed_view_mut::<3, 3>(3, 3)
-                .copy_from(&(Matrix3::identity() * v2));
-            let mut x = Vector6::zeros();
-            x.fixed_rows_mut::<3>(0).copy_from(&z.coords);
-            self.estimate = Some(StateAndCovariance::new(x, p));
+            self.estimate = Some(if is_separable {
+                Estimate::Axes(std::array::from_fn(|i| Axis {
+                    p: z[i],
+                    v: 0.0,
+                    pp: r[(i, i)],
+                    pv: 0.0,
+                    vv: v2,
+                }))
+            } else {
+                let mut p = Matrix6::zeros();
+                p.fixed_view_mut::<3, 3>(0, 0).copy_from(r);
+                p.fixed_view_mut::<3, 3>(3, 3)
+                    .copy_from(&(Matrix3::identity() * v2));
+                let mut x = Vector6::zeros();
+                x.fixed_rows_mut::<3>(0).copy_from(&z.coords);
+                Estimate::Full(Box::new(StateAndCovariance::new(x, p)))
+            });
             return Ok(UpdateOutcome::Initialized);
         };
+        if is_separable && let Estimate::Axes(axes) = prior {
+            let mut next = *axes;
+            for (i, a) in next.iter_mut().enumerate() {
+                if !a.update(z[i], r[(i, i)]) {
+                    return Err(FilterError::Numerical("joint kalman update"));
+                }
+            }
+            *axes = next;
+            return Ok(UpdateOutcome::Applied);
+        }
         let h = position_observation();
         let model = PositionObservation {
             h,
@@ -231,9 +371,13 @@ impl JointKalman {
             r: *r,
         };
         let posterior = model
-            .update(prior, &z.coords, CovarianceUpdateMethod::JosephForm)
+            .update(
+                &prior.to_full(),
+                &z.coords,
+                CovarianceUpdateMethod::JosephForm,
+            )
             .map_err(|_| FilterError::Numerical("joint kalman update"))?;
-        self.estimate = Some(posterior);
+        *prior = Estimate::Full(Box::new(posterior));
         Ok(UpdateOutcome::Applied)
     }
 
@@ -298,6 +442,45 @@ mod tests {
             kf.update(&Point3::origin(), &bad_r).unwrap(),
             UpdateOutcome::RejectedAsMissing
         );
+    }
+
+    #[test]
+    fn per_axis_filter_matches_the_six_state_filter() {
+        // Irregular steps, missing frames, varying diagonal R; then one full R, after which
+        // both run the 6-state algebra.
+        let config = ConstantVelocityConfig::default();
+        let mut fast = JointKalman::new(config).unwrap();
+        let mut full = JointKalman::new_full(config).unwrap();
+        let mut t_ns = 0i64;
+        for k in 0..300 {
+            t_ns += 20_000_000 + (k % 7) * 3_000_000;
+            let s = k as f64 * 0.05;
+            let z = Point3::new(s.sin(), 0.5 * s.cos(), 1.0 + 0.1 * s);
+            let var = if k % 5 == 0 { 4e-4 } else { 1e-4 };
+            let mut r = Matrix3::from_diagonal(&Vector3::new(var, 2.0 * var, var));
+            if k == 250 {
+                r[(0, 1)] = 2e-5;
+                r[(1, 0)] = 2e-5;
+            }
+            let m = (k % 11 != 3).then_some((&z, &r));
+            let t = SessionTime::from_ns(t_ns);
+            assert_eq!(fast.step(t, m).unwrap(), full.step(t, m).unwrap());
+            let (a, b) = (fast.state().unwrap(), full.state().unwrap());
+            assert!((a - b).abs().max() < 1e-12, "state differs at step {k}");
+            let (pa, pb) = (fast.covariance().unwrap(), full.covariance().unwrap());
+            assert!(
+                (pa - pb).abs().max() < 1e-12 * pb.abs().max(),
+                "covariance differs at step {k}"
+            );
+            assert_eq!(
+                fast.position(),
+                Some(Point3::from(a.fixed_rows::<3>(0).into_owned()))
+            );
+            assert!(matches!(
+                (k >= 250, &fast.estimate),
+                (true, Some(Estimate::Full(_))) | (false, Some(Estimate::Axes(_)))
+            ));
+        }
     }
 
     #[test]

@@ -17,10 +17,7 @@ use nomen_core::{
 };
 use nomen_evidence::{
     GeometricConfig, ImuFeatures, ImuWindow, PairScorer, ScoreTensor, SegmentFeatures, Side,
-    SkeletonWindow, belmonte_costs, body_turn_rate_signal, compare_features, fuse,
-    imu_accel_magnitude, imu_orientation_magnitude, imu_swing_signal, imu_turn_rate_signal,
-    imu_vertical_accel, joint_accel_magnitude, joint_vertical_accel, segment_orientation_magnitude,
-    segment_swing_signal,
+    SkeletonWindow, belmonte_costs, compare_features, fuse, imu_lag_models, segment_lag_models,
 };
 use nomen_filters::kalman::JointKalman;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
@@ -1239,21 +1236,24 @@ impl Engine {
                 .or_insert_with(|| imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config))
                 .as_ref()
             {
-                for tr in self
+                for (key, tr) in self
                     .tracks
-                    .values()
-                    .filter(|tr| tr.label == Some(imu.subject))
+                    .iter()
+                    .filter(|(_, tr)| tr.label == Some(imu.subject))
                 {
                     let covered = covered_span(tr, lo, hi);
                     if covered < min_track {
                         continue;
                     }
-                    let Some(sig) = track_lag_signals(tr, imu.site, lo, hi, &self.config) else {
+                    let sig = skel_cache
+                        .entry((*key, imu.site))
+                        .or_insert_with(|| track_lag_signals(tr, imu.site, lo, hi, &self.config));
+                    let Some(sig) = sig.as_ref() else {
                         continue;
                     };
                     lag_curve(
                         imu_sig,
-                        &sig,
+                        sig,
                         &offsets,
                         MAX_IMU_GAP_NS,
                         self.config.geometric.min_samples,
@@ -1305,10 +1305,12 @@ impl Engine {
         let mut sites: Vec<Joint> = self.imus.iter().map(|m| m.site).collect();
         sites.sort_unstable();
         sites.dedup();
+        // An IMU's window and features per (IMU, offset, grid): cameras that share frame times
+        // (hardware-synchronised rigs) share them too.
+        let mut grids: Vec<Vec<i64>> = Vec::new();
+        let mut imu_cache: BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures)> =
+            BTreeMap::new();
         for c in 0..self.cameras.len() {
-            let mut grids: Vec<Vec<i64>> = Vec::new();
-            let mut imu_cache: BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures)> =
-                BTreeMap::new();
             // Tracks with a few samples in the window; the IMU models need more (below).
             let keys: Vec<(usize, TrackId)> = self
                 .tracks
@@ -2120,14 +2122,7 @@ fn imu_lag_signals(imu: &ImuState, lo: i64, hi: i64, config: &EngineConfig) -> O
         gyro_radps: series.gyro_radps.get(a..b)?.to_vec(),
         world_from_sensor: series.world_from_sensor.get(a..b)?.to_vec(),
     };
-    let cfg = lag_geometric(config);
-    let models = [
-        imu_accel_magnitude(&window, &cfg),
-        imu_orientation_magnitude(&window, &cfg),
-        imu_vertical_accel(&window, &cfg),
-        imu_swing_signal(&window, &cfg, &config.kinematic),
-        imu_turn_rate_signal(&window, &config.kinematic),
-    ];
+    let models = imu_lag_models(&window, &lag_geometric(config), &config.kinematic);
     // Device times (the lag curve shifts them by each candidate offset itself), thinned like
     // the track's: interpolation walks every IMU sample once per candidate offset.
     Some(LagSignals::every_nth(&t_ns, &models, IMU_LAG_DECIMATION))
@@ -2153,14 +2148,7 @@ fn track_lag_signals(
         t_s: t_ns.iter().map(|&t| t as f64 * 1e-9).collect(),
         joints_world_m: tr.samples.range(a..b).map(|s| s.joints.clone()).collect(),
     };
-    let cfg = lag_geometric(config);
-    let models = [
-        joint_accel_magnitude(&skel, site, &cfg),
-        segment_orientation_magnitude(&skel, site, &cfg),
-        joint_vertical_accel(&skel, site, &cfg),
-        segment_swing_signal(&skel, site, &cfg, &config.kinematic),
-        body_turn_rate_signal(&skel, &config.kinematic),
-    ];
+    let models = segment_lag_models(&skel, site, &lag_geometric(config), &config.kinematic);
     // The signals are built at the camera's rate, then every `LAG_DECIMATION`-th sample is
     // correlated: the models are low-passed well below the decimated Nyquist rate.
     Some(LagSignals::every_nth(&t_ns, &models, LAG_DECIMATION))
