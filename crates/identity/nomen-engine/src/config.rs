@@ -269,7 +269,12 @@ pub struct EngineConfig {
     pub stitch_radius_m: f64,
     /// Two tracks of a camera closer than this across the line of sight are in a close
     /// encounter, after which their ids may have been swapped by the SDK (their evidence is
-    /// pooled when they separate), m. Default 0.5 m; 0 disables it.
+    /// pooled when they separate), m. Default 0: disabled. Swaps that move a track's
+    /// observation onto where another track just was are undone directly (see the crate
+    /// docs), and pooling at every encounter discards evidence most encounters did not
+    /// disturb: with the true clock offsets given, mean accuracy over the ten imu-table scenes
+    /// at seeds 1–6 was 86.6 % with pooling at 0.5 m and 88.7 % without (8 people, one wrist
+    /// IMU: 59.4 and 68.0 %); with estimated offsets, 73.0 % both ways over seeds 1–9.
     pub encounter_distance_m: f64,
     /// Horizontal standard deviation of a location-tag fix when the system reports no
     /// covariance, m. Default 0.3 m (the simulator's UWB core error is 0.15 m per axis plus NLOS
@@ -340,7 +345,7 @@ impl Default for EngineConfig {
             stitch_max_gap_s: 3.0,
             stitch_max_speed_mps: 2.0,
             stitch_radius_m: 0.5,
-            encounter_distance_m: 0.5,
+            encounter_distance_m: 0.0,
             tag_sigma_horizontal_m: 0.3,
             tag_sigma_vertical_m: 0.5,
             tag_evidence_half_life_s: 1.0,

@@ -56,6 +56,15 @@ const OFFSET_PEAK_SEPARATION_NS: i64 = 150_000_000;
 /// (three frames at 30 Hz), ns.
 const STITCH_MIN_GAP_NS: i64 = 100_000_000;
 
+/// Id-swap detection ([`Engine::swapped_with`]): joint-centroid noise between two frames, m
+/// (centroids of the simulated 8-person scenes move less than 0.2 m per 33 ms frame 99 % of the
+/// time; the observation after an SDK swap jumps 0.36–1.8 m onto the other person)...
+const SWAP_NOISE_M: f64 = 0.25;
+/// ... the fastest a person is assumed to move, m/s ...
+const SWAP_SPEED_MPS: f64 = 2.0;
+/// ... and the longest a track may have been unseen, ns.
+const SWAP_MAX_GAP_NS: i64 = 1_000_000_000;
+
 struct CameraState {
     id: CameraId,
     world_from_camera: Isometry3<f64>,
@@ -203,6 +212,10 @@ pub struct Engine {
     /// Pairs of tracks of one camera that are in a close encounter now (see
     /// [`Engine::note_encounters`]).
     close_pairs: BTreeSet<(usize, TrackId, TrackId)>,
+    /// Undone id swaps per track, oldest first: `(t, other)` says the person this track showed
+    /// before session time `t` has been followed on `other` since (see
+    /// [`Engine::swapped_with`]); frames still to be emitted are decided for that person.
+    swaps: BTreeMap<(usize, TrackId), Vec<(i64, TrackId)>>,
 }
 
 impl Engine {
@@ -305,6 +318,7 @@ impl Engine {
             ready: Vec::new(),
             stats: EngineStats::default(),
             close_pairs: BTreeSet::new(),
+            swaps: BTreeMap::new(),
         })
     }
 
@@ -579,6 +593,21 @@ impl Engine {
         cam.frontier = cam.frontier.max(t - self.reorder_ns);
         let frontier = cam.frontier;
         let anchor = joint_centroid(&world);
+        if let Some(x) = anchor
+            && let Some(other) = self.swapped_with(c, s.track, t, &x)
+            && let Some(mut mine) = self.tracks.remove(&(c, s.track))
+        {
+            if let Some(theirs) = self.tracks.get_mut(&other) {
+                std::mem::swap(&mut mine, theirs);
+                self.swaps
+                    .entry((c, s.track))
+                    .or_default()
+                    .push((t, other.1));
+                self.swaps.entry(other).or_default().push((t, s.track));
+                self.stats.num_swaps += 1;
+            }
+            self.tracks.insert((c, s.track), mine);
+        }
         if !self.tracks.contains_key(&(c, s.track)) {
             let mut fresh = TrackState {
                 camera: c,
@@ -671,6 +700,55 @@ impl Engine {
         }
         let (key, rel) = best?;
         (second.is_infinite() || rel <= 0.5 * second).then_some(key)
+    }
+
+    /// The track of camera `c` whose person the SDK most likely gave to `track` at `t`: the new
+    /// observation at `x` lies farther from `track`'s last one than a person moves in the time
+    /// between (`SWAP_NOISE_M` + `SWAP_SPEED_MPS` × elapsed), and within half that jump of where
+    /// another track of the camera was last seen (which also fits that track's elapsed time).
+    /// Both tracks must have been seen within `SWAP_MAX_GAP_NS`.
+    fn swapped_with(
+        &self,
+        c: usize,
+        track: TrackId,
+        t: i64,
+        x: &Point3<f64>,
+    ) -> Option<(usize, TrackId)> {
+        let reach = |tr: &TrackState| {
+            let elapsed = t - tr.last_t;
+            (elapsed > 0 && elapsed <= SWAP_MAX_GAP_NS)
+                .then_some(SWAP_NOISE_M + SWAP_SPEED_MPS * elapsed as f64 * 1e-9)
+        };
+        let me = self.tracks.get(&(c, track))?;
+        let jump = (x - me.last_anchor_world_m?).norm();
+        if jump <= reach(me)? {
+            return None;
+        }
+        self.tracks
+            .range((c, TrackId(0))..)
+            .take_while(|(k, _)| k.0 == c)
+            .filter(|(k, tr)| k.1 != track && !tr.is_superseded)
+            .filter_map(|(k, tr)| {
+                let d = (x - tr.last_anchor_world_m?).norm();
+                (d <= reach(tr)? && d < 0.5 * jump).then_some((*k, d))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _)| k)
+    }
+
+    /// The track that now follows the person camera `c` showed as `track` at `t`: undone swaps
+    /// after `t` moved that person's state to another track, perhaps more than once.
+    fn person_track(&self, c: usize, track: TrackId, t: i64) -> TrackId {
+        let (mut track, mut since) = (track, t);
+        // Each step moves strictly later in time, so the walk ends.
+        while let Some(&(at, other)) = self
+            .swaps
+            .get(&(c, track))
+            .and_then(|events| events.iter().find(|(at, _)| *at > since))
+        {
+            (track, since) = (other, at);
+        }
+        track
     }
 
     /// Close encounters. SDKs swap the ids of two people who pass close across the line of
@@ -1635,7 +1713,7 @@ impl Engine {
             let Some(camera) = self.cameras.get(c).map(|cam| cam.id.clone()) else {
                 continue;
             };
-            let tr = self.tracks.get(&(c, track));
+            let tr = self.tracks.get(&(c, self.person_track(c, track, t)));
             let (identity, confidence, evidence) = match tr {
                 Some(tr) => self.identity_of(tr),
                 None => (Identity::Anonymous, 0.0, Vec::new()),
@@ -1764,6 +1842,12 @@ impl Engine {
                 tr.samples.pop_front();
             }
         }
+        // A swap matters until every frame before it is emitted.
+        let oldest_due = self.pending_out.first().map_or(end, |p| p.0);
+        self.swaps.retain(|_, events| {
+            events.retain(|(t, _)| *t > oldest_due);
+            !events.is_empty()
+        });
         let pending_out = &self.pending_out;
         self.tracks.retain(|k, tr| {
             tr.last_t >= end - timeout.max(keep)

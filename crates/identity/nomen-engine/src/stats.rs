@@ -77,6 +77,9 @@ pub struct EngineStats {
     pub num_tag_corrections: u64,
     /// Close encounters after which two tracks' evidence was pooled (possible id swap).
     pub num_encounters: u64,
+    /// Camera id swaps undone: a track's observation jumped onto where another track of its
+    /// camera just was, so the two tracks' people (history, filters, evidence) were exchanged.
+    pub num_swaps: u64,
     /// Accepted clock offsets moved to a clearly better peak of the lag curves summed against
     /// the wearer's labelled tracks.
     pub num_offsets_moved: u64,

@@ -249,7 +249,9 @@ fn a_track_id_change_mid_walk_is_reidentified() {
     let mut people = two_people();
     people[0].track_change = Some((12.0, 11));
     let msgs = recording(&people, 24.0);
-    let (out, _) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    // A new id is no swap.
+    assert_eq!(stats.num_swaps, 0);
     let late_new_track: Vec<_> = out
         .iter()
         .filter_map(|m| match m {
@@ -266,6 +268,38 @@ fn a_track_id_change_mid_walk_is_reidentified() {
             .all(|i| i.subject().map(|s| s.as_str()) == Some("ana"))
     );
     assert!(accuracy(&people, &out, 16.0) > 0.98);
+}
+
+#[test]
+fn an_id_swap_between_two_tracks_is_undone_at_once() {
+    // At 12 s the SDK gives Ana's id to Ben and Ben's to Ana.
+    let mut people = two_people();
+    people[0].track_change = Some((12.0, 2));
+    people[1].track_change = Some((12.0, 1));
+    let msgs = recording(&people, 24.0);
+    let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    assert_eq!(stats.num_swaps, 1);
+    // The second around the swap: the frames after it, and those before it whose decision was
+    // still due when it happened.
+    let around: Vec<Message> = out
+        .iter()
+        .filter(|m| m.t().as_secs_f64() < 13.0)
+        .cloned()
+        .collect();
+    let acc = accuracy(&people, &around, 11.0);
+    assert!(acc > 0.99, "accuracy around the swap {acc}");
+    assert!(accuracy(&people, &out, 8.0) > 0.99);
+}
+
+#[test]
+fn a_track_that_jumps_where_nobody_was_keeps_its_person() {
+    // A tracking glitch moves Ana's observations 1.5 m away from everyone: no swap.
+    let mut people = two_people();
+    people[0].jump = Some((12.0, -1.5));
+    let msgs = recording(&people, 24.0);
+    let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    assert_eq!(stats.num_swaps, 0);
+    assert!(accuracy(&people, &out, 8.0) > 0.98);
 }
 
 #[test]

@@ -37,6 +37,9 @@ pub struct Person {
     pub imu_offset_s: f64,
     /// Whether the camera sees the person (a wearer out of view sends IMU data only).
     pub is_in_view: bool,
+    /// `(time_s, y_m)`: the person's observations jump to another place along the row then
+    /// (a tracking glitch).
+    pub jump: Option<(f64, f64)>,
 }
 
 impl Person {
@@ -52,6 +55,15 @@ impl Person {
             imu_until_s: f64::INFINITY,
             imu_offset_s: 0.0,
             is_in_view: true,
+            jump: None,
+        }
+    }
+
+    /// Position along the row at `t`, m.
+    fn y_at(&self, t: f64) -> f64 {
+        match self.jump {
+            Some((at, y)) if t >= at => y,
+            _ => self.y_m,
         }
     }
 
@@ -69,15 +81,15 @@ impl Person {
         )
     }
 
-    fn elbow(&self, side: f64) -> Point3<f64> {
-        Point3::new(1.0, self.y_m + 0.2 * side, 1.1)
+    fn elbow(&self, t: f64, side: f64) -> Point3<f64> {
+        Point3::new(1.0, self.y_at(t) + 0.2 * side, 1.1)
     }
 
     /// Left wrist at `t`: elbow + forearm at angle θ in the x–z plane.
     fn wrist(&self, t: f64, side: f64) -> Point3<f64> {
         let (th, _, _) = self.theta(t);
         let th = side * th;
-        self.elbow(side) + FOREARM_M * Vector3::new(th.sin(), 0.0, -th.cos())
+        self.elbow(t, side) + FOREARM_M * Vector3::new(th.sin(), 0.0, -th.cos())
     }
 
     pub fn track_at(&self, t: f64) -> TrackId {
@@ -135,14 +147,14 @@ pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
         let t = k as f64 / 30.0;
         for p in people.iter().filter(|p| p.is_in_view) {
             let mut joints = Joints::new();
-            let pelvis = Point3::new(1.0, p.y_m, 0.95);
+            let pelvis = Point3::new(1.0, p.y_at(t), 0.95);
             let mut put = |j, pw: Point3<f64>| {
                 joints.insert(j, JointObservation::tracked(camera_from_world * pw));
             };
             put(Joint::Pelvis, pelvis);
-            put(Joint::LeftElbow, p.elbow(1.0));
+            put(Joint::LeftElbow, p.elbow(t, 1.0));
             put(Joint::LeftWrist, p.wrist(t, 1.0));
-            put(Joint::RightElbow, p.elbow(-1.0));
+            put(Joint::RightElbow, p.elbow(t, -1.0));
             put(Joint::RightWrist, p.wrist(t, -1.0));
             msgs.push(Message::Skeleton(SkeletonObservation {
                 t: ns(t),
