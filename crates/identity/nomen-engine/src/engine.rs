@@ -1507,7 +1507,10 @@ impl Engine {
                     if let Some(scorer) = &self.pair_scorer {
                         scores.dl = scorer.score(imu_win, &skel, imu.site);
                     }
-                    if self.config.motion_score == MotionScore::Belmonte
+                    let wants_belmonte = self.config.motion_score == MotionScore::Belmonte
+                        || (self.config.motion_score == MotionScore::Nomen
+                            && self.config.model_weights.belmonte > 0.0);
+                    if wants_belmonte
                         && let Some(side) = match imu.site {
                             Joint::LeftWrist => Some(Side::Left),
                             Joint::RightWrist => Some(Side::Right),
@@ -1524,9 +1527,13 @@ impl Engine {
                             let sp = self.config.belmonte_pitch_sigma_rad;
                             let sy = self.config.belmonte_yaw_rate_sigma_radps;
                             let similarity = (-0.5 * (p / (sp * sp) + y / (sy * sy))).exp();
+                            let w = match self.config.motion_score {
+                                MotionScore::Belmonte => 1.0,
+                                _ => self.config.model_weights.belmonte,
+                            };
                             let cell = nomen_sums.entry((row, imu.subject)).or_insert((0.0, 0.0));
-                            cell.0 += similarity;
-                            cell.1 += 1.0;
+                            cell.0 += w * similarity;
+                            cell.1 += w;
                         }
                     }
                     if self.config.motion_score == MotionScore::Nomen {

@@ -58,8 +58,9 @@
 //!    onto the track's timestamps at their offset (before it is accepted, at that pair's own
 //!    lag-curve peak, so identity can be found meanwhile) and scored as
 //!    [`EngineConfig::motion_score`] says: De Marchi's correlations fused by
-//!    [`EngineConfig::fusion`], Belmonte-Hernández's costs, or (default) the mean of De Marchi's
-//!    and nomen's correlations (`nomen_evidence::kinematic`), plus a learned scorer's when one is
+//!    [`EngineConfig::fusion`], Belmonte-Hernández's costs, or (default) the weighted mean of
+//!    De Marchi's and nomen's correlations (`nomen_evidence::kinematic`) and, for forearm bands,
+//!    Belmonte-Hernández's similarity ([`ModelWeights`]), plus a learned scorer's when one is
 //!    plugged in ([`Engine::with_pair_scorer`]). Tag fixes score by their distance to the
 //!    tag's key joint over the last [`EngineConfig::tag_window_s`]; RSSI by the likelihood of
 //!    the filtered reads at the person's position against the background. Each modality is
