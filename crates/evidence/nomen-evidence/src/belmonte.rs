@@ -146,54 +146,108 @@ pub fn belmonte_costs(
     if imu.t_s.len() != skel.t_s.len() {
         return BelmonteCosts::default();
     }
-    let wrists: &[Joint] = match side {
-        Side::Left => &[Joint::LeftWrist],
-        Side::Right => &[Joint::RightWrist],
-        Side::Unknown => &[Joint::LeftWrist, Joint::RightWrist],
-    };
-    let mut best: Option<(f64, Joint, SensorAxis)> = None;
-    for &wrist in wrists {
-        if let Some((cost, axis)) = pitch_cost(imu, skel, wrist, cfg)
-            && best.is_none_or(|(b, _, _)| cost < b)
-        {
-            best = Some((cost, wrist, axis));
+    belmonte_costs_from(
+        &BandSignals::new(imu, cfg),
+        &ForearmSignals::new(skel, side, cfg),
+        side,
+        cfg,
+    )
+}
+
+/// The band side of [`belmonte_costs`], built once per window and compared with many
+/// skeletons: the pitch of each candidate sensor axis and the yaw rate.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct BandSignals {
+    /// Pitch per candidate forearm axis (`BelmonteConfig::forearm_axis`, or all six), rad.
+    pub axis_pitch_rad: Vec<(SensorAxis, Vec<f64>)>,
+    /// Yaw rate ([`band_yaw_rate_radps`]).
+    pub yaw_rate_radps: Vec<f64>,
+}
+
+impl BandSignals {
+    /// The band's signals over its window.
+    pub fn new(imu: &ImuWindow, cfg: &BelmonteConfig) -> Self {
+        let axes: &[SensorAxis] = match &cfg.forearm_axis {
+            Some(axis) => std::slice::from_ref(axis),
+            None => &SensorAxis::ALL,
+        };
+        BandSignals {
+            axis_pitch_rad: axes
+                .iter()
+                .map(|&axis| (axis, band_axis_pitch_rad(imu, axis, cfg)))
+                .collect(),
+            yaw_rate_radps: band_yaw_rate_radps(imu, cfg),
         }
-    }
-    let yaw_rate_mse = mse(
-        &band_yaw_rate_radps(imu, cfg),
-        &skeleton_yaw_rate_radps(skel, cfg),
-        cfg.min_samples,
-    );
-    BelmonteCosts {
-        pitch_mse: best.map(|b| b.0),
-        yaw_rate_mse,
-        wrist: best.map(|b| b.1),
-        forearm_axis: best.map(|b| b.2),
     }
 }
 
-/// The lowest pitch MSE over the allowed sensor axes, and that axis.
-fn pitch_cost(
-    imu: &ImuWindow,
-    skel: &SkeletonWindow,
-    wrist: Joint,
-    cfg: &BelmonteConfig,
-) -> Option<(f64, SensorAxis)> {
-    let skel_pitch = forearm_pitch_rad(skel, wrist, cfg);
-    let axes: &[SensorAxis] = match &cfg.forearm_axis {
-        Some(axis) => std::slice::from_ref(axis),
-        None => &SensorAxis::ALL,
-    };
-    let mut best: Option<(f64, SensorAxis)> = None;
-    for &axis in axes {
-        let band = band_axis_pitch_rad(imu, axis, cfg);
-        if let Some(cost) = mse(&band, &skel_pitch, cfg.min_samples)
-            && best.is_none_or(|(b, _)| cost < b)
-        {
-            best = Some((cost, axis));
+/// The skeleton side of [`belmonte_costs`] for a band on `side`, built once per track and
+/// window: the forearm pitch of each wrist the band may be on, and the chest yaw rate.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ForearmSignals {
+    /// Forearm pitch per candidate wrist ([`forearm_pitch_rad`]), rad.
+    pub wrist_pitch_rad: Vec<(Joint, Vec<f64>)>,
+    /// Chest yaw rate ([`skeleton_yaw_rate_radps`]).
+    pub yaw_rate_radps: Vec<f64>,
+}
+
+impl ForearmSignals {
+    /// The skeleton's signals for a band on `side` over its window.
+    pub fn new(skel: &SkeletonWindow, side: Side, cfg: &BelmonteConfig) -> Self {
+        let wrists: &[Joint] = match side {
+            Side::Left => &[Joint::LeftWrist],
+            Side::Right => &[Joint::RightWrist],
+            Side::Unknown => &[Joint::LeftWrist, Joint::RightWrist],
+        };
+        ForearmSignals {
+            wrist_pitch_rad: wrists
+                .iter()
+                .map(|&w| (w, forearm_pitch_rad(skel, w, cfg)))
+                .collect(),
+            yaw_rate_radps: skeleton_yaw_rate_radps(skel, cfg),
         }
     }
-    best
+}
+
+/// [`belmonte_costs`] from signals built beforehand on the same grid; `side` picks the wrists
+/// of `arm` compared (all default when the lengths differ).
+pub fn belmonte_costs_from(
+    band: &BandSignals,
+    arm: &ForearmSignals,
+    side: Side,
+    cfg: &BelmonteConfig,
+) -> BelmonteCosts {
+    if band.yaw_rate_radps.len() != arm.yaw_rate_radps.len() {
+        return BelmonteCosts::default();
+    }
+    let is_allowed = |wrist: Joint| match side {
+        Side::Left => wrist == Joint::LeftWrist,
+        Side::Right => wrist == Joint::RightWrist,
+        Side::Unknown => true,
+    };
+    let mut best: Option<(f64, Joint, SensorAxis)> = None;
+    for (wrist, skel_pitch) in arm.wrist_pitch_rad.iter().filter(|(w, _)| is_allowed(*w)) {
+        // The lowest pitch MSE over the candidate sensor axes, for this wrist.
+        let mut wrist_best: Option<(f64, SensorAxis)> = None;
+        for (axis, pitch) in &band.axis_pitch_rad {
+            if let Some(cost) = mse(pitch, skel_pitch, cfg.min_samples)
+                && wrist_best.is_none_or(|(b, _)| cost < b)
+            {
+                wrist_best = Some((cost, *axis));
+            }
+        }
+        if let Some((cost, axis)) = wrist_best
+            && best.is_none_or(|(b, _, _)| cost < b)
+        {
+            best = Some((cost, *wrist, axis));
+        }
+    }
+    BelmonteCosts {
+        pitch_mse: best.map(|b| b.0),
+        yaw_rate_mse: mse(&band.yaw_rate_radps, &arm.yaw_rate_radps, cfg.min_samples),
+        wrist: best.map(|b| b.1),
+        forearm_axis: best.map(|b| b.2),
+    }
 }
 
 /// Elevation of the elbow→wrist vector of `wrist`'s forearm, rad, smoothed (NaN where missing).

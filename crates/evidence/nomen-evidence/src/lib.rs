@@ -30,7 +30,10 @@ pub mod scorer;
 pub mod signal;
 pub mod window;
 
-pub use belmonte::{BelmonteConfig, BelmonteCosts, SensorAxis, Side, belmonte_costs};
+pub use belmonte::{
+    BandSignals, BelmonteConfig, BelmonteCosts, ForearmSignals, SensorAxis, Side, belmonte_costs,
+    belmonte_costs_from,
+};
 pub use features::{
     ImuFeatures, SegmentFeatures, compare_features, imu_lag_models, segment_lag_models,
 };

@@ -16,8 +16,9 @@ use nomen_core::{
     TagCorrection, TrackId,
 };
 use nomen_evidence::{
-    GeometricConfig, ImuFeatures, ImuWindow, PairScorer, ScoreTensor, SegmentFeatures, Side,
-    SkeletonWindow, belmonte_costs, compare_features, fuse, imu_lag_models, segment_lag_models,
+    BandSignals, ForearmSignals, GeometricConfig, ImuFeatures, ImuWindow, PairScorer, ScoreTensor,
+    SegmentFeatures, Side, SkeletonWindow, belmonte_costs_from, compare_features, fuse,
+    imu_lag_models, segment_lag_models,
 };
 use nomen_filters::kalman::JointKalman;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
@@ -1386,8 +1387,10 @@ impl Engine {
         // An IMU's window and features per (IMU, offset, grid): cameras that share frame times
         // (hardware-synchronised rigs) share them too.
         let mut grids: Vec<Vec<i64>> = Vec::new();
-        let mut imu_cache: BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures)> =
-            BTreeMap::new();
+        let mut imu_cache: ImuFeatureCache = BTreeMap::new();
+        let wants_belmonte = self.config.motion_score == MotionScore::Belmonte
+            || (self.config.motion_score == MotionScore::Nomen
+                && self.config.model_weights.belmonte > 0.0);
         for c in 0..self.cameras.len() {
             // Tracks with a few samples in the window; the IMU models need more (below).
             let keys: Vec<(usize, TrackId)> = self
@@ -1458,6 +1461,8 @@ impl Engine {
                     }
                 };
                 let mut segments: Vec<(Joint, SegmentFeatures)> = Vec::new();
+                // The skeleton side of Belmonte's costs, per band side.
+                let mut arms: Vec<(Side, ForearmSignals)> = Vec::new();
                 for (i, imu) in self.imus.iter().enumerate() {
                     let offset = if imu.is_offset_known {
                         imu.offset_ns
@@ -1481,7 +1486,9 @@ impl Engine {
                         win.device = Some(imu.device.clone());
                         let features =
                             ImuFeatures::new(&win, &self.config.geometric, &self.config.kinematic);
-                        (win, features)
+                        let band = (wants_belmonte && band_side(imu.site).is_some())
+                            .then(|| BandSignals::new(&win, &self.config.belmonte));
+                        (win, features, band)
                     });
                     let (imu_win, imu_features) = (&cached.0, &cached.1);
                     let segment = match segments.iter().position(|(j, _)| *j == imu.site) {
@@ -1507,22 +1514,21 @@ impl Engine {
                     if let Some(scorer) = &self.pair_scorer {
                         scores.dl = scorer.score(imu_win, &skel, imu.site);
                     }
-                    let wants_belmonte = self.config.motion_score == MotionScore::Belmonte
-                        || (self.config.motion_score == MotionScore::Nomen
-                            && self.config.model_weights.belmonte > 0.0);
-                    if wants_belmonte
-                        && let Some(side) = match imu.site {
-                            Joint::LeftWrist => Some(Side::Left),
-                            Joint::RightWrist => Some(Side::Right),
-                            // A band at the elbow or hand may be on either forearm.
-                            Joint::LeftElbow
-                            | Joint::RightElbow
-                            | Joint::LeftHand
-                            | Joint::RightHand => Some(Side::Unknown),
-                            _ => None,
-                        }
-                    {
-                        let costs = belmonte_costs(imu_win, &skel, side, &self.config.belmonte);
+                    if let (Some(band), Some(side)) = (&cached.2, band_side(imu.site)) {
+                        let arm = match arms.iter().position(|(s, _)| *s == side) {
+                            Some(k) => k,
+                            None => {
+                                arms.push((
+                                    side,
+                                    ForearmSignals::new(&skel, side, &self.config.belmonte),
+                                ));
+                                arms.len() - 1
+                            }
+                        };
+                        let Some((_, arm)) = arms.get(arm) else {
+                            continue;
+                        };
+                        let costs = belmonte_costs_from(band, arm, side, &self.config.belmonte);
                         if let (Some(p), Some(y)) = (costs.pitch_mse, costs.yaw_rate_mse) {
                             let sp = self.config.belmonte_pitch_sigma_rad;
                             let sy = self.config.belmonte_yaw_rate_sigma_radps;
@@ -2158,6 +2164,23 @@ fn accumulate(acc: &mut Accumulator, score: f64, decay_per_hop: f64) {
     let w = acc.weight * decay_per_hop;
     acc.mean = (acc.mean * w + score) / (w + 1.0);
     acc.weight = w + 1.0;
+}
+
+/// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
+/// per (IMU, offset, grid index).
+type ImuFeatureCache = BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures, Option<BandSignals>)>;
+
+/// Which forearm a band at `site` is on, for Belmonte-Hernández's costs; `None` off the
+/// forearm. A band at the elbow or hand may be on either.
+fn band_side(site: Joint) -> Option<Side> {
+    match site {
+        Joint::LeftWrist => Some(Side::Left),
+        Joint::RightWrist => Some(Side::Right),
+        Joint::LeftElbow | Joint::RightElbow | Joint::LeftHand | Joint::RightHand => {
+            Some(Side::Unknown)
+        }
+        _ => None,
+    }
 }
 
 /// Index range of a track's settled samples in `[lo, hi)`.
