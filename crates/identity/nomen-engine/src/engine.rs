@@ -150,7 +150,6 @@ struct Accumulator {
 }
 
 struct TrackState {
-    camera: usize,
     pending: BTreeMap<i64, Joints<Point3<f64>>>,
     samples: VecDeque<TrackSample>,
     kalman: Vec<Option<JointKalman>>,
@@ -170,6 +169,10 @@ struct TrackState {
     last_anchor_world_m: Option<Point3<f64>>,
     /// A later track continues this one (stitched): it no longer takes part in decisions.
     is_superseded: bool,
+    /// The person's newest settled observation: time (session ns) and joint centroid (world,
+    /// m); what id-swap detection compares the next settled observation with.
+    settled_t: i64,
+    settled_anchor_world_m: Option<Point3<f64>>,
 }
 
 /// The streaming identity engine. See the crate documentation for the pipeline and latency.
@@ -594,24 +597,8 @@ impl Engine {
         cam.frontier = cam.frontier.max(t - self.reorder_ns);
         let frontier = cam.frontier;
         let anchor = joint_centroid(&world);
-        if let Some(x) = anchor
-            && let Some(other) = self.swapped_with(c, s.track, t, &x)
-            && let Some(mut mine) = self.tracks.remove(&(c, s.track))
-        {
-            if let Some(theirs) = self.tracks.get_mut(&other) {
-                std::mem::swap(&mut mine, theirs);
-                self.swaps
-                    .entry((c, s.track))
-                    .or_default()
-                    .push((t, other.1));
-                self.swaps.entry(other).or_default().push((t, s.track));
-                self.stats.num_swaps += 1;
-            }
-            self.tracks.insert((c, s.track), mine);
-        }
         if !self.tracks.contains_key(&(c, s.track)) {
             let mut fresh = TrackState {
-                camera: c,
                 pending: BTreeMap::new(),
                 samples: VecDeque::new(),
                 kalman: Vec::new(),
@@ -624,6 +611,8 @@ impl Engine {
                 subject_scores: BTreeMap::new(),
                 last_anchor_world_m: anchor,
                 is_superseded: false,
+                settled_t: i64::MIN,
+                settled_anchor_world_m: None,
             };
             if let Some(prev) = anchor.and_then(|a| self.stitch_candidate(c, t, &a))
                 && let Some(old) = self.tracks.get_mut(&prev)
@@ -654,10 +643,7 @@ impl Engine {
             self.note_encounters(c, s.track, t, &a);
         }
         self.stats.num_skeletons += 1;
-        let noise = self.config.joint_noise_std_m;
-        for tr in self.tracks.values_mut().filter(|tr| tr.camera == c) {
-            settle_track(tr, frontier, &self.config, noise);
-        }
+        self.settle_camera(c, frontier);
         self.note_time(t);
         Ok(())
     }
@@ -703,11 +689,11 @@ impl Engine {
         (second.is_infinite() || rel <= 0.5 * second).then_some(key)
     }
 
-    /// The track of camera `c` whose person the SDK most likely gave to `track` at `t`: the new
-    /// observation at `x` lies farther from `track`'s last one than a person moves in the time
-    /// between (`SWAP_NOISE_M` + `SWAP_SPEED_MPS` × elapsed), and within half that jump of where
-    /// another track of the camera was last seen (which also fits that track's elapsed time).
-    /// Both tracks must have been seen within `SWAP_MAX_GAP_NS`.
+    /// The track of camera `c` whose person the SDK most likely gave to `track` at `t`: the
+    /// observation at `x` (joint centroid) lies farther from `track`'s last settled one than a
+    /// person moves in the time between (`SWAP_NOISE_M` + `SWAP_SPEED_MPS` × elapsed), and
+    /// within half that jump of another track's last settled observation (which also fits that
+    /// track's elapsed time). Both must be at most `SWAP_MAX_GAP_NS` old.
     fn swapped_with(
         &self,
         c: usize,
@@ -716,12 +702,12 @@ impl Engine {
         x: &Point3<f64>,
     ) -> Option<(usize, TrackId)> {
         let reach = |tr: &TrackState| {
-            let elapsed = t - tr.last_t;
+            let elapsed = t - tr.settled_t;
             (elapsed > 0 && elapsed <= SWAP_MAX_GAP_NS)
                 .then_some(SWAP_NOISE_M + SWAP_SPEED_MPS * elapsed as f64 * 1e-9)
         };
         let me = self.tracks.get(&(c, track))?;
-        let jump = (x - me.last_anchor_world_m?).norm();
+        let jump = (x - me.settled_anchor_world_m?).norm();
         if jump <= reach(me)? {
             return None;
         }
@@ -730,11 +716,52 @@ impl Engine {
             .take_while(|(k, _)| k.0 == c)
             .filter(|(k, tr)| k.1 != track && !tr.is_superseded)
             .filter_map(|(k, tr)| {
-                let d = (x - tr.last_anchor_world_m?).norm();
+                let d = (x - tr.settled_anchor_world_m?).norm();
                 (d <= reach(tr)? && d < 0.5 * jump).then_some((*k, d))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(k, _)| k)
+    }
+
+    /// Settles camera `c`'s observations before `frontier` in time order across its tracks (the
+    /// same order whatever order they arrived in), undoing id swaps on the way: before an
+    /// observation joins its track, [`Engine::swapped_with`] checks whether it shows the person
+    /// of another track, and if so the two tracks exchange their people.
+    fn settle_camera(&mut self, c: usize, frontier: i64) {
+        let noise = self.config.joint_noise_std_m;
+        loop {
+            let next = self
+                .tracks
+                .range((c, TrackId(0))..)
+                .take_while(|(k, _)| k.0 == c)
+                .filter_map(|(k, tr)| {
+                    let (&t, joints) = tr.pending.first_key_value()?;
+                    (t < frontier).then(|| (t, k.1, joint_centroid(joints)))
+                })
+                .min_by_key(|(t, id, _)| (*t, *id));
+            let Some((t, id, anchor)) = next else {
+                break;
+            };
+            if let Some(x) = anchor
+                && let Some(other) = self.swapped_with(c, id, t, &x)
+                && let Some(mut mine) = self.tracks.remove(&(c, id))
+            {
+                if let Some(theirs) = self.tracks.get_mut(&other) {
+                    exchange_people(&mut mine, theirs);
+                    self.swaps.entry((c, id)).or_default().push((t, other.1));
+                    self.swaps.entry(other).or_default().push((t, id));
+                    self.stats.num_swaps += 1;
+                }
+                self.tracks.insert((c, id), mine);
+            }
+            if let Some(tr) = self.tracks.get_mut(&(c, id)) {
+                settle_track(tr, t + 1, &self.config, noise);
+                if anchor.is_some() {
+                    tr.settled_t = t;
+                    tr.settled_anchor_world_m = anchor;
+                }
+            }
+        }
     }
 
     /// The track that now follows the person camera `c` showed as `track` at `t`: undone swaps
@@ -855,7 +882,6 @@ impl Engine {
 
     /// Settles everything, processes every remaining window and emits every remaining decision.
     pub fn finish(&mut self, out: &mut Vec<Message>) {
-        let noise = self.config.joint_noise_std_m;
         for imu in &mut self.imus {
             imu.frontier = i64::MAX;
             settle_imu(imu, &self.config);
@@ -871,8 +897,8 @@ impl Engine {
             rssi.frontier = i64::MAX;
             let _ = rssi.settle();
         }
-        for tr in self.tracks.values_mut() {
-            settle_track(tr, i64::MAX, &self.config, noise);
+        for c in 0..self.cameras.len() {
+            self.settle_camera(c, i64::MAX);
         }
         while let Some(end) = self.next_end {
             let more_data = self.global_max.is_some_and(|m| m >= end - self.hop_ns);
@@ -2169,6 +2195,23 @@ fn accumulate(acc: &mut Accumulator, score: f64, decay_per_hop: f64) {
 /// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
 /// per (IMU, offset, grid index).
 type ImuFeatureCache = BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures, Option<BandSignals>)>;
+
+/// Exchanges the people two tracks follow after an id swap: everything that describes the
+/// person (settled joint history and filters, evidence, label, newest settled observation)
+/// moves, while what belongs to the id stays (observations not settled yet, arrival times,
+/// stitching).
+fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
+    std::mem::swap(&mut a.samples, &mut b.samples);
+    std::mem::swap(&mut a.kalman, &mut b.kalman);
+    std::mem::swap(&mut a.evidence, &mut b.evidence);
+    std::mem::swap(&mut a.tag_evidence, &mut b.tag_evidence);
+    std::mem::swap(&mut a.rssi_evidence, &mut b.rssi_evidence);
+    std::mem::swap(&mut a.device_evidence, &mut b.device_evidence);
+    std::mem::swap(&mut a.label, &mut b.label);
+    std::mem::swap(&mut a.subject_scores, &mut b.subject_scores);
+    std::mem::swap(&mut a.settled_t, &mut b.settled_t);
+    std::mem::swap(&mut a.settled_anchor_world_m, &mut b.settled_anchor_world_m);
+}
 
 /// Which forearm a band at `site` is on, for Belmonte-Hernández's costs; `None` off the
 /// forearm. A band at the elbow or hand may be on either.

@@ -20,7 +20,8 @@
 //! seen within the last second), the engine exchanges the two tracks' people (their joint
 //! history and filters, evidence and label), so each identity stays with its person; frames
 //! from before the swap still waiting for their decision are decided for the person they
-//! showed ([`EngineStats::num_swaps`]). Optionally, two tracks that pass within
+//! showed ([`EngineStats::num_swaps`]). The check runs as observations settle, in time order
+//! across the camera's tracks, so it does not depend on the order they arrived in. Optionally, two tracks that pass within
 //! [`EngineConfig::encounter_distance_m`] across the line of sight pool their motion evidence
 //! when they separate (off by default).
 //!

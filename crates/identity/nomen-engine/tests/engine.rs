@@ -83,10 +83,14 @@ fn a_silent_imu_does_not_block_output() {
 fn messages_shuffled_within_the_reorder_window_give_identical_output() {
     let mut people = two_people();
     people.push(Person::new(None, 1.1, 3.0, 3));
+    // An id swap too: its detection must not depend on which track's frame arrives first.
+    people[0].track_change = Some((9.0, 2));
+    people[1].track_change = Some((9.0, 1));
     let msgs = recording(&people, 15.0);
     let reg = registry(&people);
     let config = EngineConfig::default();
-    let (reference, _) = run_batch(&reg, &msgs, &config).unwrap();
+    let (reference, reference_stats) = run_batch(&reg, &msgs, &config).unwrap();
+    assert_eq!(reference_stats.num_swaps, 1);
     // Deterministic shuffle: sort by t + u, u in [0, 0.2 s) from an LCG, which moves no message
     // behind a later one of its source by more than 0.2 s (< reorder_window_s).
     let mut state = 0x2545_f491_4f6c_dd1du64;
@@ -105,6 +109,7 @@ fn messages_shuffled_within_the_reorder_window_give_identical_output() {
     assert_ne!(shuffled, msgs);
     let (out, stats) = run_batch(&reg, &shuffled, &config).unwrap();
     assert_eq!(stats.rejected.total(), 0);
+    assert_eq!(stats.num_swaps, 1);
     assert_eq!(out, reference);
 }
 
