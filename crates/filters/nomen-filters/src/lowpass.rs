@@ -281,6 +281,33 @@ impl ZeroPhaseLowpass {
                 got: out.len(),
             });
         }
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let result = self.filter_lanes(x, &mut scratch);
+        if result.is_ok() {
+            out.copy_from_slice(&scratch[self.pad_len()..self.pad_len() + x.len()]);
+        }
+        self.scratch = scratch;
+        result
+    }
+
+    /// [`Self::filter`] of each component of `x` in place, the three in one pass (the same
+    /// arithmetic per component, so the same result; about three times faster, as the three
+    /// recursions overlap). Every component of every sample must be finite.
+    pub fn filter_vectors(&mut self, x: &mut [Vector3<f64>]) -> Result<()> {
+        let mut scratch = std::mem::take(&mut self.scratch_vectors);
+        let result = self.filter_lanes(x, &mut scratch);
+        if result.is_ok() {
+            let edge = self.pad_len();
+            x.copy_from_slice(&scratch[edge..edge + x.len()]);
+        }
+        self.scratch_vectors = scratch;
+        result
+    }
+
+    /// The forward-backward pass over `x` (each lane separately), padded by odd extension:
+    /// `2·x[0] − x[edge..=1]`, `x`, `2·x[n−1] − x[n−2..=n−1−edge]`; `ext` holds the padded,
+    /// filtered signal afterwards.
+    fn filter_lanes<T: Lanes>(&mut self, x: &[T], ext: &mut Vec<T>) -> Result<()> {
         let edge = self.pad_len();
         if x.len() <= edge {
             return Err(FilterError::WindowTooShort {
@@ -299,88 +326,33 @@ impl ZeroPhaseLowpass {
             (Some(f), Some(l)) => (*f, *l),
             _ => return Ok(()),
         };
-        // Odd extension: 2·x[0] - x[edge..=1], x, 2·x[n-1] - x[n-2..=n-1-edge].
         let n = x.len();
-        self.scratch.clear();
-        self.scratch
-            .extend(x[1..=edge].iter().rev().map(|v| 2.0 * first - v));
-        self.scratch.extend_from_slice(x);
-        self.scratch
-            .extend(x[n - 1 - edge..n - 1].iter().rev().map(|v| 2.0 * last - v));
-        // Forward pass from the steady state of the first extended sample.
-        let ext = &mut self.scratch;
-        if let Some(&x0) = ext.first() {
-            set_steady_state(&self.sections, &mut self.state, x0);
-        }
-        for v in ext.iter_mut() {
-            let mut y = *v;
-            for (section, z) in self.sections.iter().zip(self.state.iter_mut()) {
-                y = section.step(z, y);
-            }
-            *v = y;
-        }
-        // Backward pass from the steady state of the last forward output.
-        if let Some(&y0) = ext.last() {
-            set_steady_state(&self.sections, &mut self.state, y0);
-        }
-        for v in ext.iter_mut().rev() {
-            let mut y = *v;
-            for (section, z) in self.sections.iter().zip(self.state.iter_mut()) {
-                y = section.step(z, y);
-            }
-            *v = y;
-        }
-        out.copy_from_slice(&ext[edge..edge + n]);
-        Ok(())
-    }
-
-    /// [`Self::filter`] of each component of `x` in place, the three in one pass (the same
-    /// arithmetic per component, so the same result; about three times faster, as the three
-    /// recursions overlap). Every component of every sample must be finite.
-    pub fn filter_vectors(&mut self, x: &mut [Vector3<f64>]) -> Result<()> {
-        let edge = self.pad_len();
-        if x.len() <= edge {
-            return Err(FilterError::WindowTooShort {
-                what: "zero-phase low-pass",
-                needed: edge,
-                got: x.len(),
-            });
-        }
-        if let Some(index) = x.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
-            return Err(FilterError::NonFinite {
-                what: "zero-phase low-pass input",
-                index,
-            });
-        }
-        let (first, last) = match (x.first(), x.last()) {
-            (Some(f), Some(l)) => (*f, *l),
-            _ => return Ok(()),
-        };
-        let n = x.len();
-        let ext = &mut self.scratch_vectors;
         ext.clear();
-        ext.extend(x[1..=edge].iter().rev().map(|v| 2.0 * first - v));
+        ext.extend(x[1..=edge].iter().rev().map(|v| first.reflect(v)));
         ext.extend_from_slice(x);
-        ext.extend(x[n - 1 - edge..n - 1].iter().rev().map(|v| 2.0 * last - v));
+        ext.extend(x[n - 1 - edge..n - 1].iter().rev().map(|v| last.reflect(v)));
+        // Per section, the delays of every lane.
         let mut state: Vec<[[f64; 2]; 3]> = vec![[[0.0; 2]; 3]; self.sections.len()];
         for backward in [false, true] {
+            // Each pass starts from the steady state of its first sample (the forward output's
+            // last sample for the backward pass).
             let start = if backward { ext.last() } else { ext.first() };
             if let Some(&v0) = start {
-                for axis in 0..3 {
-                    set_steady_state(&self.sections, &mut self.state, v0[axis]);
+                for lane in 0..T::LANES {
+                    set_steady_state(&self.sections, &mut self.state, v0.lane(lane));
                     for (lanes, z) in state.iter_mut().zip(&self.state) {
-                        lanes[axis] = *z;
+                        lanes[lane] = *z;
                     }
                 }
             }
-            let mut pass = |v: &mut Vector3<f64>| {
-                let mut y = [v.x, v.y, v.z];
-                for (section, lanes) in self.sections.iter().zip(state.iter_mut()) {
-                    for (y, z) in y.iter_mut().zip(lanes.iter_mut()) {
-                        *y = section.step(z, *y);
+            let mut pass = |v: &mut T| {
+                for lane in 0..T::LANES {
+                    let mut y = v.lane(lane);
+                    for (section, lanes) in self.sections.iter().zip(state.iter_mut()) {
+                        y = section.step(&mut lanes[lane], y);
                     }
+                    v.set_lane(lane, y);
                 }
-                *v = Vector3::new(y[0], y[1], y[2]);
             };
             if backward {
                 ext.iter_mut().rev().for_each(&mut pass);
@@ -388,8 +360,49 @@ impl ZeroPhaseLowpass {
                 ext.iter_mut().for_each(&mut pass);
             }
         }
-        x.copy_from_slice(&ext[edge..edge + n]);
         Ok(())
+    }
+}
+
+/// A sample of one or more independent signals filtered side by side (up to three lanes).
+trait Lanes: Copy {
+    const LANES: usize;
+    fn lane(&self, i: usize) -> f64;
+    fn set_lane(&mut self, i: usize, v: f64);
+    fn is_finite(&self) -> bool;
+    /// The odd reflection `2·self − v` of `v` about `self`.
+    fn reflect(&self, v: &Self) -> Self;
+}
+
+impl Lanes for f64 {
+    const LANES: usize = 1;
+    fn lane(&self, _: usize) -> f64 {
+        *self
+    }
+    fn set_lane(&mut self, _: usize, v: f64) {
+        *self = v;
+    }
+    fn is_finite(&self) -> bool {
+        f64::is_finite(*self)
+    }
+    fn reflect(&self, v: &f64) -> f64 {
+        2.0 * self - v
+    }
+}
+
+impl Lanes for Vector3<f64> {
+    const LANES: usize = 3;
+    fn lane(&self, i: usize) -> f64 {
+        self[i]
+    }
+    fn set_lane(&mut self, i: usize, v: f64) {
+        self[i] = v;
+    }
+    fn is_finite(&self) -> bool {
+        self.iter().all(|c| c.is_finite())
+    }
+    fn reflect(&self, v: &Vector3<f64>) -> Vector3<f64> {
+        2.0 * self - v
     }
 }
 
