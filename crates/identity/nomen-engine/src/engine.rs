@@ -748,6 +748,17 @@ impl Engine {
             {
                 if let Some(theirs) = self.tracks.get_mut(&other) {
                     exchange_people(&mut mine, theirs);
+                    // Lags found against a track's history go with that history.
+                    for imu in &mut self.imus {
+                        let a = imu.pair_offsets.remove(&(c, id));
+                        let b = imu.pair_offsets.remove(&other);
+                        if let Some(o) = a {
+                            imu.pair_offsets.insert(other, o);
+                        }
+                        if let Some(o) = b {
+                            imu.pair_offsets.insert((c, id), o);
+                        }
+                    }
                     self.swaps.entry((c, id)).or_default().push((t, other.1));
                     self.swaps.entry(other).or_default().push((t, id));
                     self.stats.num_swaps += 1;
