@@ -38,6 +38,17 @@ pub enum Side {
     Unknown,
 }
 
+impl Side {
+    /// The wrists a band on this side may be on.
+    pub fn wrists(self) -> &'static [Joint] {
+        match self {
+            Side::Left => &[Joint::LeftWrist],
+            Side::Right => &[Joint::RightWrist],
+            Side::Unknown => &[Joint::LeftWrist, Joint::RightWrist],
+        }
+    }
+}
+
 /// A signed sensor axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -194,13 +205,9 @@ pub struct ForearmSignals {
 impl ForearmSignals {
     /// The skeleton's signals for a band on `side` over its window.
     pub fn new(skel: &SkeletonWindow, side: Side, cfg: &BelmonteConfig) -> Self {
-        let wrists: &[Joint] = match side {
-            Side::Left => &[Joint::LeftWrist],
-            Side::Right => &[Joint::RightWrist],
-            Side::Unknown => &[Joint::LeftWrist, Joint::RightWrist],
-        };
         ForearmSignals {
-            wrist_pitch_rad: wrists
+            wrist_pitch_rad: side
+                .wrists()
                 .iter()
                 .map(|&w| (w, forearm_pitch_rad(skel, w, cfg)))
                 .collect(),
@@ -220,13 +227,12 @@ pub fn belmonte_costs_from(
     if band.yaw_rate_radps.len() != arm.yaw_rate_radps.len() {
         return BelmonteCosts::default();
     }
-    let is_allowed = |wrist: Joint| match side {
-        Side::Left => wrist == Joint::LeftWrist,
-        Side::Right => wrist == Joint::RightWrist,
-        Side::Unknown => true,
-    };
     let mut best: Option<(f64, Joint, SensorAxis)> = None;
-    for (wrist, skel_pitch) in arm.wrist_pitch_rad.iter().filter(|(w, _)| is_allowed(*w)) {
+    for (wrist, skel_pitch) in arm
+        .wrist_pitch_rad
+        .iter()
+        .filter(|(w, _)| side.wrists().contains(w))
+    {
         // The lowest pitch MSE over the candidate sensor axes, for this wrist.
         let mut wrist_best: Option<(f64, SensorAxis)> = None;
         for (axis, pitch) in &band.axis_pitch_rad {
