@@ -3,7 +3,8 @@
 use crate::config::{EngineConfig, MotionScore, ns};
 use crate::error::{EngineError, Result};
 use crate::signal::{
-    ImuSeries, LagSignals, curve_peak, imu_window_on_grid, is_contradicted, lag_curve,
+    ImuSeries, LagSignals, curve_peak, imu_window_on_grid, is_contradicted, lag_curve, mean_curve,
+    summed_peak,
 };
 use crate::stats::EngineStats;
 use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m, fix_similarity};
@@ -105,6 +106,11 @@ struct ImuState {
     /// Curves summed into `label_curve`.
     num_label_curves: usize,
     last_label_search_end: i64,
+    /// Sum and count, per coarse lag, of the best value over all candidate tracks of this IMU's
+    /// lag curves, one pass per `offset_best_track_interval_s` (see [`Engine::update_offsets`]).
+    best_track_curve: Vec<(f64, usize)>,
+    /// Passes summed into `best_track_curve`.
+    num_best_track_curves: usize,
 }
 
 impl ImuState {
@@ -191,6 +197,8 @@ pub struct Engine {
     subject_imus: Vec<Vec<usize>>,
     /// Window end of the latest joint offset search.
     last_search_end: i64,
+    /// Window end of the latest best-track lag-curve pass.
+    last_best_track_end: i64,
     cameras: Vec<CameraState>,
     camera_index: BTreeMap<CameraId, usize>,
     imus: Vec<ImuState>,
@@ -271,6 +279,8 @@ impl Engine {
                     label_curve: Vec::new(),
                     num_label_curves: 0,
                     last_label_search_end: i64::MIN,
+                    best_track_curve: Vec::new(),
+                    num_best_track_curves: 0,
                 });
             }
             subject_imus.push(mine);
@@ -304,6 +314,7 @@ impl Engine {
             subjects: registry.subjects.iter().map(|s| s.id.clone()).collect(),
             subject_imus,
             last_search_end: i64::MIN,
+            last_best_track_end: i64::MIN,
             cameras,
             camera_index,
             imus,
@@ -956,7 +967,9 @@ impl Engine {
     /// unaccepted IMU's peak lag on that track is a candidate; `offset_num_consistent` agreeing
     /// candidates in a row make the offset. Lag curves against the tracks labelled with an IMU's
     /// wearer are summed per IMU: a clear peak of the sum accepts an offset, or moves an accepted
-    /// one, and a sum that contradicts an accepted offset withdraws it (see the crate docs). An
+    /// one, and a sum that contradicts an accepted offset withdraws it (see the crate docs).
+    /// Every IMU also sums, over passes, the best value of its lag curves over all candidate
+    /// tracks at each lag; a clear peak of that sum accepts or moves its offset. An
     /// accepted offset is refined every `offset_refine_interval_s` against the tracks labelled
     /// with its wearer (their curves averaged, weighted by coverage).
     fn update_offsets(&mut self, end: i64) {
@@ -1013,7 +1026,13 @@ impl Engine {
                 let Some(imu_sig) = imu_cache
                     .entry((i, imu.offset_ns))
                     .or_insert_with(|| {
-                        imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config)
+                        imu_lag_signals(
+                            imu,
+                            imu.offset_ns,
+                            lo - max_off,
+                            hi + max_off,
+                            &self.config,
+                        )
                     })
                     .as_ref()
                 else {
@@ -1167,21 +1186,122 @@ impl Engine {
                 imu.label_curve.clear();
                 imu.num_label_curves = 0;
                 imu.last_refine_end = end;
-                let entry = self
-                    .stats
-                    .clock_offsets
-                    .entry(imu.device.clone())
-                    .or_default();
-                entry.offset_ns = offset;
-                entry.correlation = winner.map_or(0.0, |w| w.1);
-                entry.num_updates += 1;
+                record_offset(
+                    &mut self.stats,
+                    &imu.device,
+                    offset,
+                    winner.map_or(0.0, |w| w.1),
+                );
+            }
+        }
+        // Every IMU, accepted or not, against every candidate track: the coarse lag curve's
+        // best value over the tracks at each lag, summed over passes. No decision enters this
+        // sum, so a wrong early label cannot confirm the offset it came from. Once it has
+        // `offset_best_track_curves` passes, a peak standing `offset_best_track_margin` above
+        // every lag more than `OFFSET_PEAK_SEPARATION_NS` away accepts the offset, or moves an
+        // accepted one that lies farther than that from it.
+        let coarse: Vec<i64> = full.iter().step_by(COARSE_LAG_STEPS).copied().collect();
+        let best_track_every = ns(self.config.offset_best_track_interval_s);
+        if self.config.offset_best_track_curves > 0
+            && !self.config.known_clock_offsets
+            && end.saturating_sub(self.last_best_track_end) >= best_track_every
+        {
+            self.last_best_track_end = end;
+            let mut best = Vec::new();
+            for i in 0..self.imus.len() {
+                let Some(imu) = self.imus.get(i) else {
+                    continue;
+                };
+                best.clear();
+                best.resize(coarse.len(), f64::NAN);
+                // Always cut at the registry's offset, accepted or not: the signals (the
+                // orientation change's reference sample) depend on where the buffer starts, and
+                // every pass of the sum must measure the same thing.
+                let cut = imu.registry_offset_ns;
+                if let Some(imu_sig) = imu_cache
+                    .entry((i, cut))
+                    .or_insert_with(|| {
+                        imu_lag_signals(imu, cut, lo - max_off, hi + max_off, &self.config)
+                    })
+                    .as_ref()
+                {
+                    for key in &candidates {
+                        let sig = skel_cache.entry((*key, imu.site)).or_insert_with(|| {
+                            self.tracks.get(key).and_then(|tr| {
+                                track_lag_signals(tr, imu.site, lo, hi, &self.config)
+                            })
+                        });
+                        let Some(sig) = sig.as_ref() else {
+                            continue;
+                        };
+                        lag_curve(
+                            imu_sig,
+                            sig,
+                            &coarse,
+                            MAX_IMU_GAP_NS,
+                            self.config.geometric.min_samples,
+                            &mut weights,
+                            &mut curve,
+                        );
+                        for (b, v) in best.iter_mut().zip(&curve) {
+                            // `NaN` (nothing yet) loses to any finite value.
+                            if v.is_finite() {
+                                *b = if b.is_nan() { *v } else { b.max(*v) };
+                            }
+                        }
+                    }
+                }
+                let Some(imu) = self.imus.get_mut(i) else {
+                    continue;
+                };
+                if best.iter().all(|v| !v.is_finite()) {
+                    continue;
+                }
+                if imu.best_track_curve.len() != coarse.len() {
+                    imu.best_track_curve = vec![(0.0, 0); coarse.len()];
+                }
+                for (acc, v) in imu.best_track_curve.iter_mut().zip(&best) {
+                    if v.is_finite() {
+                        acc.0 += v;
+                        acc.1 += 1;
+                    }
+                }
+                imu.num_best_track_curves += 1;
+                if imu.num_best_track_curves < self.config.offset_best_track_curves {
+                    continue;
+                }
+                let mean = mean_curve(&imu.best_track_curve);
+                let Some((offset, peak, rival)) = summed_peak(
+                    &coarse,
+                    &mean,
+                    max_off,
+                    LAG_STEP_NS / 2,
+                    OFFSET_PEAK_SEPARATION_NS,
+                ) else {
+                    continue;
+                };
+                let is_near_accepted = imu.is_offset_known
+                    && (offset - imu.offset_ns).abs() <= OFFSET_PEAK_SEPARATION_NS;
+                if peak - rival < self.config.offset_best_track_margin || is_near_accepted {
+                    continue;
+                }
+                if imu.is_offset_known {
+                    self.stats.num_offsets_moved += 1;
+                }
+                imu.offset_ns = offset;
+                imu.is_offset_known = true;
+                imu.candidates.clear();
+                imu.label_curve.clear();
+                imu.num_label_curves = 0;
+                // Refined at once (below) from the coarse step to the fine one.
+                imu.last_refine_end = end - refine_every;
+                record_offset(&mut self.stats, &imu.device, offset, peak);
             }
         }
         // Unaccepted IMUs whose wearer the decisions put on a track: the coarse lag curve
         // against that track is summed over searches, so tracks too short for the joint search
         // above still add up; the sum's peak is accepted once it is clear of every lag more
         // than `OFFSET_PEAK_SEPARATION_NS` away.
-        let coarse: Vec<i64> = full.iter().step_by(COARSE_LAG_STEPS).copied().collect();
         let label_min = ns(self.config.offset_label_min_track_s);
         for i in 0..self.imus.len() {
             let Some(imu) = self.imus.get(i) else {
@@ -1202,7 +1322,9 @@ impl Engine {
             let mut added: Vec<Vec<f64>> = Vec::new();
             if let Some(imu_sig) = imu_cache
                 .entry((i, imu.offset_ns))
-                .or_insert_with(|| imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config))
+                .or_insert_with(|| {
+                    imu_lag_signals(imu, imu.offset_ns, lo - max_off, hi + max_off, &self.config)
+                })
                 .as_ref()
             {
                 for (key, tr) in self
@@ -1250,11 +1372,7 @@ impl Engine {
             if imu.num_label_curves < self.config.offset_label_curves {
                 continue;
             }
-            let mean: Vec<f64> = imu
-                .label_curve
-                .iter()
-                .map(|(sum, n)| if *n > 0 { sum / *n as f64 } else { f64::NAN })
-                .collect();
+            let mean = mean_curve(&imu.label_curve);
             // An accepted offset at which the wearer's tracks hardly correlate, while another
             // lag does better, was most likely found on someone else's track: it is withdrawn
             // and searched for again.
@@ -1279,29 +1397,15 @@ impl Engine {
                 continue;
             }
             // The peak must lie inside the searched range (see the joint search).
-            let Some((k, peak)) = mean
-                .iter()
-                .enumerate()
-                .filter(|(k, v)| {
-                    v.is_finite()
-                        && coarse
-                            .get(*k)
-                            .is_some_and(|o| o.abs() < max_off - LAG_STEP_NS / 2)
-                })
-                .max_by(|a, b| a.1.total_cmp(b.1))
-                .map(|(k, v)| (k, *v))
-            else {
+            let Some((offset, peak, rival)) = summed_peak(
+                &coarse,
+                &mean,
+                max_off,
+                LAG_STEP_NS / 2,
+                OFFSET_PEAK_SEPARATION_NS,
+            ) else {
                 continue;
             };
-            let Some(&offset) = coarse.get(k) else {
-                continue;
-            };
-            let rival = coarse
-                .iter()
-                .zip(&mean)
-                .filter(|(o, v)| (*o - offset).abs() > OFFSET_PEAK_SEPARATION_NS && v.is_finite())
-                .map(|(_, v)| *v)
-                .fold(f64::NEG_INFINITY, f64::max);
             if peak < self.config.offset_label_min_correlation
                 || peak - rival < self.config.offset_label_margin
             {
@@ -1322,14 +1426,7 @@ impl Engine {
             imu.is_offset_known = true;
             // Refined at once (below) from the coarse step to the fine one.
             imu.last_refine_end = end - refine_every;
-            let entry = self
-                .stats
-                .clock_offsets
-                .entry(imu.device.clone())
-                .or_default();
-            entry.offset_ns = offset;
-            entry.correlation = peak;
-            entry.num_updates += 1;
+            record_offset(&mut self.stats, &imu.device, offset, peak);
         }
         // Refinement of accepted offsets against the tracks labelled with the wearer.
         for i in 0..self.imus.len() {
@@ -1349,7 +1446,9 @@ impl Engine {
             let mut sum = vec![(0.0, 0.0); offsets.len()];
             if let Some(imu_sig) = imu_cache
                 .entry((i, imu.offset_ns))
-                .or_insert_with(|| imu_lag_signals(imu, lo - max_off, hi + max_off, &self.config))
+                .or_insert_with(|| {
+                    imu_lag_signals(imu, imu.offset_ns, lo - max_off, hi + max_off, &self.config)
+                })
                 .as_ref()
             {
                 for (key, tr) in self
@@ -1399,14 +1498,7 @@ impl Engine {
             {
                 // Refinement never walks out of the searched range.
                 imu.offset_ns = offset.clamp(-max_off, max_off);
-                let entry = self
-                    .stats
-                    .clock_offsets
-                    .entry(imu.device.clone())
-                    .or_default();
-                entry.offset_ns = imu.offset_ns;
-                entry.correlation = corr;
-                entry.num_updates += 1;
+                record_offset(&mut self.stats, &imu.device, imu.offset_ns, corr);
             }
         }
     }
@@ -2196,6 +2288,14 @@ fn joint_centroid(joints: &Joints<Point3<f64>>) -> Option<Point3<f64>> {
     (n > 0).then(|| Point3::from(sum / n as f64))
 }
 
+/// Reports an accepted or updated clock offset of `device` in the run's statistics.
+fn record_offset(stats: &mut EngineStats, device: &DeviceId, offset_ns: i64, correlation: f64) {
+    let entry = stats.clock_offsets.entry(device.clone()).or_default();
+    entry.offset_ns = offset_ns;
+    entry.correlation = correlation;
+    entry.num_updates += 1;
+}
+
 /// Adds one window score to an exponentially weighted mean (older scores decay per hop).
 fn accumulate(acc: &mut Accumulator, score: f64, decay_per_hop: f64) {
     let w = acc.weight * decay_per_hop;
@@ -2267,18 +2367,26 @@ fn lag_geometric(config: &EngineConfig) -> GeometricConfig {
 }
 
 /// An IMU's acceleration and orientation-change magnitudes at its own sample times (device
-/// clock) in `[lo − offset, hi − offset)`, for the lag search (`hi` at most the window's end, so
+/// clock) in `[lo − cut_offset_ns, hi − cut_offset_ns)`, for the lag search (`hi` at most the window's end, so
 /// only settled samples are read).
 ///
 /// Acceleration gives a sharp peak but repeats every step; the orientation change over the long
 /// buffer follows the turns of the walk, which do not repeat, and picks the right step. (The
 /// velocity model, a leaky integral over 12 s, correlated worse than either on the simulated
-/// scenes. The orientation's reference is the buffer's first sample on each side, a little
-/// apart in time; that only lowers the peak.)
-fn imu_lag_signals(imu: &ImuState, lo: i64, hi: i64, config: &EngineConfig) -> Option<LagSignals> {
+/// scenes.) The orientation's reference is the buffer's first sample on each side: at a
+/// candidate lag `o` the IMU's lies `max offset + cut − o` before the track's, up to a second
+/// apart, which matters for a limb that swings (see the best-track curve in
+/// [`Engine::update_offsets`]); a reference per lag would remove that.
+fn imu_lag_signals(
+    imu: &ImuState,
+    cut_offset_ns: i64,
+    lo: i64,
+    hi: i64,
+    config: &EngineConfig,
+) -> Option<LagSignals> {
     let series = imu.series();
-    let a = series.t_ns.partition_point(|&t| t < lo - imu.offset_ns);
-    let b = series.t_ns.partition_point(|&t| t < hi - imu.offset_ns);
+    let a = series.t_ns.partition_point(|&t| t < lo - cut_offset_ns);
+    let b = series.t_ns.partition_point(|&t| t < hi - cut_offset_ns);
     if b < a + 16 {
         return None;
     }

@@ -52,8 +52,13 @@
 //!    [`EngineConfig::offset_refine_interval_s`], moves an accepted offset whose wearer's tracks
 //!    clearly peak elsewhere (a stride away, or first found on someone else's track), and
 //!    withdraws one at which that sum stays below [`EngineConfig::offset_withdraw_below`] while
-//!    another lag does better (the IMU is then searched for again). Accepted
-//!    offsets are refined every [`EngineConfig::offset_refine_interval_s`] against the tracks
+//!    another lag does better (the IMU is then searched for again). A third path uses no
+//!    decision at all: every [`EngineConfig::offset_best_track_interval_s`] each IMU's coarse
+//!    lag curve is taken against every candidate track, the best value at each lag is summed,
+//!    and after [`EngineConfig::offset_best_track_curves`] passes a peak standing
+//!    [`EngineConfig::offset_best_track_margin`] above every lag more than 0.15 s away accepts
+//!    the offset or moves an accepted one (a wrong early label cannot confirm itself there).
+//!    Accepted offsets are refined every [`EngineConfig::offset_refine_interval_s`] against the tracks
 //!    labelled with the wearer (their fine lag curves averaged, weighted by coverage);
 //! 2. **evidence**: per camera, every active track against every subject. IMUs are resampled
 //!    onto the track's timestamps at their offset (before it is accepted, at that pair's own

@@ -249,6 +249,39 @@ pub(crate) fn curve_peak(
     Some((refined, peak))
 }
 
+/// The peak of a lag curve summed over many tracks or passes (`curve` over `offsets_ns`):
+/// `(offset, value, rival)` of the highest finite value at a lag inside `±max_offset_ns` less
+/// half a step (a peak at the end of the range only says the best lag lies beyond it), with
+/// `rival` the highest value farther than `separation_ns` from it (`−∞` if none).
+pub(crate) fn summed_peak(
+    offsets_ns: &[i64],
+    curve: &[f64],
+    max_offset_ns: i64,
+    half_step_ns: i64,
+    separation_ns: i64,
+) -> Option<(i64, f64, f64)> {
+    let (offset, peak) = offsets_ns
+        .iter()
+        .zip(curve)
+        .filter(|(o, v)| v.is_finite() && o.abs() < max_offset_ns - half_step_ns)
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(o, v)| (*o, *v))?;
+    let rival = offsets_ns
+        .iter()
+        .zip(curve)
+        .filter(|(o, v)| (*o - offset).abs() > separation_ns && v.is_finite())
+        .map(|(_, v)| *v)
+        .fold(f64::NEG_INFINITY, f64::max);
+    Some((offset, peak, rival))
+}
+
+/// The mean of each `(sum, count)` pair; `NaN` where nothing was summed.
+pub(crate) fn mean_curve(sums: &[(f64, usize)]) -> Vec<f64> {
+    sums.iter()
+        .map(|(sum, n)| if *n > 0 { sum / *n as f64 } else { f64::NAN })
+        .collect()
+}
+
 /// Whether a summed lag curve (`curve` over `offsets_ns`) contradicts an accepted `offset_ns`:
 /// its value at the grid point nearest the offset is below `below` and some lag reaches at
 /// least `margin` more. A curve with no finite value contradicts nothing.
@@ -305,6 +338,22 @@ mod tests {
         // Disabled, and no evidence at all.
         assert!(!is_contradicted(&offsets, &curve, 20, -1.0, 0.05));
         assert!(!is_contradicted(&offsets, &[f64::NAN; 5], 0, 0.05, 0.05));
+    }
+
+    #[test]
+    fn a_summed_peak_skips_the_range_ends_and_its_own_neighbourhood() {
+        let offsets: Vec<i64> = (-5..=5).map(|k| k * 100).collect();
+        // Highest at the range end (−500), then at 200; its neighbour 100 is no rival.
+        let curve = [0.9, 0.1, 0.1, 0.3, 0.1, 0.2, 0.55, 0.6, 0.4, 0.1, 0.1];
+        let (offset, peak, rival) = summed_peak(&offsets, &curve, 500, 50, 150).unwrap();
+        assert_eq!(offset, 200);
+        assert_eq!(peak, 0.6);
+        // 0.9 at −500 is farther than 150 from 200 and counts as a rival; 0.55 at 100 does not.
+        assert_eq!(rival, 0.9);
+        let none = [f64::NAN; 11];
+        assert!(summed_peak(&offsets, &none, 500, 50, 150).is_none());
+        assert!(mean_curve(&[(1.0, 2), (0.0, 0)])[1].is_nan());
+        assert_eq!(mean_curve(&[(1.0, 2)]), vec![0.5]);
     }
 
     #[test]

@@ -243,6 +243,39 @@ fn an_offset_is_also_found_from_the_tracks_its_wearer_is_given() {
     assert!((ben + 0.2).abs() <= 0.03, "ben offset {ben}");
     let off = EngineConfig {
         offset_label_curves: 0,
+        offset_best_track_curves: 0,
+        ..config
+    };
+    let (_, stats) = run_batch(&registry(&people), &msgs, &off).unwrap();
+    assert!(stats.clock_offsets.is_empty(), "{:?}", stats.clock_offsets);
+}
+
+#[test]
+fn an_offset_is_also_found_from_the_best_track_at_every_lag() {
+    // Neither the joint search (its margin cannot be met) nor the labelled tracks (off) find
+    // an offset here: only the curve of the best track at each lag, summed over passes, can.
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.05;
+    people[1].imu_offset_s = -0.15;
+    let msgs = recording(&people, 30.0);
+    let config = EngineConfig {
+        offset_margin: 5.0,
+        offset_label_curves: 0,
+        ..EngineConfig::default()
+    };
+    let (_, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    let ben = stats.clock_offsets[&DeviceId::new("ben_imu")].offset_ns as f64 * 1e-9;
+    // 25 ms: the joints' filter delays the track (see the 0.4 s offset test).
+    assert!((ben + 0.15).abs() <= 0.025, "ben offset {ben}");
+    // Ana's pendulum swing repeats its magnitude signals every half period (0.56 s), so her
+    // curve has two near-equal peaks and no clear one: no offset, and above all no wrong one.
+    let ana = stats.clock_offsets.get(&DeviceId::new("ana_imu"));
+    assert!(
+        ana.is_none_or(|e| (e.offset_ns as f64 * 1e-9 - 0.05).abs() <= 0.025),
+        "ana offset {ana:?}"
+    );
+    let off = EngineConfig {
+        offset_best_track_curves: 0,
         ..config
     };
     let (_, stats) = run_batch(&registry(&people), &msgs, &off).unwrap();
@@ -322,6 +355,20 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             "offset_withdraw_below",
             EngineConfig {
                 offset_withdraw_below: 1.5,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "offset_best_track_margin",
+            EngineConfig {
+                offset_best_track_margin: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "offset_best_track_interval_s",
+            EngineConfig {
+                offset_best_track_interval_s: 0.0,
                 ..EngineConfig::default()
             },
         ),
