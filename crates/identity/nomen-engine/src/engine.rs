@@ -111,6 +111,10 @@ struct ImuState {
     best_track_curve: Vec<(f64, usize)>,
     /// Passes summed into `best_track_curve`.
     num_best_track_curves: usize,
+    /// Device time up to which every sample is settled when the current window is processed
+    /// (its end on the offset the window waited for); later samples may or may not have
+    /// arrived, depending on arrival order, so nothing reads them.
+    settled_until_ns: i64,
 }
 
 impl ImuState {
@@ -281,6 +285,7 @@ impl Engine {
                     last_label_search_end: i64::MIN,
                     best_track_curve: Vec::new(),
                     num_best_track_curves: 0,
+                    settled_until_ns: i64::MIN,
                 });
             }
             subject_imus.push(mine);
@@ -939,6 +944,9 @@ impl Engine {
         self.stats.num_windows += 1;
         for imu in &mut self.imus {
             imu.make_contiguous();
+            // `poll` waited for this IMU's samples up to `end` on its current offset; an
+            // offset accepted below must not make this window read past them.
+            imu.settled_until_ns = end.saturating_sub(imu.offset_ns);
         }
         // This window is final: a tag that went quiet still has its fixes before `end` used
         // (a fix older than `end` arriving later is late).
@@ -1609,7 +1617,7 @@ impl Engine {
                             offset,
                             &grid,
                             MAX_IMU_GAP_NS,
-                            end - imu.offset_ns,
+                            (end - imu.offset_ns).min(imu.settled_until_ns),
                             &mut win,
                         );
                         win.device = Some(imu.device.clone());
@@ -2385,8 +2393,9 @@ fn imu_lag_signals(
     config: &EngineConfig,
 ) -> Option<LagSignals> {
     let series = imu.series();
+    let until = (hi - cut_offset_ns).min(imu.settled_until_ns);
     let a = series.t_ns.partition_point(|&t| t < lo - cut_offset_ns);
-    let b = series.t_ns.partition_point(|&t| t < hi - cut_offset_ns);
+    let b = series.t_ns.partition_point(|&t| t < until);
     if b < a + 16 {
         return None;
     }

@@ -79,20 +79,10 @@ fn a_silent_imu_does_not_block_output() {
     assert!(accuracy(&people[..1], &out, 8.0) > 0.98);
 }
 
-#[test]
-fn messages_shuffled_within_the_reorder_window_give_identical_output() {
-    let mut people = two_people();
-    people.push(Person::new(None, 1.1, 3.0, 3));
-    // An id swap too: its detection must not depend on which track's frame arrives first.
-    people[0].track_change = Some((9.0, 2));
-    people[1].track_change = Some((9.0, 1));
-    let msgs = recording(&people, 15.0);
-    let reg = registry(&people);
-    let config = EngineConfig::default();
-    let (reference, reference_stats) = run_batch(&reg, &msgs, &config).unwrap();
-    assert_eq!(reference_stats.num_swaps, 1);
-    // Deterministic shuffle: sort by t + u, u in [0, 0.2 s) from an LCG, which moves no message
-    // behind a later one of its source by more than 0.2 s (< reorder_window_s).
+/// The messages shuffled deterministically: sorted by t + u, u in [0, 0.2 s) from an LCG,
+/// which moves no message behind a later one of its source by more than 0.2 s (less than
+/// `reorder_window_s`).
+fn shuffled(msgs: &[Message]) -> Vec<Message> {
     let mut state = 0x2545_f491_4f6c_dd1du64;
     let mut keyed: Vec<(i64, &Message)> = msgs
         .iter()
@@ -105,12 +95,52 @@ fn messages_shuffled_within_the_reorder_window_give_identical_output() {
         })
         .collect();
     keyed.sort_by_key(|(k, _)| *k);
-    let shuffled: Vec<Message> = keyed.into_iter().map(|(_, m)| m.clone()).collect();
+    keyed.into_iter().map(|(_, m)| m.clone()).collect()
+}
+
+#[test]
+fn messages_shuffled_within_the_reorder_window_give_identical_output() {
+    let mut people = two_people();
+    people.push(Person::new(None, 1.1, 3.0, 3));
+    // An id swap too: its detection must not depend on which track's frame arrives first.
+    people[0].track_change = Some((9.0, 2));
+    people[1].track_change = Some((9.0, 1));
+    let msgs = recording(&people, 15.0);
+    let reg = registry(&people);
+    let config = EngineConfig::default();
+    let (reference, reference_stats) = run_batch(&reg, &msgs, &config).unwrap();
+    assert_eq!(reference_stats.num_swaps, 1);
+    let shuffled = shuffled(&msgs);
     assert_ne!(shuffled, msgs);
     let (out, stats) = run_batch(&reg, &shuffled, &config).unwrap();
     assert_eq!(stats.rejected.total(), 0);
     assert_eq!(stats.num_swaps, 1);
     assert_eq!(out, reference);
+}
+
+#[test]
+fn shuffled_messages_give_identical_output_while_clock_offsets_are_accepted() {
+    // A window waits for each IMU's samples up to its end on the offset the IMU had then; an
+    // offset accepted while the window is processed must not let it read samples beyond
+    // those, which may or may not have arrived depending on arrival order. (Both pairs gave
+    // different output before the engine kept to that bound.)
+    for (ana_s, ben_s) in [(0.3, -0.35), (-0.2, 0.2)] {
+        let mut people = two_people();
+        people.push(Person::new(None, 1.1, 3.0, 3));
+        people[0].imu_offset_s = ana_s;
+        people[1].imu_offset_s = ben_s;
+        let msgs = recording(&people, 20.0);
+        let reg = registry(&people);
+        let config = EngineConfig::default();
+        let (reference, reference_stats) = run_batch(&reg, &msgs, &config).unwrap();
+        assert_eq!(reference_stats.clock_offsets.len(), 2);
+        let shuffled = shuffled(&msgs);
+        assert_ne!(shuffled, msgs);
+        let (out, stats) = run_batch(&reg, &shuffled, &config).unwrap();
+        assert_eq!(stats.rejected.total(), 0);
+        assert_eq!(stats.clock_offsets, reference_stats.clock_offsets);
+        assert!(out == reference, "offsets {ana_s} s and {ben_s} s");
+    }
 }
 
 #[test]
