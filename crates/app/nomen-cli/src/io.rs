@@ -10,6 +10,16 @@ pub fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
 }
 
+/// Standard output, locked: `let mut stdout = crate::io::stdout(); writeln!(stdout, ...)?;`.
+///
+/// Every command prints through this instead of `println!`, which panics when the write fails: a
+/// reader that stops early (`nomen eval --json | head`) closes the pipe, and the write error must
+/// come back to `main` (which exits quietly on a broken pipe). Line-buffered like `println!`, so
+/// the bytes and their interleaving with stderr are the same.
+pub fn stdout() -> std::io::StdoutLock<'static> {
+    std::io::stdout().lock()
+}
+
 /// Creates `path` (and its parent folders) for buffered writing; `-` is standard output.
 pub fn create_write(path: &Path) -> Result<Box<dyn Write>> {
     if path.as_os_str() == "-" {

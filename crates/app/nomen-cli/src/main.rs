@@ -3,14 +3,13 @@
 //! This binary is the edge of the system: it opens files, prints to the terminal and turns library
 //! errors into messages. Everything it calls is sans-IO library code.
 
-// The command line talks to a terminal by design.
-#![allow(clippy::print_stdout)]
-
 mod cmd;
 mod io;
 mod refine;
 
+use anyhow::Context;
 use clap::{Parser, Subcommand};
+use std::io::{ErrorKind, Write};
 use std::process::ExitCode;
 
 /// nomen gives names to anonymous human poses by fusing camera skeletons with what people wear.
@@ -68,8 +67,12 @@ fn main() -> ExitCode {
         Command::Train(c) => cmd::train::run(c),
         Command::Calibrate(c) => cmd::calibrate::run(c),
     };
+    // A line without its `\n` may still be buffered: write it now, while an error can be reported.
+    let outcome = outcome.and_then(|()| std::io::stdout().flush().context("cannot write <stdout>"));
     match outcome {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader went away (`nomen ... | head`): that ends a pipeline, it is not a failure.
+        Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("error: {}", error_chain(&err));
             ExitCode::FAILURE
@@ -93,4 +96,14 @@ fn error_chain(err: &anyhow::Error) -> String {
         previous = text;
     }
     out
+}
+
+/// Whether a write failed because the reading end of a pipe was closed. Like ripgrep, nomen then
+/// stops quietly with success; Rust ignores SIGPIPE, so this arrives as an `io::Error`.
+fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == ErrorKind::BrokenPipe)
+    })
 }

@@ -1,11 +1,13 @@
 //! End-to-end tests: the `nomen` binary on real files.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use std::io::Read;
 use std::path::Path;
+use std::process::Stdio;
 
 mod common;
 
-use common::{count, data_dir, nomen, simulate_library, text};
+use common::{count, data_dir, nomen, nomen_command, simulate_library, text};
 
 #[test]
 fn handshake_converts_validates_and_evaluates() {
@@ -171,6 +173,66 @@ fn missing_input_files_are_named() {
         "{}",
         text(&out.stderr)
     );
+}
+
+#[test]
+fn a_reader_that_stops_early_ends_the_command_quietly() {
+    // One tag error per tag, so the JSON report grows with the number of tags; no shared data.
+    const NUM_TAGS: usize = 200;
+    const HEADER: &str =
+        r#"{"type":"header","format":"nomen-recording","version":1,"registry":null,"meta":{}}"#;
+    let tmp = tempfile::tempdir().unwrap();
+    let truth = tmp.path().join("truth.jsonl");
+    let result = tmp.path().join("result.jsonl");
+    let mut truth_text = format!("{HEADER}\n");
+    let mut result_text = format!("{HEADER}\n");
+    for i in 0..NUM_TAGS {
+        truth_text.push_str(&format!(
+            r#"{{"type":"truth_tag","t":0,"tag":"tag{i}","position_m":[1.0,2.0,1.0]}}"#
+        ));
+        truth_text.push('\n');
+        result_text.push_str(&format!(
+            r#"{{"type":"tag_correction","t":0,"tag":"tag{i}","raw_position_m":[1.5,2.0,1.0],"corrected_position_m":[1.1,2.0,1.0]}}"#
+        ));
+        result_text.push('\n');
+    }
+    std::fs::write(&truth, truth_text).unwrap();
+    std::fs::write(&result, result_text).unwrap();
+    let args = [
+        "eval",
+        "--truth",
+        truth.to_str().unwrap(),
+        "--result",
+        result.to_str().unwrap(),
+        "--json",
+    ];
+
+    // Read in full, the report is many times what a pipe holds (64 KiB on Linux), so the
+    // command below is still writing when its reader goes away.
+    let full = nomen(&args);
+    assert!(full.status.success(), "{}", text(&full.stderr));
+    assert!(
+        full.stdout.len() > 4 * 65_536,
+        "{} bytes",
+        full.stdout.len()
+    );
+
+    // Like `nomen eval ... --json | head -c 16`: read a little, then close the pipe.
+    let mut child = nomen_command(&args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = child.stdout.take().unwrap();
+    let mut head = [0_u8; 16];
+    stdout.read_exact(&mut head).unwrap();
+    assert_eq!(head.as_slice(), &full.stdout[..16]);
+    drop(stdout);
+    let out = child.wait_with_output().unwrap();
+    let stderr = text(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.status.success(), "{:?}: {stderr}", out.status);
+    assert!(stderr.is_empty(), "a closed pipe is not an error: {stderr}");
 }
 
 #[test]

@@ -28,7 +28,9 @@
 //! Every [`EngineConfig::hop_s`] a window of [`EngineConfig::window_s`] ending at a multiple of
 //! the hop is processed once every source has delivered past its end plus the reorder window,
 //! or once any source is [`EngineConfig::silence_timeout_s`] beyond that (a silent source
-//! never blocks output). In each window:
+//! never blocks output). A window reads each IMU only up to the device time it waited for (its
+//! end on the offset the IMU had then), even when the window itself accepts a new offset, so
+//! its result does not depend on which later samples happen to have arrived. In each window:
 //! 1. **clock offsets**, estimated jointly with identity: a device without an accepted offset
 //!    is searched every [`EngineConfig::offset_search_interval_s`]. For every track covering
 //!    [`EngineConfig::offset_min_track_s`] of the last [`EngineConfig::offset_estimation_window_s`],

@@ -11,6 +11,7 @@ use nomen_calib::ransac::{RansacConfig, fit_ransac};
 use nomen_calib::recording::{FramesCalibrationConfig, calibrate_from_recording};
 use nomen_core::{CameraId, TagId};
 use serde::Serialize;
+use std::io::Write;
 use std::path::PathBuf;
 
 /// `nomen calibrate ...`
@@ -154,18 +155,21 @@ fn frames(args: &FramesArgs) -> Result<()> {
             cal.report,
         )
     };
+    let mut stdout = crate::io::stdout();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&out)?)?;
         return Ok(());
     }
-    println!(
+    writeln!(
+        stdout,
         "{} fit (target_from_source = rtls/world from camera):",
         match kind {
             FitKind::Rigid => "rigid",
             FitKind::Similarity => "similarity",
         }
-    );
-    println!(
+    )?;
+    writeln!(
+        stdout,
         "  rotation: {:.3}° about [{:.4}, {:.4}, {:.4}]  (wxyz {:.6}, {:.6}, {:.6}, {:.6})",
         out.rotation_deg_about_axis.0,
         out.rotation_deg_about_axis.1[0],
@@ -175,19 +179,22 @@ fn frames(args: &FramesArgs) -> Result<()> {
         out.rotation_wxyz[1],
         out.rotation_wxyz[2],
         out.rotation_wxyz[3]
-    );
-    println!(
+    )?;
+    writeln!(
+        stdout,
         "  translation: [{:.4}, {:.4}, {:.4}] m   scale: {:.5}",
         out.translation_m[0], out.translation_m[1], out.translation_m[2], out.scale
-    );
+    )?;
     if let (Some(o), Some(c)) = (out.clock_offset_s, out.clock_contrast) {
-        println!(
+        writeln!(
+            stdout,
             "  clock offset (camera − tag stamps): {:+.3} s   (curve contrast {:.1}; near 1 = not observable)",
             o, c
-        );
+        )?;
     }
     let r = &out.residuals;
-    println!(
+    writeln!(
+        stdout,
         "  residuals: {} pairs, {} inliers, inlier RMS {:.1} cm, median {:.1} cm, p95 {:.1} cm, max {:.1} cm",
         r.num_points,
         r.num_inliers,
@@ -195,12 +202,12 @@ fn frames(args: &FramesArgs) -> Result<()> {
         100.0 * r.median_m,
         100.0 * r.p95_m,
         100.0 * r.max_m
-    );
+    )?;
     if out.warnings.is_empty() {
-        println!("  fit looks good");
+        writeln!(stdout, "  fit looks good")?;
     }
     for w in &out.warnings {
-        println!("  warning: {w}");
+        writeln!(stdout, "  warning: {w}")?;
     }
     Ok(())
 }

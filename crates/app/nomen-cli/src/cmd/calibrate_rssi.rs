@@ -7,6 +7,7 @@ use clap::{Args, ValueEnum};
 use nomen_core::Message;
 use nomen_recording::RecordingReader;
 use nomen_rssi::{CalibrationConfig, ModelKind, RssiUnit, TagPlacement, calibrate};
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Which RSSI model to fit.
@@ -75,10 +76,11 @@ pub fn run(args: CalibrateRssiArgs) -> Result<()> {
         ..CalibrationConfig::default()
     };
     let report = calibrate(&registry, &messages, &config, &name)?;
+    let mut stdout = crate::io::stdout();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&report)?)?;
     } else {
-        print!("{report}");
+        write!(stdout, "{report}")?;
     }
     if let Some(out) = &args.out {
         let text = report.model.to_json()?;

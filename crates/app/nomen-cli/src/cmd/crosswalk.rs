@@ -14,6 +14,7 @@ use nomen_rssi::{
 };
 use serde::Serialize;
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Arguments of `nomen experiment crosswalk`.
@@ -230,10 +231,11 @@ pub fn run(args: &CrosswalkArgs) -> Result<()> {
         rows,
         averages,
     };
+    let mut stdout = crate::io::stdout();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&table)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&table)?)?;
     } else {
-        print!("{}", render(&table));
+        write!(stdout, "{}", render(&table))?;
     }
     Ok(())
 }

@@ -14,6 +14,7 @@ use clap::Args;
 use nomen_core::{IdentifiedSkeleton, Identity, Joint, Message};
 use nomen_eval::identity::{EvalConfig, EvalReport};
 use nomen_recording::{Header, RecordingReader};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nomen demo`.
@@ -37,12 +38,17 @@ const CMU_SCALE: f64 = 0.056_444_4;
 /// Runs the demo.
 pub fn run(args: DemoArgs) -> Result<()> {
     let data = crate::io::find_data(args.data.as_deref())?;
-    println!("nomen demo — data from {}", data.display());
+    let mut stdout = crate::io::stdout();
+    writeln!(stdout, "nomen demo — data from {}", data.display())?;
 
     // 1. Simulate the default scene.
     let scene_dir = args.out.join("scene");
-    println!("\n[1/4] simulate the default scene (scenarios/belmonte_one_without_band.toml)");
-    println!(
+    writeln!(
+        stdout,
+        "\n[1/4] simulate the default scene (scenarios/belmonte_one_without_band.toml)"
+    )?;
+    writeln!(
+        stdout,
         "{}",
         super::simulate::simulate_to_dir(
             DEFAULT_SCENARIO,
@@ -51,14 +57,15 @@ pub fn run(args: DemoArgs) -> Result<()> {
             None,
             Some(&data),
         )?
-    );
+    )?;
 
     // 2. The engine on it, then the evaluation; the anonymous baseline for contrast.
-    println!("\n[2/4] run the engine → eval");
+    writeln!(stdout, "\n[2/4] run the engine → eval")?;
     let recording = scene_dir.join("recording.jsonl");
     let truth = scene_dir.join("truth.jsonl");
     let result = scene_dir.join("result.jsonl");
-    println!(
+    writeln!(
+        stdout,
         "{}",
         super::run::run_file(
             &recording,
@@ -67,21 +74,22 @@ pub fn run(args: DemoArgs) -> Result<()> {
             false,
             &super::run::EngineExtras::default(),
         )?
-    );
+    )?;
     let report = super::eval_identity::evaluate_files(
         std::slice::from_ref(&truth),
         std::slice::from_ref(&result),
         &EvalConfig::default(),
     )?;
-    print!("{}", report.to_table());
+    write!(stdout, "{}", report.to_table())?;
     let baseline = anonymous_baseline(&recording, &truth, &scene_dir.join("baseline.jsonl"))?;
-    println!(
+    writeln!(
+        stdout,
         "for contrast, the everyone-anonymous baseline: id_accuracy {}",
         baseline
             .overall
             .id_accuracy
             .map_or("-".to_owned(), |a| format!("{:.1}%", 100.0 * a))
-    );
+    )?;
 
     // 3. Real two-person motion capture → recording + truth.
     let dir = args.out.join("handshake");
@@ -98,9 +106,12 @@ pub fn run(args: DemoArgs) -> Result<()> {
         out: dir.join("recording.jsonl"),
         truth: Some(dir.join("truth.jsonl")),
     };
-    println!("\n[3/4] mocap convert (CMU 18_01 + 19_01, one clock, one frame)");
+    writeln!(
+        stdout,
+        "\n[3/4] mocap convert (CMU 18_01 + 19_01, one clock, one frame)"
+    )?;
     let (summary, clips) = convert_files(&convert)?;
-    println!("{summary}");
+    writeln!(stdout, "{summary}")?;
     if let [a, b] = clips.as_slice() {
         let closest = (0..a.num_frames.min(b.num_frames))
             .filter_map(|f| {
@@ -110,10 +121,11 @@ pub fn run(args: DemoArgs) -> Result<()> {
             })
             .min_by(|x, y| x.0.total_cmp(&y.0));
         if let Some((d, f, z)) = closest {
-            println!(
+            writeln!(
+                stdout,
                 "handshake: right wrists closest {d:.3} m apart at t = {:.3} s, {z:.2} m above the floor",
                 a.time_s(f)
-            );
+            )?;
         }
     }
 
@@ -122,25 +134,29 @@ pub fn run(args: DemoArgs) -> Result<()> {
         &dir.join("truth.jsonl"),
         &dir.join("result.jsonl"),
     )?;
-    println!(
+    writeln!(
+        stdout,
         "read back and evaluated: {} truth frames, neither person wears anything, anonymous accuracy {}",
         report.overall.num_frames,
         report
             .overall
             .id_accuracy
             .map_or("-".to_owned(), |a| format!("{:.1}%", 100.0 * a))
-    );
+    )?;
 
     // 4. MOT metrics on py-motmetrics' own sequences.
-    println!("\n[4/4] eval mot (MOTChallenge, IoU distance 0.5; py-motmetrics semantics)");
+    writeln!(
+        stdout,
+        "\n[4/4] eval mot (MOTChallenge, IoU distance 0.5; py-motmetrics semantics)"
+    )?;
     let mut rows = Vec::new();
     for seq in ["TUD-Campus", "TUD-Stadtmitte"] {
         let base = data.join("mot").join(seq);
         let m = evaluate_motchallenge(&base.join("gt.txt"), &base.join("test.txt"), 0.5)?;
         rows.push((seq.to_owned(), m));
     }
-    print!("{}", mot_table(&rows));
-    println!("\nfiles in {}", args.out.display());
+    write!(stdout, "{}", mot_table(&rows))?;
+    writeln!(stdout, "\nfiles in {}", args.out.display())?;
     Ok(())
 }
 

@@ -6,6 +6,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use nomen_eval::mot::{
     IouMatchConfig, MotChallengeConfig, MotMetrics, compare_to_groundtruth, parse_motchallenge,
 };
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nomen eval`.
@@ -82,10 +83,15 @@ fn run_mot(args: &MotArgs) -> Result<()> {
         bail!("--iou must be an IoU distance in 0..=1, got {}", args.iou);
     }
     let metrics = evaluate_motchallenge(&args.gt, &args.test, args.iou)?;
+    let mut stdout = crate::io::stdout();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&metrics)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&metrics)?)?;
     } else {
-        print!("{}", mot_table(&[(source_name(&args.test), metrics)]));
+        write!(
+            stdout,
+            "{}",
+            mot_table(&[(source_name(&args.test), metrics)])
+        )?;
     }
     Ok(())
 }

@@ -4,6 +4,7 @@ use anyhow::{Context, Result, bail};
 use nomen_eval::identity::{EvalConfig, EvalReport, SceneData, evaluate};
 use nomen_eval::plots::{PlotConfig, write_plots};
 use nomen_recording::RecordingReader;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Reads every (truth, result) pair as one scene and evaluates them together.
@@ -19,10 +20,11 @@ pub fn run(
         ..Default::default()
     };
     let report = evaluate_files(truth, result, &config)?;
+    let mut stdout = crate::io::stdout();
     if json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&report)?)?;
     } else {
-        print!("{}", report.to_table());
+        write!(stdout, "{}", report.to_table())?;
     }
     if let Some(dir) = plots {
         let written = write_plots(&report, dir, &PlotConfig::default())?;

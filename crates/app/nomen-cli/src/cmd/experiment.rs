@@ -8,6 +8,7 @@ use nomen_engine::Fusion;
 use nomen_engine::{EngineConfig, MotionScore, run_batch};
 use nomen_eval::identity::{EvalConfig, SceneData, evaluate};
 use serde::Serialize;
+use std::io::Write;
 use std::path::PathBuf;
 
 /// `nomen experiment ...`
@@ -229,20 +230,24 @@ fn belmonte_episodes(args: &EpisodeArgs) -> Result<()> {
             });
         }
     }
+    let mut stdout = crate::io::stdout();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&cells)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&cells)?)?;
         return Ok(());
     }
-    println!(
+    writeln!(
+        stdout,
         "Belmonte-Hernández episodes, seed {} (simulate → run → eval per cell)",
         args.seed
-    );
-    println!(
+    )?;
+    writeln!(
+        stdout,
         "{:<30} {:<9} {:>9} {:>10} {:>14} {:>8}",
         "episode", "method", "accuracy", "intruder", "identify (s)", "switches"
-    );
+    )?;
     for c in &cells {
-        println!(
+        writeln!(
+            stdout,
             "{:<30} {:<9} {:>9} {:>10} {:>14} {:>8}",
             c.scenario,
             c.method,
@@ -251,7 +256,7 @@ fn belmonte_episodes(args: &EpisodeArgs) -> Result<()> {
             c.time_to_identify_s
                 .map_or_else(|| "-".to_owned(), |v| format!("{v:.2}")),
             c.id_switches
-        );
+        )?;
     }
     Ok(())
 }
@@ -314,10 +319,11 @@ fn imu_table(args: &ImuTableArgs) -> Result<()> {
         seed: args.seed,
         rows,
     };
+    let mut stdout = crate::io::stdout();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&table)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&table)?)?;
     } else {
-        print!("{}", render(&table));
+        write!(stdout, "{}", render(&table))?;
     }
     Ok(())
 }

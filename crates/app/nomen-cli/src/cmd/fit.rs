@@ -10,6 +10,7 @@ use nomen_fit::load::{ImuCsvFormat, RssiCsvFormat, UwbCsvFormat};
 use nomen_fit::uwb::UwbSetup;
 use nomen_fit::{ImuFitConfig, PathLossConfig};
 use serde::Serialize;
+use std::io::Write;
 use std::path::PathBuf;
 
 /// `nomen fit ...`
@@ -88,7 +89,8 @@ pub fn run(command: FitCommand) -> Result<()> {
             if a.json {
                 print_json(&models)
             } else {
-                print!("{}", models.to_markdown());
+                let mut stdout = crate::io::stdout();
+                write!(stdout, "{}", models.to_markdown())?;
                 Ok(())
             }
         }
@@ -125,6 +127,7 @@ pub fn run(command: FitCommand) -> Result<()> {
 }
 
 fn print_json(value: &impl Serialize) -> Result<()> {
-    println!("{}", serde_json::to_string_pretty(value)?);
+    let mut stdout = crate::io::stdout();
+    writeln!(stdout, "{}", serde_json::to_string_pretty(value)?)?;
     Ok(())
 }

@@ -15,6 +15,7 @@ use nomen_eval::identity::{EvalConfig, EvalReport, SceneData, evaluate};
 use nomen_rtls::{BaptizoConfig, TagFilterConfig, TagTracker, track::FixOutcome};
 use serde::Serialize;
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Arguments of `nomen experiment ghosting`.
@@ -245,10 +246,11 @@ pub fn run(args: &GhostingArgs) -> Result<()> {
         scenes,
         calibration,
     };
+    let mut stdout = crate::io::stdout();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&report)?)?;
     } else {
-        print!("{}", render(&report));
+        write!(stdout, "{}", render(&report))?;
     }
     Ok(())
 }

@@ -7,6 +7,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use nomen_occlusion::experiment::{OcclusionExperimentConfig, run_occlusion_experiment};
 use nomen_occlusion::plots::render_boxplots;
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Arguments of `nomen experiment occlusion`.
@@ -88,7 +89,7 @@ pub fn run(args: &OcclusionArgs) -> Result<()> {
             pct(report.volume_reduction)
         ));
     }
-    use std::io::Write as _;
-    std::io::stdout().write_all(out.as_bytes())?;
+    let mut stdout = crate::io::stdout();
+    write!(stdout, "{out}")?;
     Ok(())
 }

@@ -5,6 +5,7 @@ use clap::Args;
 use nomen_core::{Message, SessionTime};
 use nomen_recording::{ErrorPolicy, ReadOptions, RecordingReader};
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Arguments of `nomen validate`.
@@ -59,15 +60,20 @@ pub fn run(args: ValidateArgs) -> Result<()> {
         }
     }
     let stats = reader.into_stats();
-    println!("{}: {stats}", crate::io::source_name(&args.file));
+    let mut stdout = crate::io::stdout();
+    writeln!(stdout, "{}: {stats}", crate::io::source_name(&args.file))?;
     for (kind, n) in &summary.per_type {
-        println!("  {kind:<16} {n:>10}");
+        writeln!(stdout, "  {kind:<16} {n:>10}")?;
     }
     if let Some((a, b)) = summary.span {
-        println!("  time span        {a} .. {b} ({:.3} s)", b.secs_since(a));
+        writeln!(
+            stdout,
+            "  time span        {a} .. {b} ({:.3} s)",
+            b.secs_since(a)
+        )?;
     }
     for e in &stats.first_errors {
-        println!("  skipped: {e}");
+        writeln!(stdout, "  skipped: {e}")?;
     }
     if let Some(e) = first_error {
         bail!("{e}");

@@ -7,10 +7,14 @@ use std::process::{Command, Output};
 
 /// Runs the `nomen` binary with `args`.
 pub fn nomen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nomen"))
-        .args(args)
-        .output()
-        .expect("the nomen binary runs")
+    nomen_command(args).output().expect("the nomen binary runs")
+}
+
+/// The `nomen` binary with `args`, not started yet (for tests that need its pipes).
+pub fn nomen_command(args: &[&str]) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_nomen"));
+    command.args(args);
+    command
 }
 
 /// `../shared/data`, or `None` (after printing `skipping: …`) when it is absent.
