@@ -204,8 +204,9 @@ pub struct EngineConfig {
     /// window score's units. Default 0.02 (for [`MotionScore::Nomen`]: right and wrong subjects
     /// of similar-looking walkers differ by 0.05–0.1, so 0.1 locked early mistakes in).
     pub switch_margin: f64,
-    /// Largest device clock offset searched for, s. Default 0.6 s (the simulator draws up to
-    /// ±0.5 s).
+    /// Largest difference searched for between a device's clock offset and the registry's
+    /// offset for it (the prior; 0 when the registry says nothing), s. Default 0.6 s (the
+    /// simulator draws up to ±0.5 s and registers 0).
     pub max_clock_offset_s: f64,
     /// Length of the buffer over which a device's clock offset is estimated, s. Default 12 s
     /// (several gait cycles *and* several turns, so the true lag beats the lags one stride off).

@@ -1050,10 +1050,14 @@ impl Engine {
                 // around the coarse peak (a quarter of the work of the fine grid throughout).
                 // A known offset is only read at itself: the IMU's correlation there tells
                 // which track its wearer is (refinement is separate, below).
+                let prior = imu.registry_offset_ns;
                 let offsets: Vec<i64> = if imu.is_offset_known {
                     vec![imu.offset_ns]
                 } else {
-                    full.iter().step_by(COARSE_LAG_STEPS).copied().collect()
+                    full.iter()
+                        .step_by(COARSE_LAG_STEPS)
+                        .map(|o| o + prior)
+                        .collect()
                 };
                 let is_coarse = !imu.is_offset_known;
                 for key in &candidates {
@@ -1075,7 +1079,7 @@ impl Engine {
                         &mut curve,
                     );
                     let Some((mut offset, mut value)) =
-                        curve_peak(&offsets, &curve, self.config.offset_tie_tolerance)
+                        curve_peak(&offsets, &curve, prior, self.config.offset_tie_tolerance)
                     else {
                         continue;
                     };
@@ -1086,7 +1090,9 @@ impl Engine {
                         fine.extend(
                             (-(COARSE_LAG_STEPS as i64)..=COARSE_LAG_STEPS as i64)
                                 .map(|k| near + k * LAG_STEP_NS)
-                                .filter(|o| o.abs() <= max_off && (o - offset).abs() <= reach),
+                                .filter(|o| {
+                                    (o - prior).abs() <= max_off && (o - offset).abs() <= reach
+                                }),
                         );
                         lag_curve(
                             imu_sig,
@@ -1097,7 +1103,7 @@ impl Engine {
                             &mut weights,
                             &mut curve,
                         );
-                        if let Some(found) = curve_peak(&fine, &curve, 0.0) {
+                        if let Some(found) = curve_peak(&fine, &curve, prior, 0.0) {
                             (offset, value) = found;
                         }
                     }
@@ -1106,7 +1112,7 @@ impl Engine {
                     e.1 += 1;
                     // A peak at the end of the searched range only says the best lag lies
                     // beyond it: it scores the track but is no offset candidate.
-                    if !imu.is_offset_known && offset.abs() < max_off - LAG_STEP_NS / 2 {
+                    if !imu.is_offset_known && (offset - prior).abs() < max_off - LAG_STEP_NS / 2 {
                         peaks.insert((i, *key), offset);
                     }
                 }
@@ -1216,6 +1222,7 @@ impl Engine {
         {
             self.last_best_track_end = end;
             let mut best = Vec::new();
+            let mut grid = Vec::new();
             for i in 0..self.imus.len() {
                 let Some(imu) = self.imus.get(i) else {
                     continue;
@@ -1226,6 +1233,8 @@ impl Engine {
                 // orientation change's reference sample) depend on where the buffer starts, and
                 // every pass of the sum must measure the same thing.
                 let cut = imu.registry_offset_ns;
+                grid.clear();
+                grid.extend(coarse.iter().map(|o| o + cut));
                 if let Some(imu_sig) = imu_cache
                     .entry((i, cut))
                     .or_insert_with(|| {
@@ -1245,7 +1254,7 @@ impl Engine {
                         lag_curve(
                             imu_sig,
                             sig,
-                            &coarse,
+                            &grid,
                             MAX_IMU_GAP_NS,
                             self.config.geometric.min_samples,
                             &mut weights,
@@ -1280,8 +1289,9 @@ impl Engine {
                 }
                 let mean = mean_curve(&imu.best_track_curve);
                 let Some((offset, peak, rival)) = summed_peak(
-                    &coarse,
+                    &grid,
                     &mean,
+                    imu.registry_offset_ns,
                     max_off,
                     LAG_STEP_NS / 2,
                     OFFSET_PEAK_SEPARATION_NS,
@@ -1327,6 +1337,9 @@ impl Engine {
                 continue;
             }
             let (subject, site) = (imu.subject, imu.site);
+            // The coarse grid around the registry's offset, the prior.
+            let prior = imu.registry_offset_ns;
+            let grid: Vec<i64> = coarse.iter().map(|o| o + prior).collect();
             let mut added: Vec<Vec<f64>> = Vec::new();
             if let Some(imu_sig) = imu_cache
                 .entry((i, imu.offset_ns))
@@ -1352,7 +1365,7 @@ impl Engine {
                     lag_curve(
                         imu_sig,
                         sig,
-                        &coarse,
+                        &grid,
                         MAX_IMU_GAP_NS,
                         self.config.geometric.min_samples,
                         &mut weights,
@@ -1365,8 +1378,8 @@ impl Engine {
                 continue;
             };
             imu.last_label_search_end = end;
-            if imu.label_curve.len() != coarse.len() {
-                imu.label_curve = vec![(0.0, 0); coarse.len()];
+            if imu.label_curve.len() != grid.len() {
+                imu.label_curve = vec![(0.0, 0); grid.len()];
             }
             for c in &added {
                 for (acc, v) in imu.label_curve.iter_mut().zip(c) {
@@ -1387,7 +1400,7 @@ impl Engine {
             if imu.is_offset_known
                 && !self.config.known_clock_offsets
                 && is_contradicted(
-                    &coarse,
+                    &grid,
                     &mean,
                     imu.offset_ns,
                     self.config.offset_withdraw_below,
@@ -1406,8 +1419,9 @@ impl Engine {
             }
             // The peak must lie inside the searched range (see the joint search).
             let Some((offset, peak, rival)) = summed_peak(
-                &coarse,
+                &grid,
                 &mean,
+                prior,
                 max_off,
                 LAG_STEP_NS / 2,
                 OFFSET_PEAK_SEPARATION_NS,
@@ -1496,7 +1510,7 @@ impl Engine {
                 .iter()
                 .map(|(s, w)| if *w > 0.0 { s / w } else { f64::NAN })
                 .collect();
-            let best = curve_peak(&offsets, &mean, 0.0);
+            let best = curve_peak(&offsets, &mean, imu.registry_offset_ns, 0.0);
             let Some(imu) = self.imus.get_mut(i) else {
                 continue;
             };
@@ -1505,7 +1519,8 @@ impl Engine {
                 && corr >= self.config.offset_min_correlation
             {
                 // Refinement never walks out of the searched range.
-                imu.offset_ns = offset.clamp(-max_off, max_off);
+                let prior = imu.registry_offset_ns;
+                imu.offset_ns = offset.clamp(prior - max_off, prior + max_off);
                 record_offset(&mut self.stats, &imu.device, imu.offset_ns, corr);
             }
         }

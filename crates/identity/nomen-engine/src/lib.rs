@@ -36,9 +36,11 @@
 //!    [`EngineConfig::offset_min_track_s`] of the last [`EngineConfig::offset_estimation_window_s`],
 //!    each IMU of the subject gets a lag curve (mean Pearson correlation of De Marchi's
 //!    acceleration and orientation-change magnitudes and nomen's vertical acceleration, swing
-//!    and turn rate, at 15 Hz on the track side and 33 Hz on the IMU's; lags
-//!    ±[`EngineConfig::max_clock_offset_s`] in 40 ms steps, then 10 ms around the coarse peak;
-//!    near-tied peaks go to the smaller |lag|; a peak at the end of the range is no candidate).
+//!    and turn rate, at 15 Hz on the track side and 33 Hz on the IMU's; lags within
+//!    ±[`EngineConfig::max_clock_offset_s`] of the registry's offset for the device, the prior,
+//!    in 40 ms steps, then 10 ms around the coarse peak; near-tied peaks go to the one nearer
+//!    the prior; a peak at the end of the range is no candidate). Every offset path searches
+//!    around that prior.
 //!    The subject's score for a track is the mean of its IMUs' peaks; only when the best track
 //!    beats the next one of its camera by [`EngineConfig::offset_margin`], beats every other
 //!    subject's score on that track by [`EngineConfig::offset_subject_margin`] (two people

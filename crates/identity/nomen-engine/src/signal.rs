@@ -203,12 +203,14 @@ fn interpolation_weights(
     }
 }
 
-/// The peak of a lag curve: `(offset, value)` of the local maximum with the smallest |offset|
-/// among those within `tie_tolerance` of the highest value, refined by a parabola through its
-/// neighbours (by at most half a step). `None` if the curve has no finite value.
+/// The peak of a lag curve: `(offset, value)` of the local maximum closest to `prior_ns` (the
+/// offset expected before any search) among those within `tie_tolerance` of the highest value,
+/// refined by a parabola through its neighbours (by at most half a step). `None` if the curve
+/// has no finite value.
 pub(crate) fn curve_peak(
     offsets_ns: &[i64],
     curve: &[f64],
+    prior_ns: i64,
     tie_tolerance: f64,
 ) -> Option<(i64, f64)> {
     let best = curve
@@ -229,7 +231,7 @@ pub(crate) fn curve_peak(
         .enumerate()
         .take(curve.len())
         .filter(|&(i, _)| is_local_max(i) && at(i) >= best - tie_tolerance)
-        .min_by_key(|&(_, o)| o.unsigned_abs())?;
+        .min_by_key(|&(_, o)| o.abs_diff(prior_ns))?;
     let peak = at(k);
     let (y0, y2) = (k.checked_sub(1).map_or(f64::NAN, at), at(k + 1));
     let step = match (
@@ -250,12 +252,14 @@ pub(crate) fn curve_peak(
 }
 
 /// The peak of a lag curve summed over many tracks or passes (`curve` over `offsets_ns`):
-/// `(offset, value, rival)` of the highest finite value at a lag inside `±max_offset_ns` less
-/// half a step (a peak at the end of the range only says the best lag lies beyond it), with
-/// `rival` the highest value farther than `separation_ns` from it (`−∞` if none).
+/// `(offset, value, rival)` of the highest finite value at a lag inside `prior_ns ±
+/// max_offset_ns` less half a step (a peak at the end of the range only says the best lag lies
+/// beyond it), with `rival` the highest value farther than `separation_ns` from it (`−∞` if
+/// none).
 pub(crate) fn summed_peak(
     offsets_ns: &[i64],
     curve: &[f64],
+    prior_ns: i64,
     max_offset_ns: i64,
     half_step_ns: i64,
     separation_ns: i64,
@@ -263,7 +267,7 @@ pub(crate) fn summed_peak(
     let (offset, peak) = offsets_ns
         .iter()
         .zip(curve)
-        .filter(|(o, v)| v.is_finite() && o.abs() < max_offset_ns - half_step_ns)
+        .filter(|(o, v)| v.is_finite() && (*o - prior_ns).abs() < max_offset_ns - half_step_ns)
         .max_by(|a, b| a.1.total_cmp(b.1))
         .map(|(o, v)| (*o, *v))?;
     let rival = offsets_ns
@@ -345,13 +349,13 @@ mod tests {
         let offsets: Vec<i64> = (-5..=5).map(|k| k * 100).collect();
         // Highest at the range end (−500), then at 200; its neighbour 100 is no rival.
         let curve = [0.9, 0.1, 0.1, 0.3, 0.1, 0.2, 0.55, 0.6, 0.4, 0.1, 0.1];
-        let (offset, peak, rival) = summed_peak(&offsets, &curve, 500, 50, 150).unwrap();
+        let (offset, peak, rival) = summed_peak(&offsets, &curve, 0, 500, 50, 150).unwrap();
         assert_eq!(offset, 200);
         assert_eq!(peak, 0.6);
         // 0.9 at −500 is farther than 150 from 200 and counts as a rival; 0.55 at 100 does not.
         assert_eq!(rival, 0.9);
         let none = [f64::NAN; 11];
-        assert!(summed_peak(&offsets, &none, 500, 50, 150).is_none());
+        assert!(summed_peak(&offsets, &none, 0, 500, 50, 150).is_none());
         assert!(mean_curve(&[(1.0, 2), (0.0, 0)])[1].is_nan());
         assert_eq!(mean_curve(&[(1.0, 2)]), vec![0.5]);
     }
@@ -361,10 +365,10 @@ mod tests {
         let offsets = [-30, -20, -10, 0, 10, 20, 30];
         // Two local maxima: 0.80 at +20 and 0.79 at −10.
         let curve = [0.1, 0.5, 0.79, 0.6, 0.7, 0.8, 0.6];
-        let (o, v) = curve_peak(&offsets, &curve, 0.02).unwrap();
+        let (o, v) = curve_peak(&offsets, &curve, 0, 0.02).unwrap();
         assert!((-15..=-5).contains(&o), "{o}");
         assert!((v - 0.79).abs() < 1e-12);
-        let (o, _) = curve_peak(&offsets, &curve, 0.0).unwrap();
+        let (o, _) = curve_peak(&offsets, &curve, 0, 0.0).unwrap();
         assert!((15..=25).contains(&o), "{o}");
     }
 }

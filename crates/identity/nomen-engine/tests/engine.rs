@@ -254,6 +254,39 @@ fn a_wearer_out_of_view_does_not_take_the_lags_of_someone_moving_alike() {
 }
 
 #[test]
+fn the_offset_search_is_centred_on_the_registry_offset() {
+    // Clocks seconds apart whose offsets the registry knows to within 0.15 s: the search looks
+    // ±max_clock_offset_s around those priors, not around zero. (The residuals are those of
+    // the best-track test: the pendulum swings' magnitude signals repeat every half period, and
+    // other residuals can land on that alias, here as around zero.)
+    let mut people = two_people();
+    people[0].imu_offset_s = 2.05;
+    people[1].imu_offset_s = -1.65;
+    let mut msgs = recording(&people, 20.0);
+    // As a live stream delivers them: in session time, not in each device's own time (the IMU
+    // samples would otherwise arrive seconds early or late and the silence timeout would fire).
+    msgs.sort_by_key(|m| match m {
+        Message::Imu(s) if s.device.as_str() == "ana_imu" => m.t().as_ns() + 2_050_000_000,
+        Message::Imu(s) if s.device.as_str() == "ben_imu" => m.t().as_ns() - 1_650_000_000,
+        _ => m.t().as_ns(),
+    });
+    let mut reg = registry(&people);
+    for (subject, prior_s) in reg.subjects.iter_mut().zip([2.0, -1.5]) {
+        for w in &mut subject.wears {
+            w.clock.offset_ns = (prior_s * 1e9) as i64;
+        }
+    }
+    let (out, stats) = run_batch(&reg, &msgs, &EngineConfig::default()).unwrap();
+    assert_eq!(stats.num_windows_timed_out, 0);
+    let ana = stats.clock_offsets[&DeviceId::new("ana_imu")].offset_ns as f64 * 1e-9;
+    let ben = stats.clock_offsets[&DeviceId::new("ben_imu")].offset_ns as f64 * 1e-9;
+    // 25 ms: the joints' filter delays the track (see the 0.4 s offset test).
+    assert!((ana - 2.05).abs() <= 0.025, "ana offset {ana}");
+    assert!((ben + 1.65).abs() <= 0.025, "ben offset {ben}");
+    assert!(accuracy(&people, &out, 12.0) > 0.98);
+}
+
+#[test]
 fn an_offset_is_also_found_from_the_tracks_its_wearer_is_given() {
     // The joint search never declares a winner here (its margin cannot be met), so only the
     // lag curves summed against the tracks the decisions label with the wearer can find the
