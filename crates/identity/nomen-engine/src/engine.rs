@@ -985,9 +985,12 @@ impl Engine {
         let span = ns(self.config.offset_estimation_window_s);
         let hi = end - max_off;
         let lo = hi - span;
+        // Lags relative to each device's prior (the registry's offset): the fine grid, and the
+        // coarse one the searches for unknown offsets start from.
         let full: Vec<i64> = (-max_off / LAG_STEP_NS..=max_off / LAG_STEP_NS)
             .map(|k| k * LAG_STEP_NS)
             .collect();
+        let coarse: Vec<i64> = full.iter().step_by(COARSE_LAG_STEPS).copied().collect();
         let min_track = ns(self.config.offset_min_track_s);
         let search_every = ns(self.config.offset_search_interval_s);
         let refine_every = ns(self.config.offset_refine_interval_s);
@@ -996,9 +999,9 @@ impl Engine {
             BTreeMap::new();
         // An IMU's buffer, per (IMU, offset it was cut with), for the three uses below.
         let mut imu_cache: BTreeMap<(usize, i64), Option<LagSignals>> = BTreeMap::new();
-        // Interpolation weights, reused by every lag curve.
-        let mut weights = Vec::new();
-        let mut curve = Vec::new();
+        // Interpolation weights and curve, reused by every lag curve.
+        let mut scratch = LagScratch::default();
+        let min_samples = self.config.geometric.min_samples;
         let mut fine = Vec::new();
         // Every subject's mean peak per track; the accepted offsets of a subject are read at
         // themselves only. Subjects with nothing to search still score the tracks, so a track
@@ -1054,10 +1057,7 @@ impl Engine {
                 let offsets: Vec<i64> = if imu.is_offset_known {
                     vec![imu.offset_ns]
                 } else {
-                    full.iter()
-                        .step_by(COARSE_LAG_STEPS)
-                        .map(|o| o + prior)
-                        .collect()
+                    coarse.iter().map(|o| o + prior).collect()
                 };
                 let is_coarse = !imu.is_offset_known;
                 for key in &candidates {
@@ -1069,17 +1069,9 @@ impl Engine {
                     let Some(sig) = sig.as_ref() else {
                         continue;
                     };
-                    lag_curve(
-                        imu_sig,
-                        sig,
-                        &offsets,
-                        MAX_IMU_GAP_NS,
-                        self.config.geometric.min_samples,
-                        &mut weights,
-                        &mut curve,
-                    );
+                    let curve = scratch.curve(imu_sig, sig, &offsets, min_samples);
                     let Some((mut offset, mut value)) =
-                        curve_peak(&offsets, &curve, prior, self.config.offset_tie_tolerance)
+                        curve_peak(&offsets, curve, prior, self.config.offset_tie_tolerance)
                     else {
                         continue;
                     };
@@ -1094,16 +1086,8 @@ impl Engine {
                                     (o - prior).abs() <= max_off && (o - offset).abs() <= reach
                                 }),
                         );
-                        lag_curve(
-                            imu_sig,
-                            sig,
-                            &fine,
-                            MAX_IMU_GAP_NS,
-                            self.config.geometric.min_samples,
-                            &mut weights,
-                            &mut curve,
-                        );
-                        if let Some(found) = curve_peak(&fine, &curve, prior, 0.0) {
+                        let curve = scratch.curve(imu_sig, sig, &fine, min_samples);
+                        if let Some(found) = curve_peak(&fine, curve, prior, 0.0) {
                             (offset, value) = found;
                         }
                     }
@@ -1214,7 +1198,6 @@ impl Engine {
         // `offset_best_track_curves` passes, a peak standing `offset_best_track_margin` above
         // every lag more than `OFFSET_PEAK_SEPARATION_NS` away accepts the offset, or moves an
         // accepted one that lies farther than that from it.
-        let coarse: Vec<i64> = full.iter().step_by(COARSE_LAG_STEPS).copied().collect();
         let best_track_every = ns(self.config.offset_best_track_interval_s);
         if self.config.offset_best_track_curves > 0
             && !self.config.known_clock_offsets
@@ -1229,9 +1212,10 @@ impl Engine {
                 };
                 best.clear();
                 best.resize(coarse.len(), f64::NAN);
-                // Always cut at the registry's offset, accepted or not: the signals (the
-                // orientation change's reference sample) depend on where the buffer starts, and
-                // every pass of the sum must measure the same thing.
+                // Always cut at the registry's offset (the prior the grid is centred on),
+                // accepted or not: the signals (the orientation change's reference sample)
+                // depend on where the buffer starts, and every pass of the sum must measure the
+                // same thing.
                 let cut = imu.registry_offset_ns;
                 grid.clear();
                 grid.extend(coarse.iter().map(|o| o + cut));
@@ -1251,16 +1235,8 @@ impl Engine {
                         let Some(sig) = sig.as_ref() else {
                             continue;
                         };
-                        lag_curve(
-                            imu_sig,
-                            sig,
-                            &grid,
-                            MAX_IMU_GAP_NS,
-                            self.config.geometric.min_samples,
-                            &mut weights,
-                            &mut curve,
-                        );
-                        for (b, v) in best.iter_mut().zip(&curve) {
+                        let curve = scratch.curve(imu_sig, sig, &grid, min_samples);
+                        for (b, v) in best.iter_mut().zip(curve) {
                             // `NaN` (nothing yet) loses to any finite value.
                             if v.is_finite() {
                                 *b = if b.is_nan() { *v } else { b.max(*v) };
@@ -1291,7 +1267,7 @@ impl Engine {
                 let Some((offset, peak, rival)) = summed_peak(
                     &grid,
                     &mean,
-                    imu.registry_offset_ns,
+                    cut,
                     max_off,
                     LAG_STEP_NS / 2,
                     OFFSET_PEAK_SEPARATION_NS,
@@ -1362,16 +1338,8 @@ impl Engine {
                     let Some(sig) = sig.as_ref() else {
                         continue;
                     };
-                    lag_curve(
-                        imu_sig,
-                        sig,
-                        &grid,
-                        MAX_IMU_GAP_NS,
-                        self.config.geometric.min_samples,
-                        &mut weights,
-                        &mut curve,
-                    );
-                    added.push(curve.clone());
+                    let curve = scratch.curve(imu_sig, sig, &grid, min_samples);
+                    added.push(curve.to_vec());
                 }
             }
             let Some(imu) = self.imus.get_mut(i) else {
@@ -1488,17 +1456,9 @@ impl Engine {
                     let Some(sig) = sig.as_ref() else {
                         continue;
                     };
-                    lag_curve(
-                        imu_sig,
-                        sig,
-                        &offsets,
-                        MAX_IMU_GAP_NS,
-                        self.config.geometric.min_samples,
-                        &mut weights,
-                        &mut curve,
-                    );
+                    let curve = scratch.curve(imu_sig, sig, &offsets, min_samples);
                     let w = covered as f64 * 1e-9;
-                    for (acc, v) in sum.iter_mut().zip(&curve) {
+                    for (acc, v) in sum.iter_mut().zip(curve) {
                         if v.is_finite() {
                             acc.0 += w * v;
                             acc.1 += w;
@@ -2309,6 +2269,36 @@ fn joint_centroid(joints: &Joints<Point3<f64>>) -> Option<Point3<f64>> {
             (s + p.coords, n + 1)
         });
     (n > 0).then(|| Point3::from(sum / n as f64))
+}
+
+/// Scratch buffers of the lag search, reused by every curve of a window.
+#[derive(Default)]
+struct LagScratch {
+    weights: Vec<Option<(usize, f64)>>,
+    curve: Vec<f64>,
+}
+
+impl LagScratch {
+    /// The lag curve of `imu` against `track` at `offsets_ns` ([`lag_curve`], across IMU gaps
+    /// up to [`MAX_IMU_GAP_NS`]).
+    fn curve(
+        &mut self,
+        imu: &LagSignals,
+        track: &LagSignals,
+        offsets_ns: &[i64],
+        min_samples: usize,
+    ) -> &[f64] {
+        lag_curve(
+            imu,
+            track,
+            offsets_ns,
+            MAX_IMU_GAP_NS,
+            min_samples,
+            &mut self.weights,
+            &mut self.curve,
+        );
+        &self.curve
+    }
 }
 
 /// Reports an accepted or updated clock offset of `device` in the run's statistics.
