@@ -145,6 +145,7 @@ impl Registry {
                     )));
                 }
                 check_finite_all_lazy(|| format!("clock of '{}'", w.device), &[w.clock.drift_ppm])?;
+                check_clock_offset(&w.clock, || format!("device '{}'", w.device))?;
             }
         }
         let mut cameras = BTreeSet::new();
@@ -157,6 +158,7 @@ impl Registry {
             }
             c.world_from_camera
                 .validate(&format!("camera '{}'.world_from_camera", c.id))?;
+            check_clock_offset(&c.clock, || format!("camera '{}'", c.id))?;
             if let Some(fps) = c.fps_hz {
                 check_range_lazy(
                     || format!("camera '{}'.fps_hz", c.id),
@@ -245,6 +247,23 @@ impl Registry {
     }
 }
 
+/// Largest clock offset a registry may give, ns: 2⁶² ns, about 146 years, so a device that
+/// stamps Unix-epoch time still fits, and sums of an offset with a session time or a lag cannot
+/// overflow.
+const MAX_CLOCK_OFFSET_NS: i64 = 1 << 62;
+
+/// Refuses a clock offset beyond [`MAX_CLOCK_OFFSET_NS`], naming its owner.
+fn check_clock_offset(clock: &ClockModel, owner: impl Fn() -> String) -> Result<()> {
+    if clock.offset_ns.unsigned_abs() > MAX_CLOCK_OFFSET_NS.unsigned_abs() {
+        return Err(CoreError::Invalid(format!(
+            "clock of {}: offset_ns = {} is beyond ±2^62 ns (146 years)",
+            owner(),
+            clock.offset_ns
+        )));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -256,6 +275,33 @@ mod tests {
             site: Joint::LeftWrist,
             clock: ClockModel::default(),
         }
+    }
+
+    #[test]
+    fn an_absurd_clock_offset_is_refused_by_name() {
+        let mut imu = wearable("imu1");
+        imu.clock.offset_ns = i64::MIN;
+        let reg = Registry {
+            subjects: vec![Subject {
+                id: "ana".into(),
+                name: None,
+                wears: vec![imu.clone()],
+            }],
+            ..Default::default()
+        };
+        let err = reg.validate().unwrap_err().to_string();
+        assert!(err.contains("imu1") && err.contains("offset_ns"), "{err}");
+        // A Unix-epoch device clock (about −1.8e18 ns from a session starting now) is fine.
+        imu.clock.offset_ns = -1_800_000_000_000_000_000;
+        let reg = Registry {
+            subjects: vec![Subject {
+                id: "ana".into(),
+                name: None,
+                wears: vec![imu],
+            }],
+            ..Default::default()
+        };
+        assert!(reg.validate().is_ok());
     }
 
     #[test]
