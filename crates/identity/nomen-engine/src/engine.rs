@@ -32,6 +32,18 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 /// Step of the clock-offset search, ns (one IMU sample at 100 Hz).
 const LAG_STEP_NS: i64 = 10_000_000;
 
+/// Common frame times of two cameras' views of a person: at most this far apart (under half a
+/// frame at 30 Hz).
+const CAMERA_PAIR_MAX_DT_NS: i64 = 16_000_000;
+
+/// Fewest common frame times over which two cameras' tracks may be found to show the same
+/// person (about half a second at 30 Hz).
+const CAMERA_PAIR_MIN_FRAMES: usize = 15;
+
+/// How far back two cameras' tracks are compared, in evidence windows: long enough to hold
+/// the whole of a short track whose frames are still being decided.
+const CAMERA_PAIR_LOOKBACK_WINDOWS: i64 = 2;
+
 /// A search for an unknown offset first steps this many [`LAG_STEP_NS`] at a time (40 ms: ten
 /// points per 0.4–0.5 s stride period, so the coarse curve still shows every stride peak), then
 /// refines around its peak at [`LAG_STEP_NS`].
@@ -163,6 +175,8 @@ struct TrackState {
     pending: BTreeMap<i64, Joints<Point3<f64>>>,
     samples: VecDeque<TrackSample>,
     kalman: Vec<Option<JointKalman>>,
+    /// Earliest and newest observation times, session ns.
+    first_t: i64,
     last_t: i64,
     /// Fused window scores per subject.
     evidence: BTreeMap<usize, Accumulator>,
@@ -618,6 +632,7 @@ impl Engine {
                 pending: BTreeMap::new(),
                 samples: VecDeque::new(),
                 kalman: Vec::new(),
+                first_t: t,
                 last_t: t,
                 evidence: BTreeMap::new(),
                 tag_evidence: BTreeMap::new(),
@@ -648,6 +663,7 @@ impl Engine {
             return Ok(());
         };
         track.pending.insert(t, world);
+        track.first_t = track.first_t.min(t);
         if t >= track.last_t {
             track.last_t = t;
             if anchor.is_some() {
@@ -1746,46 +1762,121 @@ impl Engine {
             }
         }
     }
+    /// The tracks of other cameras that show the same person as each of `active` (see
+    /// [`EngineConfig::camera_pair_distance_m`]): pelvis positions over the last
+    /// `CAMERA_PAIR_LOOKBACK_WINDOWS` evidence windows compared at common frame times (within `CAMERA_PAIR_MAX_DT_NS`); a pair needs
+    /// `CAMERA_PAIR_MIN_FRAMES` of them and a mean distance within the limit, and every track
+    /// seen at the same time as either of the two in its camera must be at least twice as far
+    /// from the other one.
+    fn camera_partners(
+        &self,
+        active: &[(usize, TrackId)],
+        end: i64,
+    ) -> BTreeMap<(usize, TrackId), Vec<(usize, TrackId)>> {
+        let mut partners: BTreeMap<(usize, TrackId), Vec<(usize, TrackId)>> = BTreeMap::new();
+        let limit = self.config.camera_pair_distance_m;
+        if limit <= 0.0 || self.cameras.len() < 2 {
+            return partners;
+        }
+        let start = end - CAMERA_PAIR_LOOKBACK_WINDOWS * self.window_ns;
+        let pelvis: Vec<(TrackKey, PelvisPath)> = active
+            .iter()
+            .filter_map(|k| {
+                let tr = self.tracks.get(k)?;
+                let (a, b) = sample_range(tr, start, end);
+                let path: Vec<(i64, Point3<f64>)> = tr
+                    .samples
+                    .range(a..b)
+                    .filter_map(|s| Some((s.t, *s.joints.get(Joint::Pelvis)?)))
+                    .collect();
+                (path.len() >= CAMERA_PAIR_MIN_FRAMES).then_some((*k, path))
+            })
+            .collect();
+        // Mean distance of every pair of tracks of different cameras with enough common frames.
+        let mut distance: BTreeMap<(TrackKey, TrackKey), f64> = BTreeMap::new();
+        for (i, (ka, pa)) in pelvis.iter().enumerate() {
+            for (kb, pb) in pelvis.iter().skip(i + 1) {
+                if ka.0 == kb.0 {
+                    continue;
+                }
+                if let Some(d) = mean_common_distance(pa, pb) {
+                    distance.insert((*ka, *kb), d);
+                    distance.insert((*kb, *ka), d);
+                }
+            }
+        }
+        // Each track's time span in the lookback: only tracks seen at the same time as a
+        // candidate are its rivals (a person's successive tracks in one camera are not).
+        let span: BTreeMap<(usize, TrackId), (i64, i64)> = pelvis
+            .iter()
+            .filter_map(|(k, p)| Some((*k, (p.first()?.0, p.last()?.0))))
+            .collect();
+        let overlaps = |x: &(usize, TrackId), y: &(usize, TrackId)| match (span.get(x), span.get(y))
+        {
+            (Some(a), Some(b)) => a.0 <= b.1 && b.0 <= a.1,
+            _ => false,
+        };
+        // The nearest rival of `b` from `a`'s point of view: tracks of `b`'s camera seen with `b`.
+        let rival = |a: &(usize, TrackId), b: &(usize, TrackId)| {
+            distance
+                .range((*a, (b.0, TrackId(0)))..)
+                .take_while(|((x, y), _)| x == a && y.0 == b.0)
+                .filter(|((_, y), _)| y != b && overlaps(y, b))
+                .map(|(_, d)| *d)
+                .fold(f64::INFINITY, f64::min)
+        };
+        for ((a, b), d) in &distance {
+            if *d <= limit && rival(a, b) >= 2.0 * d && rival(b, a) >= 2.0 * d {
+                partners.entry(*a).or_default().push(*b);
+            }
+        }
+        partners
+    }
+
     /// Assigns subjects to the active tracks of each camera.
     fn decide(&mut self, end: i64) {
         // Only tracks with frames still to emit take part: one that ended before this decision's
         // frames (`end − delay − hop` onwards) keeps its last label, so a subject who walked
         // out and came back under a new id is not fought over by the old and the new track.
         let active_since = end - self.delay_ns - self.hop_ns;
+        let active: Vec<(usize, TrackId)> = self
+            .tracks
+            .iter()
+            .filter(|(_, tr)| tr.last_t >= active_since && !tr.is_superseded)
+            .map(|(k, _)| *k)
+            .collect();
+        let partners = self.camera_partners(&active, end);
         for c in 0..self.cameras.len() {
-            let keys: Vec<(usize, TrackId)> = self
-                .tracks
-                .iter()
-                .filter(|(k, tr)| k.0 == c && tr.last_t >= active_since && !tr.is_superseded)
-                .map(|(k, _)| *k)
-                .collect();
+            let keys: Vec<(usize, TrackId)> = active.iter().filter(|k| k.0 == c).copied().collect();
             if keys.is_empty() || self.subjects.is_empty() {
                 continue;
             }
             let mut rows = Vec::with_capacity(keys.len());
             for key in &keys {
-                let Some(tr) = self.tracks.get_mut(key) else {
-                    continue;
-                };
-                tr.subject_scores.clear();
+                // The track's own evidence and that of the other cameras' views of its person.
+                let views: Vec<&TrackState> = std::iter::once(key)
+                    .chain(partners.get(key).into_iter().flatten())
+                    .filter_map(|k| self.tracks.get(k))
+                    .collect();
+                let label = self.tracks.get(key).and_then(|tr| tr.label);
+                let mut scores = BTreeMap::new();
                 let mut row = vec![None; self.subjects.len()];
                 for s in 0..self.subjects.len() {
                     // Every modality the subject has evidence from counts equally (crate docs).
                     let present: Vec<f64> = [
-                        tr.evidence.get(&s),
-                        tr.tag_evidence.get(&s),
-                        tr.rssi_evidence.get(&s),
+                        pooled_mean(views.iter().map(|tr| tr.evidence.get(&s))),
+                        pooled_mean(views.iter().map(|tr| tr.tag_evidence.get(&s))),
+                        pooled_mean(views.iter().map(|tr| tr.rssi_evidence.get(&s))),
                     ]
                     .into_iter()
                     .flatten()
-                    .map(|a| a.mean)
                     .collect();
                     if present.is_empty() {
                         continue;
                     }
                     let mean = present.iter().sum::<f64>() / present.len() as f64;
-                    tr.subject_scores.insert(s, mean);
-                    let bonus = if tr.label == Some(s) {
+                    scores.insert(s, mean);
+                    let bonus = if label == Some(s) {
                         self.config.switch_margin
                     } else {
                         0.0
@@ -1793,6 +1884,9 @@ impl Engine {
                     if let Some(cell) = row.get_mut(s) {
                         *cell = Some(mean + bonus);
                     }
+                }
+                if let Some(tr) = self.tracks.get_mut(key) {
+                    tr.subject_scores = scores;
                 }
                 rows.push(row);
             }
@@ -1807,18 +1901,66 @@ impl Engine {
             let Ok(assignment) = solve(&matrix, &config) else {
                 continue;
             };
-            for (key, decision) in keys.iter().zip(&assignment.rows) {
-                let Some(tr) = self.tracks.get_mut(key) else {
-                    continue;
-                };
-                let new_label = match decision {
+            let mut labels: Vec<Option<usize>> = assignment
+                .rows
+                .iter()
+                .map(|decision| match decision {
                     RowDecision::Assigned { col, .. } => Some(*col),
                     _ => None,
+                })
+                .collect();
+            self.share_between_successive_tracks(&keys, &rows, &mut labels);
+            for (key, new_label) in keys.iter().zip(labels) {
+                let Some(tr) = self.tracks.get_mut(key) else {
+                    continue;
                 };
                 if tr.label.is_some() && new_label.is_some() && tr.label != new_label {
                     self.stats.num_label_switches += 1;
                 }
                 tr.label = new_label;
+            }
+        }
+    }
+
+    /// One person seen under successive ids by a camera: the assignment gives each subject to
+    /// one track, but a track that ended and its successor (unstitched) may both still have
+    /// frames to label. A track whose best subject went to another track that it never
+    /// coexisted with (their times do not overlap) takes that subject too, if its score clears
+    /// the rejection threshold; tracks are taken by decreasing best score.
+    fn share_between_successive_tracks(
+        &self,
+        keys: &[(usize, TrackId)],
+        rows: &[Vec<Option<f64>>],
+        labels: &mut [Option<usize>],
+    ) {
+        let span = |k: &(usize, TrackId)| self.tracks.get(k).map(|tr| (tr.first_t, tr.last_t));
+        let mut best: Vec<(usize, usize, f64)> = rows
+            .iter()
+            .enumerate()
+            .filter_map(|(r, row)| {
+                let (s, v) = row
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(s, v)| Some((s, (*v)?)))
+                    .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))?;
+                (v >= self.config.rejection_threshold).then_some((r, s, v))
+            })
+            .collect();
+        best.sort_by(|a, b| b.2.total_cmp(&a.2).then(a.0.cmp(&b.0)));
+        for (r, s, _) in best {
+            if labels.get(r).copied().flatten() == Some(s) {
+                continue;
+            }
+            let (Some(key), Some(mine)) = (keys.get(r), keys.get(r).and_then(span)) else {
+                continue;
+            };
+            let coexists = keys.iter().zip(labels.iter()).any(|(other, label)| {
+                other != key
+                    && *label == Some(s)
+                    && span(other).is_none_or(|(a, b)| a <= mine.1 && mine.0 <= b)
+            });
+            if !coexists && let Some(label) = labels.get_mut(r) {
+                *label = Some(s);
             }
         }
     }
@@ -2271,6 +2413,39 @@ fn joint_centroid(joints: &Joints<Point3<f64>>) -> Option<Point3<f64>> {
     (n > 0).then(|| Point3::from(sum / n as f64))
 }
 
+/// The weighted mean of the accumulators present (each weighted by its evidence weight); `None`
+/// without any.
+fn pooled_mean<'a>(accs: impl Iterator<Item = Option<&'a Accumulator>>) -> Option<f64> {
+    let (sum, weight) = accs
+        .flatten()
+        .filter(|a| a.weight > 0.0)
+        .fold((0.0, 0.0), |(s, w), a| {
+            (s + a.mean * a.weight, w + a.weight)
+        });
+    (weight > 0.0).then(|| sum / weight)
+}
+
+/// Mean distance between two paths (time increasing) over their common times (samples at
+/// most `CAMERA_PAIR_MAX_DT_NS` apart, each used once); `None` with fewer than
+/// `CAMERA_PAIR_MIN_FRAMES` of them.
+fn mean_common_distance(a: &[(i64, Point3<f64>)], b: &[(i64, Point3<f64>)]) -> Option<f64> {
+    let (mut i, mut j) = (0, 0);
+    let (mut sum, mut n) = (0.0, 0usize);
+    while let (Some((ta, pa)), Some((tb, pb))) = (a.get(i), b.get(j)) {
+        if (ta - tb).abs() <= CAMERA_PAIR_MAX_DT_NS {
+            sum += (pa - pb).norm();
+            n += 1;
+            i += 1;
+            j += 1;
+        } else if ta < tb {
+            i += 1;
+        } else {
+            j += 1;
+        }
+    }
+    (n >= CAMERA_PAIR_MIN_FRAMES).then(|| sum / n as f64)
+}
+
 /// Scratch buffers of the lag search, reused by every curve of a window.
 #[derive(Default)]
 struct LagScratch {
@@ -2318,6 +2493,12 @@ fn accumulate(acc: &mut Accumulator, score: f64, decay_per_hop: f64) {
 
 /// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
 /// per (IMU, offset, grid index).
+/// A track: its camera's index and its id.
+type TrackKey = (usize, TrackId);
+
+/// A track's pelvis positions (world, m) at its times (session ns).
+type PelvisPath = Vec<(i64, Point3<f64>)>;
+
 type ImuFeatureCache = BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures, Option<BandSignals>)>;
 
 /// Exchanges the people two tracks follow after an id swap: everything that describes the

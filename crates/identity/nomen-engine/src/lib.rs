@@ -78,8 +78,15 @@
 //! 3. **identity**: per camera, the mean of the modalities a subject has evidence from gives the
 //!    track × subject matrix, solved by `nomen_assign::solve` with
 //!    [`EngineConfig::rejection_threshold`]; the track's current label gets
-//!    [`EngineConfig::switch_margin`] as a bonus (hysteresis). One subject never goes to two
-//!    tracks of one camera; a track below threshold is [`nomen_core::Identity::Anonymous`].
+//!    [`EngineConfig::switch_margin`] as a bonus (hysteresis). Tracks of other cameras that
+//!    show the same person (pelvis within [`EngineConfig::camera_pair_distance_m`] on average
+//!    over the last two windows, each the other's unambiguous match) pool their evidence, each
+//!    accumulator weighted by its weight: a track too new to be scored is named from another
+//!    camera's view at once, and a wrong stitch is outweighed. One subject never goes to two
+//!    tracks of one camera seen at the same time; after the assignment, a track whose best
+//!    subject went to a track of its camera that it never coexisted with (the same person
+//!    under an earlier or later id, both still with frames to label) takes that subject too, if
+//!    it clears the threshold. A track below threshold is [`nomen_core::Identity::Anonymous`].
 //!
 //! # Output and latency
 //! Exactly one `Message::Identified` per accepted skeleton observation, with its `(t, camera,

@@ -3,8 +3,13 @@
 
 mod common;
 
-use common::{Person, accuracy, num_skeletons, recording, registry};
-use nomen_core::{DeviceId, Identity, ImuSample, Message, SessionTime, TrackId};
+use common::{Person, accuracy, num_skeletons, recording, registry, world_from_camera};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nomen_core::skeleton::Joints;
+use nomen_core::{
+    CameraId, DeviceId, Identity, ImuSample, JointObservation, Message, Registry, RigidTransform,
+    SessionTime, SkeletonObservation, TrackId,
+};
 use nomen_engine::{Engine, EngineConfig, EngineError, ModelWeights, run_batch};
 
 fn two_people() -> Vec<Person> {
@@ -435,6 +440,13 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
                 ..EngineConfig::default()
             },
         ),
+        (
+            "camera_pair_distance_m",
+            EngineConfig {
+                camera_pair_distance_m: -0.1,
+                ..EngineConfig::default()
+            },
+        ),
     ] {
         let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), config) else {
             panic!("{name} out of range was accepted");
@@ -463,4 +475,98 @@ fn a_negative_model_weight_is_refused_by_name() {
         ..EngineConfig::default()
     };
     assert!(Engine::new(registry(&people), equal).is_ok());
+}
+
+/// `people` seen by a second camera `cam2` (another pose) as well: Ben as one track (id 102),
+/// Ana only in fragments of 0.9 s under a new id each (1000, 1001, …), too short for a window
+/// to score on their own.
+fn with_second_camera(people: &[Person], msgs: &[Message]) -> (Registry, Vec<Message>) {
+    let cam2_pose = Isometry3::from_parts(
+        Translation3::new(4.0, 3.0, 1.6),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 2.5),
+    );
+    let mut registry = registry(people);
+    let mut cam2 = registry.cameras[0].clone();
+    cam2.id = CameraId::new("cam2");
+    cam2.world_from_camera = RigidTransform::from_isometry(&cam2_pose);
+    registry.cameras.push(cam2);
+    let cam2_from_cam = cam2_pose.inverse() * world_from_camera();
+    let mut out = Vec::with_capacity(2 * msgs.len());
+    for m in msgs {
+        out.push(m.clone());
+        let Message::Skeleton(s) = m else { continue };
+        let Some(person) = people
+            .iter()
+            .find(|p| p.track_at(s.t.as_secs_f64()) == s.track)
+        else {
+            continue;
+        };
+        let mut joints = Joints::new();
+        for (j, obs) in s.joints.iter() {
+            joints.insert(j, JointObservation::tracked(cam2_from_cam * obs.position_m));
+        }
+        let track = match person.subject {
+            Some("ana") => TrackId(1000 + (s.t.as_secs_f64() / 0.9) as u64),
+            _ => TrackId(100 + s.track.0),
+        };
+        out.push(Message::Skeleton(SkeletonObservation {
+            t: s.t,
+            camera: CameraId::new("cam2"),
+            track,
+            joints,
+        }));
+    }
+    (registry, out)
+}
+
+#[test]
+fn a_track_too_short_to_score_is_named_from_another_cameras_view_of_its_person() {
+    let people = two_people();
+    let (registry, msgs) = with_second_camera(&people, &recording(&people, 24.0));
+    // No stitching: every fragment starts with no evidence of its own.
+    let config = EngineConfig {
+        stitch_max_gap_s: 0.0,
+        ..EngineConfig::default()
+    };
+    let ana_in_cam2 = |out: &[Message]| {
+        let labels: Vec<Option<String>> = out
+            .iter()
+            .filter_map(|m| match m {
+                Message::Identified(id)
+                    if id.camera.as_str() == "cam2"
+                        && id.track.0 >= 1000
+                        && id.t.as_secs_f64() > 8.0 =>
+                {
+                    Some(id.identity.subject().map(|s| s.as_str().to_owned()))
+                }
+                _ => None,
+            })
+            .collect();
+        let named = labels
+            .iter()
+            .filter(|l| l.as_deref() == Some("ana"))
+            .count();
+        let wrong = labels
+            .iter()
+            .filter(|l| l.as_deref().is_some_and(|s| s != "ana"))
+            .count();
+        (named as f64 / labels.len().max(1) as f64, wrong)
+    };
+    let (out, _) = run_batch(&registry, &msgs, &config).unwrap();
+    let (named, wrong) = ana_in_cam2(&out);
+    assert!(named > 0.9, "Ana's fragments named {named}");
+    assert_eq!(wrong, 0);
+    // The first camera is as right as before.
+    assert!(accuracy(&people, &out, 8.0) > 0.98);
+    // Without the other camera's view, no fragment is ever named.
+    let alone = EngineConfig {
+        camera_pair_distance_m: 0.0,
+        ..config
+    };
+    let (out, _) = run_batch(&registry, &msgs, &alone).unwrap();
+    let (named, _) = ana_in_cam2(&out);
+    assert!(
+        named < 0.05,
+        "Ana's fragments named {named} without pooling"
+    );
 }
