@@ -650,6 +650,10 @@ impl Engine {
             {
                 old.is_superseded = true;
                 fresh.evidence = old.evidence.clone();
+                // Continued, but at a discount: the stitch may have picked the wrong person.
+                for acc in fresh.evidence.values_mut() {
+                    acc.weight *= self.config.stitch_evidence_weight;
+                }
                 fresh.tag_evidence = old.tag_evidence.clone();
                 fresh.rssi_evidence = old.rssi_evidence.clone();
                 fresh.device_evidence = old.device_evidence.clone();

@@ -447,6 +447,13 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
                 ..EngineConfig::default()
             },
         ),
+        (
+            "stitch_evidence_weight",
+            EngineConfig {
+                stitch_evidence_weight: 1.5,
+                ..EngineConfig::default()
+            },
+        ),
     ] {
         let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), config) else {
             panic!("{name} out of range was accepted");
