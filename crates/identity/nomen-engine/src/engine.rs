@@ -1767,11 +1767,11 @@ impl Engine {
         }
     }
     /// The tracks of other cameras that show the same person as each of `active` (see
-    /// [`EngineConfig::camera_pair_distance_m`]): pelvis positions over the last
-    /// `CAMERA_PAIR_LOOKBACK_WINDOWS` evidence windows compared at common frame times (within `CAMERA_PAIR_MAX_DT_NS`); a pair needs
-    /// `CAMERA_PAIR_MIN_FRAMES` of them and a mean distance within the limit, and every track
-    /// seen at the same time as either of the two in its camera must be at least twice as far
-    /// from the other one.
+    /// [`EngineConfig::camera_pair_distance_m`]): settled pelvis positions over the last
+    /// `CAMERA_PAIR_LOOKBACK_WINDOWS` evidence windows, compared at common frame times (within
+    /// `CAMERA_PAIR_MAX_DT_NS`). A pair needs `CAMERA_PAIR_MIN_FRAMES` of them and a mean
+    /// distance within the limit, and every track seen at the same time as either of the two in
+    /// its camera must be at least twice as far from the other one.
     fn camera_partners(
         &self,
         active: &[(usize, TrackId)],
@@ -1913,7 +1913,7 @@ impl Engine {
                     _ => None,
                 })
                 .collect();
-            self.share_between_successive_tracks(&keys, &rows, &mut labels);
+            self.share_between_successive_tracks(end, &keys, &rows, &mut labels);
             for (key, new_label) in keys.iter().zip(labels) {
                 let Some(tr) = self.tracks.get_mut(key) else {
                     continue;
@@ -1929,15 +1929,29 @@ impl Engine {
     /// One person seen under successive ids by a camera: the assignment gives each subject to
     /// one track, but a track that ended and its successor (unstitched) may both still have
     /// frames to label. A track whose best subject went to another track that it never
-    /// coexisted with (their times do not overlap) takes that subject too, if its score clears
-    /// the rejection threshold; tracks are taken by decreasing best score.
+    /// coexisted with (their times before `end` do not overlap) takes that subject too, if its
+    /// score clears the rejection threshold; tracks are taken by decreasing best score.
     fn share_between_successive_tracks(
         &self,
+        end: i64,
         keys: &[(usize, TrackId)],
         rows: &[Vec<Option<f64>>],
         labels: &mut [Option<usize>],
     ) {
-        let span = |k: &(usize, TrackId)| self.tracks.get(k).map(|tr| (tr.first_t, tr.last_t));
+        // Spans from the observations before `end` only (all of them have arrived by now, so
+        // the result does not depend on message order); a track without any coexists with none.
+        let span = |k: &(usize, TrackId)| {
+            let tr = self.tracks.get(k)?;
+            let pending = tr.pending.range(..end).next_back().map(|(t, _)| *t);
+            let settled = tr
+                .samples
+                .partition_point(|s| s.t < end)
+                .checked_sub(1)
+                .and_then(|i| tr.samples.get(i))
+                .map(|s| s.t);
+            let last = pending.max(settled)?;
+            Some((tr.first_t, last))
+        };
         let mut best: Vec<(usize, usize, f64)> = rows
             .iter()
             .enumerate()
@@ -1961,7 +1975,7 @@ impl Engine {
             let coexists = keys.iter().zip(labels.iter()).any(|(other, label)| {
                 other != key
                     && *label == Some(s)
-                    && span(other).is_none_or(|(a, b)| a <= mine.1 && mine.0 <= b)
+                    && span(other).is_some_and(|(a, b)| a <= mine.1 && mine.0 <= b)
             });
             if !coexists && let Some(label) = labels.get_mut(r) {
                 *label = Some(s);
@@ -2495,14 +2509,14 @@ fn accumulate(acc: &mut Accumulator, score: f64, decay_per_hop: f64) {
     acc.weight = w + 1.0;
 }
 
-/// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
-/// per (IMU, offset, grid index).
 /// A track: its camera's index and its id.
 type TrackKey = (usize, TrackId);
 
 /// A track's pelvis positions (world, m) at its times (session ns).
 type PelvisPath = Vec<(i64, Point3<f64>)>;
 
+/// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
+/// per (IMU, offset, grid index).
 type ImuFeatureCache = BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures, Option<BandSignals>)>;
 
 /// Exchanges the people two tracks follow after an id swap: everything that describes the
