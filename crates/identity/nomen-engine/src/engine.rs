@@ -44,6 +44,10 @@ const CAMERA_PAIR_MIN_FRAMES: usize = 15;
 /// the whole of a short track whose frames are still being decided.
 const CAMERA_PAIR_LOOKBACK_WINDOWS: i64 = 2;
 
+/// A track seen this recently before a decision's end may still be in view after it (three
+/// frames at 30 Hz).
+const ALIVE_AT_END_NS: i64 = 100_000_000;
+
 /// A search for an unknown offset first steps this many [`LAG_STEP_NS`] at a time (40 ms: ten
 /// points per 0.4–0.5 s stride period, so the coarse curve still shows every stride peak), then
 /// refines around its peak at [`LAG_STEP_NS`].
@@ -1929,8 +1933,9 @@ impl Engine {
     /// One person seen under successive ids by a camera: the assignment gives each subject to
     /// one track, but a track that ended and its successor (unstitched) may both still have
     /// frames to label. A track whose best subject went to another track that it never
-    /// coexisted with (their times before `end` do not overlap) takes that subject too, if its
-    /// score clears the rejection threshold; tracks are taken by decreasing best score.
+    /// coexisted with (their times do not overlap, judged from what arrived before `end`) takes
+    /// that subject too, if its score clears the rejection threshold; tracks are taken by
+    /// decreasing best score.
     fn share_between_successive_tracks(
         &self,
         end: i64,
@@ -1939,7 +1944,10 @@ impl Engine {
         labels: &mut [Option<usize>],
     ) {
         // Spans from the observations before `end` only (all of them have arrived by now, so
-        // the result does not depend on message order); a track without any coexists with none.
+        // the result does not depend on message order). A track seen within
+        // `ALIVE_AT_END_NS` of `end` may go on past it, and one not seen before `end` starts
+        // there: both count as alive from then on, so a track that starts after `end` coexists
+        // with everyone still in view, and only with them.
         let span = |k: &(usize, TrackId)| {
             let tr = self.tracks.get(k)?;
             let pending = tr.pending.range(..end).next_back().map(|(t, _)| *t);
@@ -1949,8 +1957,11 @@ impl Engine {
                 .checked_sub(1)
                 .and_then(|i| tr.samples.get(i))
                 .map(|s| s.t);
-            let last = pending.max(settled)?;
-            Some((tr.first_t, last))
+            Some(match pending.max(settled) {
+                Some(last) if last < end - ALIVE_AT_END_NS => (tr.first_t, last),
+                Some(_) => (tr.first_t, i64::MAX),
+                None => (end, i64::MAX),
+            })
         };
         let mut best: Vec<(usize, usize, f64)> = rows
             .iter()
