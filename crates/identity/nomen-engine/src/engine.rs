@@ -1776,12 +1776,8 @@ impl Engine {
     /// `CAMERA_PAIR_MAX_DT_NS`). A pair needs `CAMERA_PAIR_MIN_FRAMES` of them and a mean
     /// distance within the limit, and every track seen at the same time as either of the two in
     /// its camera must be at least twice as far from the other one.
-    fn camera_partners(
-        &self,
-        active: &[(usize, TrackId)],
-        end: i64,
-    ) -> BTreeMap<(usize, TrackId), Vec<(usize, TrackId)>> {
-        let mut partners: BTreeMap<(usize, TrackId), Vec<(usize, TrackId)>> = BTreeMap::new();
+    fn camera_partners(&self, active: &[TrackKey], end: i64) -> BTreeMap<TrackKey, Vec<TrackKey>> {
+        let mut partners: BTreeMap<TrackKey, Vec<TrackKey>> = BTreeMap::new();
         let limit = self.config.camera_pair_distance_m;
         if limit <= 0.0 || self.cameras.len() < 2 {
             return partners;
@@ -1815,17 +1811,16 @@ impl Engine {
         }
         // Each track's time span in the lookback: only tracks seen at the same time as a
         // candidate are its rivals (a person's successive tracks in one camera are not).
-        let span: BTreeMap<(usize, TrackId), (i64, i64)> = pelvis
+        let span: BTreeMap<TrackKey, (i64, i64)> = pelvis
             .iter()
             .filter_map(|(k, p)| Some((*k, (p.first()?.0, p.last()?.0))))
             .collect();
-        let overlaps = |x: &(usize, TrackId), y: &(usize, TrackId)| match (span.get(x), span.get(y))
-        {
-            (Some(a), Some(b)) => a.0 <= b.1 && b.0 <= a.1,
+        let overlaps = |x: &TrackKey, y: &TrackKey| match (span.get(x), span.get(y)) {
+            (Some(a), Some(b)) => spans_overlap(*a, *b),
             _ => false,
         };
         // The nearest rival of `b` from `a`'s point of view: tracks of `b`'s camera seen with `b`.
-        let rival = |a: &(usize, TrackId), b: &(usize, TrackId)| {
+        let rival = |a: &TrackKey, b: &TrackKey| {
             distance
                 .range((*a, (b.0, TrackId(0)))..)
                 .take_while(|((x, y), _)| x == a && y.0 == b.0)
@@ -1847,7 +1842,7 @@ impl Engine {
         // frames (`end − delay − hop` onwards) keeps its last label, so a subject who walked
         // out and came back under a new id is not fought over by the old and the new track.
         let active_since = end - self.delay_ns - self.hop_ns;
-        let active: Vec<(usize, TrackId)> = self
+        let active: Vec<TrackKey> = self
             .tracks
             .iter()
             .filter(|(_, tr)| tr.last_t >= active_since && !tr.is_superseded)
@@ -1855,7 +1850,7 @@ impl Engine {
             .collect();
         let partners = self.camera_partners(&active, end);
         for c in 0..self.cameras.len() {
-            let keys: Vec<(usize, TrackId)> = active.iter().filter(|k| k.0 == c).copied().collect();
+            let keys: Vec<TrackKey> = active.iter().filter(|k| k.0 == c).copied().collect();
             if keys.is_empty() || self.subjects.is_empty() {
                 continue;
             }
@@ -1939,7 +1934,7 @@ impl Engine {
     fn share_between_successive_tracks(
         &self,
         end: i64,
-        keys: &[(usize, TrackId)],
+        keys: &[TrackKey],
         rows: &[Vec<Option<f64>>],
         labels: &mut [Option<usize>],
     ) {
@@ -1948,7 +1943,7 @@ impl Engine {
         // `ALIVE_AT_END_NS` of `end` may go on past it, and one not seen before `end` starts
         // there: both count as alive from then on, so a track that starts after `end` coexists
         // with everyone still in view, and only with them.
-        let span = |k: &(usize, TrackId)| {
+        let span = |k: &TrackKey| {
             let tr = self.tracks.get(k)?;
             let pending = tr.pending.range(..end).next_back().map(|(t, _)| *t);
             let settled = tr
@@ -1986,7 +1981,7 @@ impl Engine {
             let coexists = keys.iter().zip(labels.iter()).any(|(other, label)| {
                 other != key
                     && *label == Some(s)
-                    && span(other).is_some_and(|(a, b)| a <= mine.1 && mine.0 <= b)
+                    && span(other).is_some_and(|theirs| spans_overlap(mine, theirs))
             });
             if !coexists && let Some(label) = labels.get_mut(r) {
                 *label = Some(s);
@@ -2411,20 +2406,12 @@ fn average_evidence<K: Ord + Copy>(
     let keys: BTreeSet<K> = a.keys().chain(b.keys()).copied().collect();
     keys.into_iter()
         .map(|k| {
-            let (x, y) = (
-                a.get(&k).copied().unwrap_or_default(),
-                b.get(&k).copied().unwrap_or_default(),
-            );
-            let w = x.weight + y.weight;
-            let mean = if w > 0.0 {
-                (x.mean * x.weight + y.mean * y.weight) / w
-            } else {
-                0.0
-            };
+            let (x, y) = (a.get(&k), b.get(&k));
+            let w = x.map_or(0.0, |x| x.weight) + y.map_or(0.0, |y| y.weight);
             (
                 k,
                 Accumulator {
-                    mean,
+                    mean: pooled_mean([x, y].into_iter()).unwrap_or(0.0),
                     weight: 0.5 * w,
                 },
             )
@@ -2452,6 +2439,11 @@ fn pooled_mean<'a>(accs: impl Iterator<Item = Option<&'a Accumulator>>) -> Optio
             (s + a.mean * a.weight, w + a.weight)
         });
     (weight > 0.0).then(|| sum / weight)
+}
+
+/// Whether two closed time intervals `(first, last)` share an instant.
+fn spans_overlap(a: (i64, i64), b: (i64, i64)) -> bool {
+    a.0 <= b.1 && b.0 <= a.1
 }
 
 /// Mean distance between two paths (time increasing) over their common times (samples at
