@@ -13,7 +13,9 @@
 //!   ([`Engine::with_rssi_model`]).
 //!
 //! A new camera track that starts where an ended track of the same camera stopped (within
-//! [`EngineConfig::stitch_max_gap_s`] and walking reach) continues its evidence and label.
+//! [`EngineConfig::stitch_max_gap_s`] and walking reach) continues its evidence and label, the
+//! motion evidence at [`EngineConfig::stitch_evidence_weight`] of its weight (the stitch may
+//! have picked the wrong one of two people who were close).
 //! SDKs also swap the ids of two people who pass close to each other: when a track's
 //! observation jumps farther than a person moves in the time since its last one (0.25 m plus
 //! 2 m/s) onto within half that jump of where another track of the camera was last seen (both
