@@ -90,6 +90,31 @@ impl PearsonSums {
         }
     }
 
+    /// [`Self::push`] for every pair in order (the same sums, kept in registers meanwhile).
+    #[inline]
+    pub fn extend(&mut self, pairs: impl IntoIterator<Item = (f64, f64)>) {
+        let (shift_x, shift_y) = (self.shift_x, self.shift_y);
+        let (mut n, mut sx, mut sy) = (self.n, self.sx, self.sy);
+        let (mut sxx, mut syy, mut sxy) = (self.sxx, self.syy, self.sxy);
+        let (mut qx, mut qy) = (self.qx, self.qy);
+        for (x, y) in pairs {
+            if x.is_finite() && y.is_finite() {
+                let (dx, dy) = (x - shift_x, y - shift_y);
+                n += 1;
+                sx += dx;
+                sy += dy;
+                sxx += dx * dx;
+                syy += dy * dy;
+                sxy += dx * dy;
+                qx += x * x;
+                qy += y * y;
+            }
+        }
+        (self.n, self.sx, self.sy) = (n, sx, sy);
+        (self.sxx, self.syy, self.sxy) = (sxx, syy, sxy);
+        (self.qx, self.qy) = (qx, qy);
+    }
+
     /// The correlation, with [`pearson`]'s rules: `None` with fewer than `min_samples` (at
     /// least 3) pairs or a constant signal.
     pub fn correlation(&self, min_samples: usize) -> Option<f64> {
@@ -405,6 +430,24 @@ mod tests {
             far.push(1e-3 + 1e-19 * k as f64, *b);
         }
         assert!(far.correlation(3).is_none());
+    }
+
+    #[test]
+    fn extend_gives_the_sums_of_push_bit_for_bit() {
+        let x: Vec<f64> = (0..50).map(|i| 3.0 + (i as f64 * 0.3).sin()).collect();
+        let mut y: Vec<f64> = (0..50).map(|i| (i as f64 * 0.31).cos()).collect();
+        y[7] = f64::NAN;
+        y[8] = f64::INFINITY;
+        let mut pushed = PearsonSums::new(3.0, 1.0);
+        x.iter().zip(&y).for_each(|(a, b)| pushed.push(*a, *b));
+        let mut extended = PearsonSums::new(3.0, 1.0);
+        extended.extend(x.iter().copied().zip(y.iter().copied()).take(20));
+        extended.extend(x.iter().copied().zip(y.iter().copied()).skip(20));
+        let (a, b) = (pushed.correlation(3), extended.correlation(3));
+        assert!(a.is_some());
+        assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits));
+        // The pairs with a non-finite side count for neither.
+        assert!(pushed.correlation(49).is_none() && extended.correlation(48).is_some());
     }
 
     #[test]

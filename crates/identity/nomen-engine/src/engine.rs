@@ -3,8 +3,8 @@
 use crate::config::{EngineConfig, MotionScore, ns};
 use crate::error::{EngineError, Result};
 use crate::signal::{
-    ImuSeries, LagSignals, curve_peak, imu_window_on_grid, is_contradicted, lag_curve, mean_curve,
-    summed_peak,
+    ImuSeries, LagSignals, LagWeight, curve_peak, imu_window_on_grid, is_contradicted, lag_curve,
+    mean_curve, summed_peak,
 };
 use crate::stats::EngineStats;
 use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m, fix_similarity};
@@ -2470,7 +2470,7 @@ fn mean_common_distance(a: &[(i64, Point3<f64>)], b: &[(i64, Point3<f64>)]) -> O
 /// Scratch buffers of the lag search, reused by every curve of a window.
 #[derive(Default)]
 struct LagScratch {
-    weights: Vec<Option<(usize, f64)>>,
+    weights: Vec<LagWeight>,
     curve: Vec<f64>,
 }
 

@@ -96,18 +96,33 @@ pub(crate) fn interpolate(
     let mut weights = Vec::new();
     interpolation_weights(t_ns, shift_ns, t_query, max_gap_ns, &mut weights);
     out.clear();
-    out.extend(weights.iter().map(|w| interpolated(v, *w)));
+    out.resize(t_query.len(), f64::NAN);
+    for w in &weights {
+        if let Some(o) = out.get_mut(w.query) {
+            *o = w.interpolate(v);
+        }
+    }
 }
 
-/// The value of `v` at interpolation weight `w` (`NaN` for none or next to a `NaN`).
-fn interpolated(v: &[f64], w: Option<(usize, f64)>) -> f64 {
-    match w {
-        Some((i, f)) => match (v.get(i), v.get(i + 1)) {
-            (Some(x), _) if f == 0.0 => *x,
-            (Some(x), Some(y)) => x * (1.0 - f) + y * f,
+/// Where one query time falls among a signal's samples: `(1 − frac)·v[lo] + frac·v[hi]` is the
+/// signal there (`lo == hi`, `frac = 0` on an exact hit).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LagWeight {
+    /// The query's index.
+    query: usize,
+    lo: usize,
+    hi: usize,
+    frac: f64,
+}
+
+impl LagWeight {
+    /// The signal `v` at this query: `NaN` next to a `NaN` or outside `v`.
+    #[inline]
+    fn interpolate(&self, v: &[f64]) -> f64 {
+        match (v.get(self.lo), v.get(self.hi)) {
+            (Some(x), Some(y)) => x * (1.0 - self.frac) + y * self.frac,
             _ => f64::NAN,
-        },
-        None => f64::NAN,
+        }
     }
 }
 
@@ -141,7 +156,7 @@ pub(crate) fn lag_curve(
     offsets_ns: &[i64],
     max_gap_ns: i64,
     min_samples: usize,
-    weights: &mut Vec<Option<(usize, f64)>>,
+    weights: &mut Vec<LagWeight>,
     out: &mut Vec<f64>,
 ) {
     out.clear();
@@ -154,14 +169,17 @@ pub(crate) fn lag_curve(
         .collect();
     for &offset in offsets_ns {
         // Where each track time falls among the IMU's samples at this offset, once for every
-        // model.
+        // model; track times outside the IMU's samples or in a gap pair with nothing.
         interpolation_weights(&imu.t_ns, offset, &track.t_ns, max_gap_ns, weights);
         let (mut sum, mut num) = (0.0, 0usize);
         for ((a, b), (sa, sb)) in imu.models.iter().zip(&track.models).zip(&shifts) {
             let mut sums = PearsonSums::new(*sa, *sb);
-            for (w, y) in weights.iter().zip(b) {
-                sums.push(interpolated(a, *w), *y);
-            }
+            sums.extend(weights.iter().map(|w| {
+                (
+                    w.interpolate(a),
+                    b.get(w.query).copied().unwrap_or(f64::NAN),
+                )
+            }));
             if let Some(r) = sums.correlation(min_samples) {
                 sum += r;
                 num += 1;
@@ -171,15 +189,16 @@ pub(crate) fn lag_curve(
     }
 }
 
-/// For each query time (increasing), the IMU sample `i` at or before `t_query − shift_ns` and
-/// the fraction `f` of the way to sample `i + 1` (`f = 0` on an exact hit); `None` outside the
-/// samples or across a gap longer than `max_gap_ns`. [`interpolate`] with these weights.
+/// For each query time (increasing) that falls among the IMU's samples at `t_query −
+/// shift_ns`, the sample at or before it and the fraction of the way to the next one (an exact
+/// hit uses that sample alone); nothing for a query outside the samples or across a gap longer
+/// than `max_gap_ns`.
 fn interpolation_weights(
     t_ns: &[i64],
     shift_ns: i64,
     t_query: &[i64],
     max_gap_ns: i64,
-    out: &mut Vec<Option<(usize, f64)>>,
+    out: &mut Vec<LagWeight>,
 ) {
     out.clear();
     let n = t_ns.len();
@@ -187,19 +206,26 @@ fn interpolation_weights(
     let mut k = t_query
         .first()
         .map_or(0, |&q| t_ns.partition_point(|&t| t < q - shift_ns));
-    for &q in t_query {
+    for (query, &q) in t_query.iter().enumerate() {
         let d = q - shift_ns;
         while k < n && t_ns[k] < d {
             k += 1;
         }
         let w = match (k.checked_sub(1), (k < n).then_some(k)) {
-            (_, Some(b)) if t_ns[b] == d => Some((b, 0.0)),
+            (_, Some(b)) if t_ns[b] == d => Some((b, b, 0.0)),
             (Some(a), Some(b)) if t_ns[b] - t_ns[a] <= max_gap_ns => {
-                Some((a, (d - t_ns[a]) as f64 / (t_ns[b] - t_ns[a]) as f64))
+                Some((a, b, (d - t_ns[a]) as f64 / (t_ns[b] - t_ns[a]) as f64))
             }
             _ => None,
         };
-        out.push(w);
+        if let Some((lo, hi, frac)) = w {
+            out.push(LagWeight {
+                query,
+                lo,
+                hi,
+                frac,
+            });
+        }
     }
 }
 
