@@ -15,7 +15,8 @@ use std::path::PathBuf;
 #[derive(Debug, Subcommand)]
 pub enum ExperimentCommand {
     /// De Marchi's Tables III/IV: identification accuracy for 2–8 people, per matching model and
-    /// fusion, with a full body-area network or one wrist IMU each.
+    /// fusion, with a full body-area network or one wrist IMU each; plus nomen given the true
+    /// IMU clock offsets (`known_offsets`, an ablation of the offset search).
     ImuTable(ImuTableArgs),
     /// Rebecchi's §7.3: occluded-wrist error and 95% ellipsoid volume of the constrained
     /// particle filter (Original, Joint Bounding Volume, Complete) on the assembly scene.
@@ -148,6 +149,10 @@ const COLUMNS: [(&str, Method); 10] = [
     ("belmonte", Method::Belmonte),
     ("nomen", Method::Nomen),
 ];
+
+/// The ablation column: nomen's engine given every IMU's true clock offset (the simulator's),
+/// with the offset search off. Its gap to `nomen` is what clock-offset estimation costs.
+const KNOWN_OFFSETS_COLUMN: &str = "known_offsets";
 
 /// How one column runs the engine.
 #[derive(Debug, Clone, Copy)]
@@ -290,6 +295,15 @@ fn imu_table(args: &ImuTableArgs) -> Result<()> {
             eprintln!("  {name:<17} {}", fmt_pct(acc));
             accuracy.insert(name.to_owned(), acc);
         }
+        let known_registry = registry_with_true_offsets(&sim.scene);
+        let config = EngineConfig {
+            known_clock_offsets: true,
+            ..Method::Nomen.config()
+        };
+        let (result, _) = run_batch(&known_registry, &sim.recording, &config)?;
+        let acc = id_accuracy(&scenario.name, &sim.truth, &result)?;
+        eprintln!("  {KNOWN_OFFSETS_COLUMN:<17} {}", fmt_pct(acc));
+        accuracy.insert(KNOWN_OFFSETS_COLUMN.to_owned(), acc);
         if let Some(cnn) = &cnn {
             for (name, method) in DL_COLUMNS {
                 let config = method.config();
@@ -326,6 +340,26 @@ fn imu_table(args: &ImuTableArgs) -> Result<()> {
         write!(stdout, "{}", render(&table))?;
     }
     Ok(())
+}
+
+/// The scene's registry with each IMU's prior clock offset replaced by the true one the
+/// simulator drew (devices it has no truth for keep their prior).
+fn registry_with_true_offsets(scene: &nomen_sim::SceneDescription) -> nomen_core::Registry {
+    let mut registry = scene.registry.clone();
+    for wearable in registry
+        .subjects
+        .iter_mut()
+        .flat_map(|s| s.wears.iter_mut())
+    {
+        if let Some(truth) = scene
+            .devices
+            .iter()
+            .find(|d| d.device == wearable.device.as_str())
+        {
+            wearable.clock.offset_ns = (truth.clock_offset_s * 1e9).round() as i64;
+        }
+    }
+    registry
 }
 
 fn id_accuracy(name: &str, truth: &[Message], result: &[Message]) -> Result<Option<f64>> {
@@ -370,17 +404,70 @@ fn render(table: &Table) -> String {
         .iter()
         .any(|r| r.accuracy.contains_key(DL_COLUMNS[0].0));
     let dl_names: &[(&str, Method)] = if has_dl { &DL_COLUMNS } else { &[] };
-    for (name, _) in COLUMNS.iter().chain(dl_names) {
+    let names: Vec<&str> = COLUMNS
+        .iter()
+        .map(|(name, _)| *name)
+        .chain([KNOWN_OFFSETS_COLUMN])
+        .chain(dl_names.iter().map(|(name, _)| *name))
+        .collect();
+    for name in &names {
         out.push_str(&format!("  {name:>16}"));
     }
     out.push('\n');
     for row in &table.rows {
         out.push_str(&format!("{:>6}", row.people));
-        for (name, _) in COLUMNS.iter().chain(dl_names) {
+        for name in &names {
             let v = row.accuracy.get(*name).copied().flatten();
             out.push_str(&format!("  {:>16}", fmt_pct(v)));
         }
         out.push('\n');
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_known_offsets_registry_carries_the_simulated_clock_offsets() {
+        let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../../shared/data");
+        if !data.join("mocap/cmu").is_dir() {
+            eprintln!("skipping: shared data not found at {}", data.display());
+            return;
+        }
+        let (_, sim, _) = simulate_for_experiment(
+            include_str!("../../../../../scenarios/imu_wrist_2.toml"),
+            "imu_wrist_2.toml",
+            3,
+            Some(&data),
+        )
+        .expect("simulates");
+        let known = registry_with_true_offsets(&sim.scene);
+        let mut num_imus = 0;
+        for (prior, wearable) in sim
+            .scene
+            .registry
+            .subjects
+            .iter()
+            .flat_map(|s| &s.wears)
+            .zip(known.subjects.iter().flat_map(|s| &s.wears))
+        {
+            assert_eq!(prior.device, wearable.device);
+            let truth = sim
+                .scene
+                .devices
+                .iter()
+                .find(|d| d.device == wearable.device.as_str())
+                .expect("every worn device has a truth");
+            assert_eq!(
+                wearable.clock.offset_ns,
+                (truth.clock_offset_s * 1e9).round() as i64
+            );
+            // The prior the recording carries is not the truth (else the column says nothing).
+            assert_ne!(prior.clock.offset_ns, wearable.clock.offset_ns);
+            num_imus += 1;
+        }
+        assert_eq!(num_imus, 2);
+    }
 }
