@@ -77,20 +77,11 @@ impl PearsonSums {
     /// Adds the pair `(x, y)` if both are finite.
     #[inline]
     pub fn push(&mut self, x: f64, y: f64) {
-        if x.is_finite() && y.is_finite() {
-            let (dx, dy) = (x - self.shift_x, y - self.shift_y);
-            self.n += 1;
-            self.sx += dx;
-            self.sy += dy;
-            self.sxx += dx * dx;
-            self.syy += dy * dy;
-            self.sxy += dx * dy;
-            self.qx += x * x;
-            self.qy += y * y;
-        }
+        self.extend([(x, y)]);
     }
 
-    /// [`Self::push`] for every pair in order (the same sums, kept in registers meanwhile).
+    /// Adds every pair in order, each if both values are finite (the sums are kept in registers
+    /// meanwhile, so a long run of pairs costs no store per pair).
     #[inline]
     pub fn extend(&mut self, pairs: impl IntoIterator<Item = (f64, f64)>) {
         let (shift_x, shift_y) = (self.shift_x, self.shift_y);

@@ -314,20 +314,21 @@ pub struct EngineConfig {
     /// Weight a stitched track's inherited motion evidence keeps, relative to what it had on the
     /// ended track (0..=1): a stitch to the wrong one of two people who were close is then
     /// outvoted by the new track's own windows sooner. Default 0.5. Over the ten imu-table
-    /// scenes, seeds 1–9 (with a 1 s evidence half-life): 79.7 % at 1 (the full weight), 79.9 % at 0.5, 79.8 % at 0.25 (5
-    /// people, full network: 76.8, 78.6, 78.8 %; 8 people, one wrist IMU: 55.8, 55.0, 56.3 %).
+    /// scenes, seeds 1–9 (with a 1 s evidence half-life): 79.7 % at 1 (the full weight),
+    /// 79.9 % at 0.5, 79.8 % at 0.25 (5 people, full network: 76.8, 78.6, 78.8 %; 8 people,
+    /// one wrist IMU: 55.8, 55.0, 56.3 %).
     /// Location-tag and RSSI evidence are inherited whole (their half-lives are short).
     pub stitch_evidence_weight: f64,
     /// Tracks of different cameras whose pelvis positions stayed this close on average over the
-    /// last evidence window show the same person: each decides on the evidence of all of them
+    /// last two evidence windows show the same person: each decides on the evidence of all of them
     /// (weighted by how much each has), so a fresh track seen by another camera for a while is
     /// named at once, and a wrong stitch is outvoted, m. Both tracks must be each other's
     /// nearest, the next candidate at least twice as far. Default 0.3 m: on the simulated
     /// two-camera scenes the same person's pelvis is 5 cm apart between views (median, 26 cm at
     /// p99) and two people rarely under 26 cm (1 % of frame pairs). Over the ten imu-table
-    /// scenes, seeds 1–9 (only the 8-person scenes have two cameras; 1 s evidence half-life): 8 people, full network
-    /// 83.0 % without pooling, 88.7 / 88.5 / 88.4 % at 0.2 / 0.3 / 0.45 m; one wrist IMU 48.9 %
-    /// without, 54.2 / 55.8 / 55.2 %. 0 disables.
+    /// scenes, seeds 1–9 (only the 8-person scenes have two cameras; 1 s evidence half-life):
+    /// 8 people, full network 83.0 % without pooling, 88.7 / 88.5 / 88.4 % at 0.2 / 0.3 /
+    /// 0.45 m; one wrist IMU 48.9 % without, 54.2 / 55.8 / 55.2 %. 0 disables.
     pub camera_pair_distance_m: f64,
     /// Two tracks of a camera closer than this across the line of sight are in a close
     /// encounter, after which their ids may have been swapped by the SDK (their evidence is

@@ -1788,7 +1788,7 @@ impl Engine {
             .filter_map(|k| {
                 let tr = self.tracks.get(k)?;
                 let (a, b) = sample_range(tr, start, end);
-                let path: Vec<(i64, Point3<f64>)> = tr
+                let path: PelvisPath = tr
                     .samples
                     .range(a..b)
                     .filter_map(|s| Some((s.t, *s.joints.get(Joint::Pelvis)?)))
