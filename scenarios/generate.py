@@ -61,18 +61,18 @@ def person(i, clip, subject, wears, path, phase=0.0, mirror=False, height=None, 
 NAMES = ["ana", "ben", "cleo", "dan", "eva", "finn", "gia", "hugo", "ines", "jon", "kai", "lea"]
 
 
-def imu_scene(n, network):
+def imu_scene(n, network, duration_s=60, laps=14, suffix=""):
     kind = "full body-area network (wrists, ankles, pelvis)" if network == "ban" else "one wrist IMU"
-    out = [f'name = "imu_{network}_{n}"',
-           f'description = "{n} people walking loops under one camera{" (two for 8)" if n >= 8 else ""}, each with {kind}; several share a clip at different phases."',
-           "duration_s = 60.0", "seed = 1", "", ROOM, CAM_FRONT]
+    out = [f'name = "imu_{network}_{n}{suffix}"',
+           f'description = "{n} people walking loops under one camera{" (two for 8)" if n >= 8 else ""}, each with {kind}; several share a clip at different phases{"; " + str(duration_s) + " s" if suffix else ""}."',
+           f"duration_s = {float(duration_s)}", "seed = 1", "", ROOM, CAM_FRONT]
     if n >= 8:
         out.append(CAM_BACK)
     for i in range(n):
         s = NAMES[i]
         sites = BAN if network == "ban" else ["left_wrist" if i % 2 == 0 else "right_wrist"]
         wears = [(f"{s}_{site}", "imu", site) for site in sites]
-        out.append(person(i, WALKS[i], s, wears, loop_path(i, n), phase=0.37 * i,
+        out.append(person(i, WALKS[i], s, wears, loop_path(i, n, laps), phase=0.37 * i,
                           mirror=(i % 3 == 2)))
     return "\n".join(out)
 
@@ -86,6 +86,10 @@ def main():
     for n in [2, 3, 4, 5, 8]:
         write(f"imu_wrist_{n}", imu_scene(n, "wrist"))
         write(f"imu_ban_{n}", imu_scene(n, "ban"))
+    # The 8-person scenes three times as long (44 laps cover 180 s): what the engine settles
+    # to once the clock offsets had time to be found.
+    for network in ["wrist", "ban"]:
+        write(f"imu_{network}_8_long", imu_scene(8, network, 180, 44, "_long"))
 
 
 if __name__ == "__main__":
