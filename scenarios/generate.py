@@ -86,8 +86,9 @@ def main():
     for n in [2, 3, 4, 5, 8]:
         write(f"imu_wrist_{n}", imu_scene(n, "wrist"))
         write(f"imu_ban_{n}", imu_scene(n, "ban"))
-    # The 8-person scenes three times as long (44 laps cover 180 s): what the engine settles
-    # to once the clock offsets had time to be found.
+    # The 8-person scenes three times as long: what the engine settles to once the clock
+    # offsets had time to be found. 44 laps last the 180 s, except the first person's small
+    # loop, which ends at 175 s (at 56 s in the 60-s scenes).
     for network in ["wrist", "ban"]:
         write(f"imu_{network}_8_long", imu_scene(8, network, 180, 44, "_long"))
 
