@@ -1,6 +1,6 @@
 //! The streaming engine: ingest, settle, windows, evidence, assignment, output.
 
-use crate::config::{EngineConfig, MotionScore, ns};
+use crate::config::{EngineConfig, MotionScore, OFFSET_CONFIRM_HISTORY, ns};
 use crate::error::{EngineError, Result};
 use crate::signal::{
     ImuSeries, LagSignals, LagWeight, curve_peak, imu_window_on_grid, is_contradicted, lag_curve,
@@ -114,6 +114,11 @@ struct ImuState {
     registry_offset_ns: i64,
     /// Offset candidates of the latest searches, oldest first (`None`: no clear winner).
     candidates: VecDeque<Option<i64>>,
+    /// Winners of the latest searches: `(offset, track, search end)`, oldest first (see
+    /// [`EngineConfig::offset_confirm_apart_s`]).
+    winners: VecDeque<(i64, TrackKey, i64)>,
+    /// An offset the joint search agreed on that awaits its confirmation.
+    pending_offset: Option<i64>,
     /// Lag-curve peak per track from the latest search, used before the offset is accepted.
     pair_offsets: BTreeMap<(usize, TrackId), i64>,
     /// Sum and count, per coarse lag, of the lag curves against the tracks labelled with the
@@ -297,6 +302,8 @@ impl Engine {
                     last_refine_end: i64::MIN,
                     registry_offset_ns: w.clock.offset_ns,
                     candidates: VecDeque::new(),
+                    winners: VecDeque::new(),
+                    pending_offset: None,
                     pair_offsets: BTreeMap::new(),
                     label_curve: Vec::new(),
                     num_label_curves: 0,
@@ -1019,6 +1026,7 @@ impl Engine {
         let search_every = ns(self.config.offset_search_interval_s);
         let refine_every = ns(self.config.offset_refine_interval_s);
         let refine_range = ns(self.config.offset_refine_range_s);
+        let confirm_apart = ns(self.config.offset_confirm_apart_s);
         let mut skel_cache: BTreeMap<((usize, TrackId), Joint), Option<LagSignals>> =
             BTreeMap::new();
         // An IMU's buffer, per (IMU, offset it was cut with), for the three uses below.
@@ -1185,6 +1193,13 @@ impl Engine {
                 imu.pair_offsets = pair_offsets;
                 let candidate = winner.and_then(|(key, _)| imu.pair_offsets.get(&key).copied());
                 imu.candidates.push_back(candidate);
+                imu.pending_offset = None;
+                if let (Some(o), Some((key, _))) = (candidate, winner) {
+                    imu.winners.push_back((o, key, end));
+                    while imu.winners.len() > OFFSET_CONFIRM_HISTORY {
+                        imu.winners.pop_front();
+                    }
+                }
                 while imu.candidates.len() > self.config.offset_num_consistent {
                     imu.candidates.pop_front();
                 }
@@ -1203,6 +1218,21 @@ impl Engine {
                     continue;
                 }
                 let offset = agreed.get(agreed.len() / 2).copied().unwrap_or(last);
+                // A single sensor's agreement is confirmed by another track, or by a winner
+                // long enough ago that the two searches share little of their buffers.
+                if confirm_apart > 0 && mine.len() == 1 {
+                    let tolerance = ns(self.config.offset_consistency_s);
+                    let is_confirmed = winner.is_some_and(|(key, _)| {
+                        imu.winners.iter().any(|(o, k, at)| {
+                            (*k != key || end - at >= confirm_apart)
+                                && (o - offset).abs() <= tolerance
+                        })
+                    });
+                    if !is_confirmed {
+                        imu.pending_offset = Some(offset);
+                        continue;
+                    }
+                }
                 imu.offset_ns = offset;
                 imu.is_offset_known = true;
                 imu.label_curve.clear();
@@ -1309,6 +1339,8 @@ impl Engine {
                 imu.offset_ns = offset;
                 imu.is_offset_known = true;
                 imu.candidates.clear();
+                imu.winners.clear();
+                imu.pending_offset = None;
                 imu.label_curve.clear();
                 imu.num_label_curves = 0;
                 // Refined at once (below) from the coarse step to the fine one.
@@ -1401,6 +1433,8 @@ impl Engine {
             {
                 imu.is_offset_known = false;
                 imu.candidates.clear();
+                imu.winners.clear();
+                imu.pending_offset = None;
                 imu.pair_offsets.clear();
                 imu.label_curve.clear();
                 imu.num_label_curves = 0;
@@ -1422,6 +1456,14 @@ impl Engine {
             };
             if peak < self.config.offset_label_min_correlation
                 || peak - rival < self.config.offset_label_margin
+            {
+                continue;
+            }
+            // An offset the joint search agreed on and is confirming is not overruled here.
+            if !imu.is_offset_known
+                && imu
+                    .pending_offset
+                    .is_some_and(|p| (p - offset).abs() > OFFSET_PEAK_SEPARATION_NS)
             {
                 continue;
             }

@@ -110,7 +110,7 @@ mod signal;
 mod stats;
 mod tags;
 
-pub use config::{EngineConfig, ModelWeights, MotionScore};
+pub use config::{EngineConfig, ModelWeights, MotionScore, OFFSET_CONFIRM_HISTORY};
 pub use engine::Engine;
 pub use error::{EngineError, Result};
 pub use nomen_evidence::{Fusion, FusionConfig, GeometricConfig, KinematicConfig};

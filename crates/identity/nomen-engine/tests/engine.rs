@@ -580,3 +580,42 @@ fn a_track_too_short_to_score_is_named_from_another_cameras_view_of_its_person()
         "Ana's fragments named {named} without pooling"
     );
 }
+
+/// Session time, s, of the first message after which `device` has an accepted clock offset.
+fn first_offset_time_s(people: &[Person], msgs: &[Message], config: EngineConfig) -> Option<f64> {
+    let mut engine = Engine::new(registry(people), config).unwrap();
+    let mut out = Vec::new();
+    let device = DeviceId::new("ana_imu");
+    for m in msgs {
+        engine.push(m).unwrap();
+        engine.poll(&mut out);
+        if engine.stats().clock_offsets.contains_key(&device) {
+            return Some(m.t().as_secs_f64());
+        }
+    }
+    None
+}
+
+#[test]
+fn a_single_imus_offset_waits_for_a_confirming_search_when_asked() {
+    // One track per person all along: with `offset_confirm_apart_s` the joint search's
+    // agreement needs a winner at least that long before, so Ana's offset comes later, and is
+    // still right.
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.4;
+    let mut msgs = recording(&people, 20.0);
+    msgs.sort_by_key(Message::t);
+    let plain = first_offset_time_s(&people, &msgs, EngineConfig::default()).unwrap();
+    let confirming = EngineConfig {
+        offset_confirm_apart_s: 4.0,
+        ..EngineConfig::default()
+    };
+    let confirmed = first_offset_time_s(&people, &msgs, confirming).unwrap();
+    assert!(
+        confirmed > plain + 1.5,
+        "accepted at {plain} s, confirmed at {confirmed} s"
+    );
+    let (_, stats) = run_batch(&registry(&people), &msgs, &confirming).unwrap();
+    let ana = stats.clock_offsets[&DeviceId::new("ana_imu")].offset_ns as f64 * 1e-9;
+    assert!((ana - 0.4).abs() <= 0.025, "ana offset {ana}");
+}
