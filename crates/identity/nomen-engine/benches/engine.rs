@@ -62,19 +62,7 @@ fn main() {
 
     // Steady state: once every clock offset is known (here the simulator's true ones, as after
     // the first minute of a session), the lag search stops and only scoring is left.
-    let mut known = registry.clone();
-    for subject in &mut known.subjects {
-        for wearable in &mut subject.wears {
-            if let Some(d) = sim
-                .scene
-                .devices
-                .iter()
-                .find(|d| d.device == wearable.device.as_str())
-            {
-                wearable.clock.offset_ns = (d.clock_offset_s * 1e9).round() as i64;
-            }
-        }
-    }
+    let known = sim.scene.registry_with_true_offsets();
     let known_config = EngineConfig {
         known_clock_offsets: true,
         ..config

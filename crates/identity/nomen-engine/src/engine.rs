@@ -1194,7 +1194,9 @@ impl Engine {
                 let candidate = winner.and_then(|(key, _)| imu.pair_offsets.get(&key).copied());
                 imu.candidates.push_back(candidate);
                 imu.pending_offset = None;
-                if let (Some(o), Some((key, _))) = (candidate, winner) {
+                // Winners are kept only where they are read: a single IMU, the rule on.
+                let is_confirming = confirm_apart > 0 && mine.len() == 1;
+                if is_confirming && let (Some(o), Some((key, _))) = (candidate, winner) {
                     imu.winners.push_back((o, key, end));
                     while imu.winners.len() > OFFSET_CONFIRM_HISTORY {
                         imu.winners.pop_front();
@@ -1220,7 +1222,7 @@ impl Engine {
                 let offset = agreed.get(agreed.len() / 2).copied().unwrap_or(last);
                 // A single sensor's agreement is confirmed by another track, or by a winner
                 // long enough ago that the two searches share little of their buffers.
-                if confirm_apart > 0 && mine.len() == 1 {
+                if is_confirming {
                     let tolerance = ns(self.config.offset_consistency_s);
                     let is_confirmed = winner.is_some_and(|(key, _)| {
                         imu.winners.iter().any(|(o, k, at)| {

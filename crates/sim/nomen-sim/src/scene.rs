@@ -107,6 +107,29 @@ pub struct SceneDescription {
     pub people_span_s: BTreeMap<String, (f64, f64)>,
 }
 
+impl SceneDescription {
+    /// The registry with each worn device's prior clock offset replaced by the true one drawn
+    /// by the simulator (devices without a truth keep their prior): what the engine would be
+    /// given if clock offsets were known, the ablation of its offset search.
+    pub fn registry_with_true_offsets(&self) -> Registry {
+        let mut registry = self.registry.clone();
+        for wearable in registry
+            .subjects
+            .iter_mut()
+            .flat_map(|s| s.wears.iter_mut())
+        {
+            if let Some(truth) = self
+                .devices
+                .iter()
+                .find(|d| d.device == wearable.device.as_str())
+            {
+                wearable.clock.offset_ns = (truth.clock_offset_s * 1e9).round() as i64;
+            }
+        }
+        registry
+    }
+}
+
 /// Everything a simulation produces.
 #[derive(Debug, Clone)]
 pub struct SimOutput {

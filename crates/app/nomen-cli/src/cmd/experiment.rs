@@ -295,7 +295,7 @@ fn imu_table(args: &ImuTableArgs) -> Result<()> {
             eprintln!("  {name:<17} {}", fmt_pct(acc));
             accuracy.insert(name.to_owned(), acc);
         }
-        let known_registry = registry_with_true_offsets(&sim.scene);
+        let known_registry = sim.scene.registry_with_true_offsets();
         let config = EngineConfig {
             known_clock_offsets: true,
             ..Method::Nomen.config()
@@ -340,26 +340,6 @@ fn imu_table(args: &ImuTableArgs) -> Result<()> {
         write!(stdout, "{}", render(&table))?;
     }
     Ok(())
-}
-
-/// The scene's registry with each IMU's prior clock offset replaced by the true one the
-/// simulator drew (devices it has no truth for keep their prior).
-fn registry_with_true_offsets(scene: &nomen_sim::SceneDescription) -> nomen_core::Registry {
-    let mut registry = scene.registry.clone();
-    for wearable in registry
-        .subjects
-        .iter_mut()
-        .flat_map(|s| s.wears.iter_mut())
-    {
-        if let Some(truth) = scene
-            .devices
-            .iter()
-            .find(|d| d.device == wearable.device.as_str())
-        {
-            wearable.clock.offset_ns = (truth.clock_offset_s * 1e9).round() as i64;
-        }
-    }
-    registry
 }
 
 fn id_accuracy(name: &str, truth: &[Message], result: &[Message]) -> Result<Option<f64>> {
@@ -443,7 +423,7 @@ mod tests {
             Some(&data),
         )
         .expect("simulates");
-        let known = registry_with_true_offsets(&sim.scene);
+        let known = sim.scene.registry_with_true_offsets();
         let mut num_imus = 0;
         for (prior, wearable) in sim
             .scene
