@@ -83,6 +83,10 @@ pub struct EngineStats {
     /// Accepted clock offsets moved to a clearly better peak of the lag curves summed against
     /// the wearer's labelled tracks.
     pub num_offsets_moved: u64,
+    /// Accepted clock offsets settled: the best-track sum peaked clearly at them for
+    /// `EngineConfig::offset_settle_passes` passes in a row, so the pass skips their IMUs while
+    /// they stay there.
+    pub num_offsets_settled: u64,
     /// Accepted clock offsets withdrawn because the wearer's labelled tracks hardly correlate at
     /// them and better at another lag (see `EngineConfig::offset_withdraw_below`).
     pub num_offsets_withdrawn: u64,

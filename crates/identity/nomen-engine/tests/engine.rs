@@ -619,3 +619,31 @@ fn a_single_imus_offset_waits_for_a_confirming_search_when_asked() {
     let ana = stats.clock_offsets[&DeviceId::new("ana_imu")].offset_ns as f64 * 1e-9;
     assert!((ana - 0.4).abs() <= 0.025, "ana offset {ana}");
 }
+
+#[test]
+fn clear_best_track_peaks_in_a_row_settle_an_accepted_offset_and_keep_it() {
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.05;
+    people[1].imu_offset_s = -0.15;
+    let msgs = recording(&people, 60.0);
+    let config = EngineConfig {
+        offset_settle_passes: 3,
+        ..EngineConfig::default()
+    };
+    let (_, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    assert!(stats.num_offsets_settled >= 1, "{stats:?}");
+    // Settled offsets stay right while the best-track pass no longer reads their IMUs.
+    for (device, truth) in [("ana_imu", 0.05), ("ben_imu", -0.15)] {
+        let est = stats.clock_offsets[&DeviceId::new(device)].offset_ns as f64 * 1e-9;
+        assert!((est - truth).abs() <= 0.025, "{device} offset {est}");
+    }
+    // Off, or asking more passes than the run holds, settles nothing.
+    for passes in [0, 30] {
+        let never = EngineConfig {
+            offset_settle_passes: passes,
+            ..config
+        };
+        let (_, stats) = run_batch(&registry(&people), &msgs, &never).unwrap();
+        assert_eq!(stats.num_offsets_settled, 0, "{passes} passes");
+    }
+}
