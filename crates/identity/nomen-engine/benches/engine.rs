@@ -4,7 +4,9 @@
 //! `cargo bench -p nomen-engine` prints the median wall time of `run_batch`, the ratio scene
 //! time / wall time (the goal: ≥ 500× real time on one core) and the per-push cost
 //! percentiles of camera frames (a latency proxy: what one skeleton costs the caller, including
-//! any window it completes). Needs `../shared/data` for the motion capture.
+//! any window it completes); then the engine time of the last minute of the 180-s variant
+//! (`scenarios/imu_ban_8_long.toml`), offsets searched from scratch, with and without settling
+//! confirmed offsets (`offset_settle_passes`). Needs `../shared/data` for the motion capture.
 #![allow(
     missing_docs,
     clippy::print_stdout,
@@ -22,6 +24,8 @@ use std::time::Instant;
 const NUM_RUNS: usize = 3;
 /// The scene.
 const SCENARIO: &str = "scenarios/imu_ban_8.toml";
+/// The long session for the last-minute figure.
+const LONG_SCENARIO: &str = "scenarios/imu_ban_8_long.toml";
 /// Simulation seed.
 const SEED: u64 = 1;
 
@@ -104,4 +108,44 @@ fn main() {
         frame_costs.len(),
         engine.config().latency_s()
     );
+
+    // A longer session, offsets searched from scratch: the third minute, once most offsets are
+    // accepted, with and without settling them (the best-track pass otherwise keeps correlating
+    // every IMU with every track).
+    let text = std::fs::read_to_string(repo.join(LONG_SCENARIO)).expect("long scenario");
+    let long = Scenario::from_toml(&text, LONG_SCENARIO).expect("valid long scenario");
+    let clips = load_scenario_clips(&long, &mut |file| {
+        std::fs::read_to_string(data.join(file)).map_err(|e| e.to_string())
+    })
+    .expect("long clips load");
+    let mut sim = simulate(&long, &clips, SEED, &mut |_, _| {}).expect("simulates");
+    sim.recording.sort_by_key(Message::t);
+    let from_ns = ((long.duration_s - 60.0) * 1e9) as i64;
+    for settle in [EngineConfig::default().offset_settle_passes, 0] {
+        let config = EngineConfig {
+            offset_settle_passes: settle,
+            ..EngineConfig::default()
+        };
+        let mut engine = Engine::new(sim.scene.registry.clone(), config).expect("engine");
+        let mut out = Vec::new();
+        let mut last_minute_s = 0.0;
+        for m in &sim.recording {
+            let start = Instant::now();
+            let _ = engine.push(m);
+            engine.poll(&mut out);
+            if m.t().as_ns() >= from_ns {
+                last_minute_s += start.elapsed().as_secs_f64();
+            }
+            out.clear();
+        }
+        engine.finish(&mut out);
+        println!(
+            "last minute of {LONG_SCENARIO} ({:.0} s, offsets searched): {:.3} s = {:.0}× real time with offset_settle_passes = {settle} ({} of {} offsets settled)",
+            long.duration_s,
+            last_minute_s,
+            60.0 / last_minute_s,
+            engine.stats().num_offsets_settled,
+            engine.stats().clock_offsets.len(),
+        );
+    }
 }
