@@ -1497,6 +1497,8 @@ impl Engine {
                 imu.label_curve.clear();
                 imu.num_label_curves = 0;
                 imu.offset_ns = imu.registry_offset_ns;
+                imu.num_best_track_agreements = 0;
+                imu.best_track_settled_ns = None;
                 self.stats.clock_offsets.remove(&imu.device);
                 self.stats.num_offsets_withdrawn += 1;
                 continue;
@@ -1535,6 +1537,8 @@ impl Engine {
                 // The wearer's tracks clearly peak elsewhere: the accepted offset was wrong
                 // (a stride away, or found on someone else's track).
                 self.stats.num_offsets_moved += 1;
+                imu.num_best_track_agreements = 0;
+                imu.best_track_settled_ns = None;
             }
             imu.offset_ns = offset;
             imu.is_offset_known = true;
