@@ -59,11 +59,13 @@
 //!    clearly peak elsewhere (a stride away, or first found on someone else's track), and
 //!    withdraws one at which that sum stays below [`EngineConfig::offset_withdraw_below`] while
 //!    another lag does better (the IMU is then searched for again). A third path uses no
-//!    decision at all: every [`EngineConfig::offset_best_track_interval_s`] each IMU's coarse
-//!    lag curve is taken against every candidate track, the best value at each lag is summed,
-//!    and after [`EngineConfig::offset_best_track_curves`] passes a peak standing
-//!    [`EngineConfig::offset_best_track_margin`] above every lag more than 0.15 s away accepts
-//!    the offset or moves an accepted one (a wrong early label cannot confirm itself there).
+//!    decision at all: every [`EngineConfig::offset_best_track_interval_s`] each IMU's lag
+//!    curve is taken against every candidate track at every other coarse lag (80 ms), the best
+//!    value at each lag is summed, and after [`EngineConfig::offset_best_track_curves`] passes a
+//!    peak standing [`EngineConfig::offset_best_track_margin`] above every lag more than 0.15 s
+//!    away accepts the offset or moves an accepted one (a wrong early label cannot confirm
+//!    itself there); [`EngineConfig::offset_settle_passes`] such peaks in a row at an accepted
+//!    offset settle it, and the pass stops reading that IMU while it stays there.
 //!    Accepted offsets are refined every [`EngineConfig::offset_refine_interval_s`] against the tracks
 //!    labelled with the wearer (their fine lag curves averaged, weighted by coverage);
 //! 2. **evidence**: per camera, every active track against every subject. IMUs are resampled
