@@ -10,7 +10,12 @@ use nomen_core::{
     CameraId, DeviceId, Identity, ImuSample, JointObservation, Message, Registry, RigidTransform,
     SessionTime, SkeletonObservation, TrackId,
 };
-use nomen_engine::{Engine, EngineConfig, EngineError, ModelWeights, run_batch};
+use nomen_engine::{Engine, EngineConfig, EngineError, EngineStats, ModelWeights, run_batch};
+
+/// The clock offset the engine estimated for `device`, s (the test fails if it made none).
+fn offset_s(stats: &EngineStats, device: &str) -> f64 {
+    stats.clock_offsets[&DeviceId::new(device)].offset_ns as f64 * 1e-9
+}
 
 fn two_people() -> Vec<Person> {
     vec![
@@ -202,8 +207,8 @@ fn a_clock_offset_of_0_4_s_is_estimated_within_25_ms() {
     people[1].imu_offset_s = -0.25;
     let msgs = recording(&people, 20.0);
     let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
-    let ana = stats.clock_offsets[&DeviceId::new("ana_imu")].offset_ns as f64 * 1e-9;
-    let ben = stats.clock_offsets[&DeviceId::new("ben_imu")].offset_ns as f64 * 1e-9;
+    let ana = offset_s(&stats, "ana_imu");
+    let ben = offset_s(&stats, "ben_imu");
     assert!((ana - 0.4).abs() <= 0.025, "ana offset {ana}");
     assert!((ben + 0.25).abs() <= 0.025, "ben offset {ben}");
     assert!(accuracy(&people, &out, 12.0) > 0.98);
@@ -283,8 +288,8 @@ fn the_offset_search_is_centred_on_the_registry_offset() {
     }
     let (out, stats) = run_batch(&reg, &msgs, &EngineConfig::default()).unwrap();
     assert_eq!(stats.num_windows_timed_out, 0);
-    let ana = stats.clock_offsets[&DeviceId::new("ana_imu")].offset_ns as f64 * 1e-9;
-    let ben = stats.clock_offsets[&DeviceId::new("ben_imu")].offset_ns as f64 * 1e-9;
+    let ana = offset_s(&stats, "ana_imu");
+    let ben = offset_s(&stats, "ben_imu");
     // 25 ms: the joints' filter delays the track (see the 0.4 s offset test).
     assert!((ana - 2.05).abs() <= 0.025, "ana offset {ana}");
     assert!((ben + 1.65).abs() <= 0.025, "ben offset {ben}");
@@ -305,8 +310,8 @@ fn an_offset_is_also_found_from_the_tracks_its_wearer_is_given() {
         ..EngineConfig::default()
     };
     let (_, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
-    let ana = stats.clock_offsets[&DeviceId::new("ana_imu")].offset_ns as f64 * 1e-9;
-    let ben = stats.clock_offsets[&DeviceId::new("ben_imu")].offset_ns as f64 * 1e-9;
+    let ana = offset_s(&stats, "ana_imu");
+    let ben = offset_s(&stats, "ben_imu");
     assert!((ana - 0.3).abs() <= 0.03, "ana offset {ana}");
     assert!((ben + 0.2).abs() <= 0.03, "ben offset {ben}");
     let off = EngineConfig {
@@ -332,7 +337,7 @@ fn an_offset_is_also_found_from_the_best_track_at_every_lag() {
         ..EngineConfig::default()
     };
     let (_, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
-    let ben = stats.clock_offsets[&DeviceId::new("ben_imu")].offset_ns as f64 * 1e-9;
+    let ben = offset_s(&stats, "ben_imu");
     // 25 ms: the joints' filter delays the track (see the 0.4 s offset test).
     assert!((ben + 0.15).abs() <= 0.025, "ben offset {ben}");
     // Ana's pendulum swing repeats its magnitude signals every half period (0.56 s), so her
@@ -616,7 +621,7 @@ fn a_single_imus_offset_waits_for_a_confirming_search_when_asked() {
         "accepted at {plain} s, confirmed at {confirmed} s"
     );
     let (_, stats) = run_batch(&registry(&people), &msgs, &confirming).unwrap();
-    let ana = stats.clock_offsets[&DeviceId::new("ana_imu")].offset_ns as f64 * 1e-9;
+    let ana = offset_s(&stats, "ana_imu");
     assert!((ana - 0.4).abs() <= 0.025, "ana offset {ana}");
 }
 
@@ -634,7 +639,7 @@ fn clear_best_track_peaks_in_a_row_settle_an_accepted_offset_and_keep_it() {
     assert!(stats.num_offsets_settled >= 1, "{stats:?}");
     // Settled offsets stay right while the best-track pass no longer reads their IMUs.
     for (device, truth) in [("ana_imu", 0.05), ("ben_imu", -0.15)] {
-        let est = stats.clock_offsets[&DeviceId::new(device)].offset_ns as f64 * 1e-9;
+        let est = offset_s(&stats, device);
         assert!((est - truth).abs() <= 0.025, "{device} offset {est}");
     }
     // Off, or asking more passes than the run holds, settles nothing.
