@@ -16,7 +16,7 @@
 
 use nomen_core::Message;
 use nomen_engine::{Engine, EngineConfig, run_batch};
-use nomen_sim::{Scenario, load_scenario_clips, simulate};
+use nomen_sim::{Scenario, SimOutput, load_scenario_clips, simulate};
 use std::path::Path;
 use std::time::Instant;
 
@@ -29,6 +29,20 @@ const LONG_SCENARIO: &str = "scenarios/imu_ban_8_long.toml";
 /// Simulation seed.
 const SEED: u64 = 1;
 
+/// The scenario at `path` (relative to the repository) simulated at [`SEED`], its recording in
+/// time order.
+fn simulate_sorted(repo: &Path, data: &Path, path: &str) -> (Scenario, SimOutput) {
+    let text = std::fs::read_to_string(repo.join(path)).expect("scenario");
+    let scenario = Scenario::from_toml(&text, path).expect("valid scenario");
+    let clips = load_scenario_clips(&scenario, &mut |file| {
+        std::fs::read_to_string(data.join(file)).map_err(|e| e.to_string())
+    })
+    .expect("clips load");
+    let mut sim = simulate(&scenario, &clips, SEED, &mut |_, _| {}).expect("simulates");
+    sim.recording.sort_by_key(Message::t);
+    (scenario, sim)
+}
+
 fn main() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
     let data = repo.join("../shared/data");
@@ -36,14 +50,7 @@ fn main() {
         println!("skipping: shared data not found at {}", data.display());
         return;
     }
-    let text = std::fs::read_to_string(repo.join(SCENARIO)).expect("scenario");
-    let scenario = Scenario::from_toml(&text, SCENARIO).expect("valid scenario");
-    let clips = load_scenario_clips(&scenario, &mut |file| {
-        std::fs::read_to_string(data.join(file)).map_err(|e| e.to_string())
-    })
-    .expect("clips load");
-    let mut sim = simulate(&scenario, &clips, SEED, &mut |_, _| {}).expect("simulates");
-    sim.recording.sort_by_key(Message::t);
+    let (scenario, sim) = simulate_sorted(&repo, &data, SCENARIO);
     let registry = sim.scene.registry.clone();
     let config = EngineConfig::default();
 
@@ -112,14 +119,7 @@ fn main() {
     // A longer session, offsets searched from scratch: the third minute, once most offsets are
     // accepted, with and without settling them (the best-track pass otherwise keeps correlating
     // every IMU with every track).
-    let text = std::fs::read_to_string(repo.join(LONG_SCENARIO)).expect("long scenario");
-    let long = Scenario::from_toml(&text, LONG_SCENARIO).expect("valid long scenario");
-    let clips = load_scenario_clips(&long, &mut |file| {
-        std::fs::read_to_string(data.join(file)).map_err(|e| e.to_string())
-    })
-    .expect("long clips load");
-    let mut sim = simulate(&long, &clips, SEED, &mut |_, _| {}).expect("simulates");
-    sim.recording.sort_by_key(Message::t);
+    let (long, sim) = simulate_sorted(&repo, &data, LONG_SCENARIO);
     let from_ns = ((long.duration_s - 60.0) * 1e9) as i64;
     for settle in [EngineConfig::default().offset_settle_passes, 0] {
         let config = EngineConfig {
