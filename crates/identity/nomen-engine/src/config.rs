@@ -331,7 +331,8 @@ pub struct EngineConfig {
     /// a long session stops correlating every settled IMU with every track; 0 never settles.
     /// Default 6 (18 s at 3 s): mean accuracy over the ten imu-table scenes (seeds 1–9)
     /// unchanged at 80.52 %, 80.50 % at 4; on a 180-s 8-person full network 31 of 40 offsets
-    /// settle and the run takes 8 % less time, with the same accuracy.
+    /// settle, the whole `nomen run` takes 6–8 % less time and its last minute's engine time
+    /// about a quarter less (`cargo bench -p nomen-engine`), with the same accuracy.
     pub offset_settle_passes: usize,
     /// A track with no observation for this long is forgotten, s. Default 5 s.
     pub track_timeout_s: f64,
