@@ -4,7 +4,7 @@ use crate::config::{EngineConfig, MotionScore, OFFSET_CONFIRM_HISTORY, ns};
 use crate::error::{EngineError, Result};
 use crate::signal::{
     ImuSeries, LagSignals, LagWeight, curve_peak, imu_window_on_grid, is_contradicted, lag_curve,
-    mean_curve, summed_peak,
+    mean_curve, rival_value, summed_peak,
 };
 use crate::stats::EngineStats;
 use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m, fix_similarity};
@@ -1066,10 +1066,11 @@ impl Engine {
             .filter(|(_, tr)| covered_span(tr, lo, hi) >= min_track)
             .map(|(k, _)| *k)
             .collect();
-        // Per subject: mean peak per track; per (unaccepted IMU, track): the peak lag.
+        // Per subject: mean peak per track.
         let mut subject_scores: Vec<BTreeMap<(usize, TrackId), f64>> =
             vec![BTreeMap::new(); self.subjects.len()];
-        let mut peaks: BTreeMap<(usize, (usize, TrackId)), i64> = BTreeMap::new();
+        // Per (unaccepted IMU, track): the peak lag, and whether the peak is clear.
+        let mut peaks: BTreeMap<(usize, (usize, TrackId)), (i64, bool)> = BTreeMap::new();
         for b in 0..num_scored {
             let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
@@ -1129,6 +1130,13 @@ impl Engine {
                     else {
                         continue;
                     };
+                    // Whether this pair's peak stands clear of every lag a stride or a
+                    // look-alike away (on the coarse curve): only a clear one may be a
+                    // candidate. A known offset is read at itself and has no rival.
+                    let clarity = self.config.offset_peak_clarity;
+                    let is_clear = clarity <= 0.0
+                        || value - rival_value(&offsets, curve, offset, OFFSET_PEAK_SEPARATION_NS)
+                            >= clarity;
                     if is_coarse {
                         let reach = COARSE_LAG_STEPS as i64 * LAG_STEP_NS;
                         let near = offset.div_euclid(LAG_STEP_NS) * LAG_STEP_NS;
@@ -1151,7 +1159,7 @@ impl Engine {
                     // A peak at the end of the searched range only says the best lag lies
                     // beyond it: it scores the track but is no offset candidate.
                     if !imu.is_offset_known && (offset - prior).abs() < max_off - LAG_STEP_NS / 2 {
-                        peaks.insert((i, *key), offset);
+                        peaks.insert((i, *key), (offset, is_clear));
                     }
                 }
             }
@@ -1204,8 +1212,12 @@ impl Engine {
                 let pair_offsets: BTreeMap<(usize, TrackId), i64> = peaks
                     .range((i, (0, TrackId(0)))..)
                     .take_while(|((j, _), _)| *j == i)
-                    .map(|((_, k), o)| (*k, *o))
+                    .map(|((_, k), (o, _))| (*k, *o))
                     .collect();
+                // The winning track's peak lag is a candidate only if it is clear.
+                let candidate = winner
+                    .and_then(|(key, _)| peaks.get(&(i, key)))
+                    .and_then(|(o, is_clear)| is_clear.then_some(*o));
                 let Some(imu) = self.imus.get_mut(i) else {
                     continue;
                 };
@@ -1213,7 +1225,6 @@ impl Engine {
                     continue;
                 }
                 imu.pair_offsets = pair_offsets;
-                let candidate = winner.and_then(|(key, _)| imu.pair_offsets.get(&key).copied());
                 imu.candidates.push_back(candidate);
                 imu.pending_offset = None;
                 // Winners are kept only where they are read: a single IMU, the rule on.

@@ -47,8 +47,10 @@
 //!    beats the next one of its camera by [`EngineConfig::offset_margin`], beats every other
 //!    subject's score on that track by [`EngineConfig::offset_subject_margin`] (two people
 //!    walking alike must not both take one track's lags) and reaches
-//!    [`EngineConfig::offset_min_correlation`] is each IMU's peak lag on it a candidate, and
-//!    [`EngineConfig::offset_num_consistent`] candidates in a row within
+//!    [`EngineConfig::offset_min_correlation`] is each IMU's peak lag on it a candidate, if that
+//!    peak stands [`EngineConfig::offset_peak_clarity`] above every lag more than 0.15 s away
+//!    (one IMU's peak on the right track may still sit a stride away, or on a look-alike's
+//!    rhythm), and [`EngineConfig::offset_num_consistent`] candidates in a row within
 //!    [`EngineConfig::offset_consistency_s`] make the offset. Tracks too short for that still
 //!    count once the decisions put the wearer on them: each IMU sums its coarse lag curves
 //!    against the tracks labelled with its wearer, and after

@@ -296,13 +296,28 @@ pub(crate) fn summed_peak(
         .filter(|(o, v)| v.is_finite() && (*o - prior_ns).abs() < max_offset_ns - half_step_ns)
         .max_by(|a, b| a.1.total_cmp(b.1))
         .map(|(o, v)| (*o, *v))?;
-    let rival = offsets_ns
+    Some((
+        offset,
+        peak,
+        rival_value(offsets_ns, curve, offset, separation_ns),
+    ))
+}
+
+/// The highest finite value of a lag curve farther than `separation_ns` from `peak_ns` (`−∞`
+/// if none): what a peak at `peak_ns` must stand above to be told from a lag a stride or a
+/// look-alike away.
+pub(crate) fn rival_value(
+    offsets_ns: &[i64],
+    curve: &[f64],
+    peak_ns: i64,
+    separation_ns: i64,
+) -> f64 {
+    offsets_ns
         .iter()
         .zip(curve)
-        .filter(|(o, v)| (*o - offset).abs() > separation_ns && v.is_finite())
+        .filter(|(o, v)| (*o - peak_ns).abs() > separation_ns && v.is_finite())
         .map(|(_, v)| *v)
-        .fold(f64::NEG_INFINITY, f64::max);
-    Some((offset, peak, rival))
+        .fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// The mean of each `(sum, count)` pair; `NaN` where nothing was summed.
@@ -380,6 +395,9 @@ mod tests {
         assert_eq!(peak, 0.6);
         // 0.9 at −500 is farther than 150 from 200 and counts as a rival; 0.55 at 100 does not.
         assert_eq!(rival, 0.9);
+        // The same rival for a peak read elsewhere; nothing far enough away gives −∞.
+        assert_eq!(rival_value(&offsets, &curve, 200, 150), 0.9);
+        assert_eq!(rival_value(&offsets, &curve, 0, 1_000), f64::NEG_INFINITY);
         let none = [f64::NAN; 11];
         assert!(summed_peak(&offsets, &none, 0, 500, 50, 150).is_none());
         assert!(mean_curve(&[(1.0, 2), (0.0, 0)])[1].is_nan());

@@ -17,6 +17,18 @@ fn offset_s(stats: &EngineStats, device: &str) -> f64 {
     stats.clock_offsets[&DeviceId::new(device)].offset_ns as f64 * 1e-9
 }
 
+/// The defaults, except that the joint offset search takes a peak that is not clear of the
+/// rest of its lag curve: the synthetic swings are pendulums whose magnitude signals repeat
+/// every half period (0.38 s for Ben, 0.56 s for Ana), so their curves have near-equal peaks
+/// within the searched range and only the tie-break toward the registry's offset picks one.
+/// For the tests of the other offset rules.
+fn any_peak() -> EngineConfig {
+    EngineConfig {
+        offset_peak_clarity: 0.0,
+        ..EngineConfig::default()
+    }
+}
+
 fn two_people() -> Vec<Person> {
     vec![
         Person::new(Some("ana"), 0.9, 0.0, 1),
@@ -231,7 +243,7 @@ fn a_wearer_out_of_view_does_not_take_the_lags_of_someone_moving_alike() {
     let people = vec![ana, cleo];
     let msgs = recording(&people, 20.0);
     let run = |config: &EngineConfig| run_batch(&registry(&people), &msgs, config).unwrap();
-    let (out, stats) = run(&EngineConfig::default());
+    let (out, stats) = run(&any_peak());
     assert!(
         !stats.clock_offsets.contains_key(&DeviceId::new("cleo_imu")),
         "{:?}",
@@ -248,7 +260,7 @@ fn a_wearer_out_of_view_does_not_take_the_lags_of_someone_moving_alike() {
     // Without the check across subjects Cleo takes her offset from Ana's track.
     let unchecked = EngineConfig {
         offset_subject_margin: -1.0,
-        ..EngineConfig::default()
+        ..any_peak()
     };
     let (_, stats) = run(&unchecked);
     let cleo = stats
@@ -286,7 +298,7 @@ fn the_offset_search_is_centred_on_the_registry_offset() {
             w.clock.offset_ns = (prior_s * 1e9) as i64;
         }
     }
-    let (out, stats) = run_batch(&reg, &msgs, &EngineConfig::default()).unwrap();
+    let (out, stats) = run_batch(&reg, &msgs, &any_peak()).unwrap();
     assert_eq!(stats.num_windows_timed_out, 0);
     let ana = offset_s(&stats, "ana_imu");
     let ben = offset_s(&stats, "ben_imu");
@@ -353,6 +365,41 @@ fn an_offset_is_also_found_from_the_best_track_at_every_lag() {
     };
     let (_, stats) = run_batch(&registry(&people), &msgs, &off).unwrap();
     assert!(stats.clock_offsets.is_empty(), "{:?}", stats.clock_offsets);
+}
+
+#[test]
+fn the_joint_search_takes_only_peaks_that_stand_clear_of_the_rest_of_the_curve() {
+    // Ana's swing repeats its magnitude signals every 0.56 s, so at 0.4 s her curve's other
+    // peak lies outside the searched range; Ben's repeat every 0.38 s, and at −0.2 s his
+    // curve also peaks near +0.18 s. With the other paths off, only Ana's offset is found;
+    // taking any peak finds Ben's too (the tie-break toward the registry's zero is right here).
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.4;
+    people[1].imu_offset_s = -0.2;
+    let msgs = recording(&people, 20.0);
+    let joint_only = EngineConfig {
+        offset_label_curves: 0,
+        offset_best_track_curves: 0,
+        ..EngineConfig::default()
+    };
+    let (out, stats) = run_batch(&registry(&people), &msgs, &joint_only).unwrap();
+    // 25 ms: the joints' filter delays the track (see the 0.4 s offset test).
+    let ana = offset_s(&stats, "ana_imu");
+    assert!((ana - 0.4).abs() <= 0.025, "ana offset {ana}");
+    assert!(
+        !stats.clock_offsets.contains_key(&DeviceId::new("ben_imu")),
+        "{:?}",
+        stats.clock_offsets
+    );
+    // Ben is still named: his IMU is read at each track's own peak meanwhile.
+    assert!(accuracy(&people, &out, 8.0) > 0.98);
+    let any = EngineConfig {
+        offset_peak_clarity: 0.0,
+        ..joint_only
+    };
+    let (_, stats) = run_batch(&registry(&people), &msgs, &any).unwrap();
+    let ben = offset_s(&stats, "ben_imu");
+    assert!((ben + 0.2).abs() <= 0.025, "ben offset {ben}");
 }
 
 #[test]
@@ -435,6 +482,13 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             "offset_best_track_margin",
             EngineConfig {
                 offset_best_track_margin: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "offset_peak_clarity",
+            EngineConfig {
+                offset_peak_clarity: -0.1,
                 ..EngineConfig::default()
             },
         ),
@@ -610,10 +664,10 @@ fn a_single_imus_offset_waits_for_a_confirming_search_when_asked() {
     people[0].imu_offset_s = 0.4;
     let mut msgs = recording(&people, 20.0);
     msgs.sort_by_key(Message::t);
-    let plain = first_offset_time_s(&people, &msgs, EngineConfig::default()).unwrap();
+    let plain = first_offset_time_s(&people, &msgs, any_peak()).unwrap();
     let confirming = EngineConfig {
         offset_confirm_apart_s: 4.0,
-        ..EngineConfig::default()
+        ..any_peak()
     };
     let confirmed = first_offset_time_s(&people, &msgs, confirming).unwrap();
     assert!(
@@ -633,7 +687,7 @@ fn clear_best_track_peaks_in_a_row_settle_an_accepted_offset_and_keep_it() {
     let msgs = recording(&people, 60.0);
     let config = EngineConfig {
         offset_settle_passes: 3,
-        ..EngineConfig::default()
+        ..any_peak()
     };
     let (_, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
     assert!(stats.num_offsets_settled >= 1, "{stats:?}");
