@@ -1132,11 +1132,13 @@ impl Engine {
                     };
                     // Whether this pair's peak stands clear of every lag a stride or a
                     // look-alike away (on the coarse curve): only a clear one may be a
-                    // candidate. A known offset is read at itself and has no rival.
+                    // candidate. A known offset is read at itself and is no candidate.
                     let clarity = self.config.offset_peak_clarity;
-                    let is_clear = clarity <= 0.0
-                        || value - rival_value(&offsets, curve, offset, OFFSET_PEAK_SEPARATION_NS)
-                            >= clarity;
+                    let is_clear = is_coarse
+                        && (clarity <= 0.0
+                            || value
+                                - rival_value(&offsets, curve, offset, OFFSET_PEAK_SEPARATION_NS)
+                                >= clarity);
                     if is_coarse {
                         let reach = COARSE_LAG_STEPS as i64 * LAG_STEP_NS;
                         let near = offset.div_euclid(LAG_STEP_NS) * LAG_STEP_NS;
