@@ -2608,14 +2608,23 @@ impl LagScratch {
         offsets_ns: &[i64],
         min_samples: usize,
     ) -> &[f64] {
-        let key = (imu_index, cut_ns, track);
-        if !self.coarse.contains_key(&key) {
-            let curve = self
-                .curve(imu, track_signals, offsets_ns, min_samples)
-                .to_vec();
-            self.coarse.insert(key, curve);
-        }
-        self.coarse.get(&key).map_or(&[], Vec::as_slice)
+        let Self {
+            weights,
+            curve,
+            coarse,
+        } = self;
+        coarse.entry((imu_index, cut_ns, track)).or_insert_with(|| {
+            lag_curve(
+                imu,
+                track_signals,
+                offsets_ns,
+                MAX_IMU_GAP_NS,
+                min_samples,
+                weights,
+                curve,
+            );
+            curve.clone()
+        })
     }
 
     /// The lag curve of `imu` against `track` at `offsets_ns` ([`lag_curve`], across IMU gaps
@@ -2787,32 +2796,34 @@ impl TrackLagCache {
         hi: i64,
         config: &EngineConfig,
     ) -> Option<&LagSignals> {
-        if !self.signals.contains_key(&(key, site)) {
-            let window = self.windows.entry(key).or_insert_with(|| {
-                let tr = tracks.get(&key)?;
-                let (a, b) = sample_range(tr, lo, hi);
-                if b < a + 16 {
-                    return None;
-                }
-                let t_ns: Vec<i64> = tr.samples.range(a..b).map(|s| s.t).collect();
-                let skel = SkeletonWindow {
-                    camera: None,
-                    track: None,
-                    t_s: t_ns.iter().map(|&t| t as f64 * 1e-9).collect(),
-                    joints_world_m: tr.samples.range(a..b).map(|s| s.joints.clone()).collect(),
-                };
-                Some((t_ns, skel))
-            });
-            let signals = window.as_ref().map(|(t_ns, skel)| {
-                let models =
-                    segment_lag_models(skel, site, &lag_geometric(config), &config.kinematic);
-                // The signals are built at the camera's rate, then every `LAG_DECIMATION`-th
-                // sample is correlated: the models are low-passed well below the decimated
-                // Nyquist rate.
-                LagSignals::every_nth(t_ns, &models, LAG_DECIMATION)
-            });
-            self.signals.insert((key, site), signals);
-        }
-        self.signals.get(&(key, site)).and_then(Option::as_ref)
+        let Self { windows, signals } = self;
+        signals
+            .entry((key, site))
+            .or_insert_with(|| {
+                let window = windows.entry(key).or_insert_with(|| {
+                    let tr = tracks.get(&key)?;
+                    let (a, b) = sample_range(tr, lo, hi);
+                    if b < a + 16 {
+                        return None;
+                    }
+                    let t_ns: Vec<i64> = tr.samples.range(a..b).map(|s| s.t).collect();
+                    let skel = SkeletonWindow {
+                        camera: None,
+                        track: None,
+                        t_s: t_ns.iter().map(|&t| t as f64 * 1e-9).collect(),
+                        joints_world_m: tr.samples.range(a..b).map(|s| s.joints.clone()).collect(),
+                    };
+                    Some((t_ns, skel))
+                });
+                window.as_ref().map(|(t_ns, skel)| {
+                    let models =
+                        segment_lag_models(skel, site, &lag_geometric(config), &config.kinematic);
+                    // The signals are built at the camera's rate, then every `LAG_DECIMATION`-th
+                    // sample is correlated: the models are low-passed well below the decimated
+                    // Nyquist rate.
+                    LagSignals::every_nth(t_ns, &models, LAG_DECIMATION)
+                })
+            })
+            .as_ref()
     }
 }
