@@ -42,6 +42,9 @@ pub struct ImuFeatures {
     pub axis_elevation: [Vec<f64>; 3],
     /// Angular rate about the world vertical ([`crate::imu_turn_rate_signal`]).
     pub turn_rate: Vec<f64>,
+    /// World-horizontal linear acceleration `(x, y)` in the IMU's own heading frame (its AHRS
+    /// knows up, not north), smoothed.
+    pub horizontal_accel: [Vec<f64>; 2],
 }
 
 impl ImuFeatures {
@@ -77,6 +80,10 @@ impl ImuFeatures {
             vertical_velocity: smooth(imu_vertical_velocity(imu, &lin, geo)),
             axis_elevation: [smooth(ex), smooth(ey), smooth(ez)],
             turn_rate: imu_turn_rate_signal(imu, kin),
+            horizontal_accel: [
+                smooth(lin.iter().map(|a| a.x).collect()),
+                smooth(lin.iter().map(|a| a.y).collect()),
+            ],
         }
     }
 
@@ -111,6 +118,8 @@ pub struct SegmentFeatures {
     pub elevation: Vec<f64>,
     /// The body's turn rate ([`crate::body_turn_rate_signal`]; the same for every site).
     pub turn_rate: Vec<f64>,
+    /// The joint's world-horizontal acceleration `(x, y)`, smoothed.
+    pub horizontal_accel: [Vec<f64>; 2],
 }
 
 impl SegmentFeatures {
@@ -154,6 +163,16 @@ impl SegmentFeatures {
             ),
             elevation: smooth(elevation),
             turn_rate: body_turn_rate_signal(skel, kin),
+            horizontal_accel: [
+                smooth(
+                    acc.as_deref()
+                        .map_or_else(missing, |a| a.iter().map(|a| a.x).collect()),
+                ),
+                smooth(
+                    acc.as_deref()
+                        .map_or_else(missing, |a| a.iter().map(|a| a.y).collect()),
+                ),
+            ],
         }
     }
 
@@ -252,6 +271,83 @@ pub fn compare_features(
         turn: corr(&imu.turn_rate, &seg.turn_rate),
     };
     (geometric, kinematic)
+}
+
+/// Cross sums of an IMU's and a joint's horizontal accelerations over one window, each side's
+/// mean removed, read as complex numbers `a = x + iy`: `Σ a·conj(s)` and both powers. The
+/// IMU's heading frame differs from the room's by an unknown rotation about the vertical; for
+/// the IMU's own joint the cross sum's phase is that rotation, window after window, while for
+/// anyone else it wanders as the two walk different ways.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HorizontalCross {
+    /// Real part of `Σ a·conj(s)`, (m/s²)².
+    pub re: f64,
+    /// Imaginary part of `Σ a·conj(s)`, (m/s²)².
+    pub im: f64,
+    /// `Σ |a|²`, (m/s²)².
+    pub imu_power: f64,
+    /// `Σ |s|²`, (m/s²)².
+    pub joint_power: f64,
+}
+
+impl HorizontalCross {
+    /// `√(Σ|a|² Σ|s|²)`: the largest `|Σ a·conj(s)|` can be.
+    pub fn norm(&self) -> f64 {
+        (self.imu_power * self.joint_power).sqrt()
+    }
+
+    /// The correlation of the two after turning the IMU's frame by the unit complex number
+    /// `(c, s)` (the frame's rotation, as `conj` of the cross sum's phase), in [−1, 1]; `None`
+    /// for a window without power.
+    pub fn aligned_correlation(&self, c: f64, s: f64) -> Option<f64> {
+        let norm = self.norm();
+        (norm > 0.0 && norm.is_finite()).then(|| (self.re * c + self.im * s) / norm)
+    }
+}
+
+/// [`HorizontalCross`] of an IMU's and a segment's features on the same grid, over the samples
+/// where both are finite; `None` if fewer than `min_samples` are or the grids differ in length.
+pub fn horizontal_cross(
+    imu: &ImuFeatures,
+    seg: &SegmentFeatures,
+    min_samples: usize,
+) -> Option<HorizontalCross> {
+    let [ax, ay] = &imu.horizontal_accel;
+    let [sx, sy] = &seg.horizontal_accel;
+    if ax.len() != sx.len() || ay.len() != ax.len() || sy.len() != sx.len() {
+        return None;
+    }
+    let both = || {
+        ax.iter()
+            .zip(ay)
+            .zip(sx.iter().zip(sy))
+            .filter(|((ax, ay), (sx, sy))| {
+                ax.is_finite() && ay.is_finite() && sx.is_finite() && sy.is_finite()
+            })
+    };
+    let mut n = 0usize;
+    let mut mean = [0.0f64; 4];
+    for ((ax, ay), (sx, sy)) in both() {
+        n += 1;
+        for (m, v) in mean.iter_mut().zip([ax, ay, sx, sy]) {
+            *m += v;
+        }
+    }
+    if n < min_samples.max(2) {
+        return None;
+    }
+    for m in &mut mean {
+        *m /= n as f64;
+    }
+    let mut out = HorizontalCross::default();
+    for ((ax, ay), (sx, sy)) in both() {
+        let (ax, ay, sx, sy) = (ax - mean[0], ay - mean[1], sx - mean[2], sy - mean[3]);
+        out.re += ax * sx + ay * sy;
+        out.im += ay * sx - ax * sy;
+        out.imu_power += ax * ax + ay * ay;
+        out.joint_power += sx * sx + sy * sy;
+    }
+    Some(out)
 }
 
 #[cfg(test)]
@@ -414,5 +510,87 @@ mod tests {
         );
         assert_eq!(scores, ModelScores::default());
         assert_eq!(k, KinematicScores::default());
+    }
+
+    /// Features carrying only horizontal accelerations: the joint's `s`, and the IMU's the
+    /// same vectors seen from a frame turned by `yaw_rad` (plus a little disagreement).
+    fn horizontal_pair(yaw_rad: f64, len: usize) -> (ImuFeatures, SegmentFeatures) {
+        let s: Vec<[f64; 2]> = (0..len)
+            .map(|k| {
+                let t = k as f64 / 30.0;
+                // A stride's fore-aft swing along a heading that turns a quarter round.
+                let heading = 1.6 * (t / 4.0).min(1.0);
+                let swing = (2.0 * std::f64::consts::PI * 0.9 * t).sin() + 0.3 * (5.1 * t).cos();
+                [swing * heading.cos(), swing * heading.sin()]
+            })
+            .collect();
+        let (sin, cos) = (-yaw_rad).sin_cos();
+        let a: Vec<[f64; 2]> = s
+            .iter()
+            .enumerate()
+            .map(|(k, [x, y])| {
+                let wobble = 0.05 * (k as f64 * 0.7).sin();
+                [cos * x - sin * y + wobble, sin * x + cos * y]
+            })
+            .collect();
+        let split = |v: &[[f64; 2]]| {
+            [
+                v.iter().map(|p| p[0]).collect(),
+                v.iter().map(|p| p[1]).collect(),
+            ]
+        };
+        (
+            ImuFeatures {
+                horizontal_accel: split(&a),
+                ..ImuFeatures::default()
+            },
+            SegmentFeatures {
+                horizontal_accel: split(&s),
+                ..SegmentFeatures::default()
+            },
+        )
+    }
+
+    #[test]
+    fn the_horizontal_cross_sum_turns_by_the_imus_heading_and_aligns_back() {
+        let yaw = 0.9;
+        let (imu, seg) = horizontal_pair(yaw, 150);
+        let c = horizontal_cross(&imu, &seg, 10).expect("enough samples");
+        // The phase of Σ a·conj(s) is the rotation from the room into the IMU's frame.
+        assert!((c.im.atan2(c.re) + yaw).abs() < 0.02, "{c:?}");
+        let (re, im) = (c.re / c.re.hypot(c.im), c.im / c.re.hypot(c.im));
+        let aligned = c.aligned_correlation(re, im).expect("power");
+        assert!(aligned > 0.99, "{aligned}");
+        // Read at the opposite heading it anti-correlates; a quarter turn off, it says nothing.
+        let opposite = c.aligned_correlation(-re, -im).expect("power");
+        assert!((opposite + aligned).abs() < 1e-12, "{opposite}");
+        let across = c.aligned_correlation(-im, re).expect("power");
+        assert!(across.abs() < 0.05, "{across}");
+    }
+
+    #[test]
+    fn the_horizontal_cross_sum_skips_missing_samples_and_needs_enough() {
+        let (mut imu, mut seg) = horizontal_pair(0.0, 40);
+        let full = horizontal_cross(&imu, &seg, 10).expect("enough samples");
+        // A gap on either side drops that sample from both; the rest still aligns.
+        imu.horizontal_accel[0][3] = f64::NAN;
+        seg.horizontal_accel[1][7] = f64::NAN;
+        let gapped = horizontal_cross(&imu, &seg, 10).expect("enough samples");
+        assert_ne!(gapped, full);
+        assert!(
+            gapped
+                .aligned_correlation(1.0, 0.0)
+                .is_some_and(|r| r > 0.99)
+        );
+        assert_eq!(horizontal_cross(&imu, &seg, 39), None);
+        // Grids of different lengths do not compare.
+        seg.horizontal_accel[0].truncate(20);
+        seg.horizontal_accel[1].truncate(20);
+        assert_eq!(horizontal_cross(&imu, &seg, 10), None);
+        // No power, no correlation.
+        assert_eq!(
+            HorizontalCross::default().aligned_correlation(1.0, 0.0),
+            None
+        );
     }
 }

@@ -35,7 +35,8 @@ pub use belmonte::{
     belmonte_costs_from,
 };
 pub use features::{
-    ImuFeatures, SegmentFeatures, compare_features, imu_lag_models, segment_lag_models,
+    HorizontalCross, ImuFeatures, SegmentFeatures, compare_features, horizontal_cross,
+    imu_lag_models, segment_lag_models,
 };
 pub use fusion::{Fusion, FusionConfig, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{

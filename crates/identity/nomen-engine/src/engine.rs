@@ -6,7 +6,7 @@ use crate::signal::{
     ImuSeries, LagSignals, LagWeight, curve_peak, imu_window_on_grid, is_contradicted, lag_curve,
     mean_curve, rival_value, summed_peak,
 };
-use crate::stats::EngineStats;
+use crate::stats::{EngineStats, HeadingEstimate};
 use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m, fix_similarity};
 use nalgebra::{Isometry3, Matrix3, Point3, UnitQuaternion, Vector3};
 use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
@@ -19,7 +19,7 @@ use nomen_core::{
 use nomen_evidence::{
     BandSignals, ForearmSignals, GeometricConfig, ImuFeatures, ImuWindow, PairScorer, ScoreTensor,
     SegmentFeatures, Side, SkeletonWindow, belmonte_costs_from, compare_features, fuse,
-    imu_lag_models, segment_lag_models,
+    horizontal_cross, imu_lag_models, segment_lag_models,
 };
 use nomen_filters::kalman::JointKalman;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
@@ -148,9 +148,29 @@ struct ImuState {
     /// (its end on the offset the window waited for); later samples may or may not have
     /// arrived, depending on arrival order, so nothing reads them.
     settled_until_ns: i64,
+    /// Decayed sum of the normalised horizontal cross sums (`Σ a·conj(s)/norm`, as `(re, im)`)
+    /// of this IMU against the tracks labelled with its wearer: its phase is the rotation of
+    /// the room's heading into the IMU's (see [`EngineConfig::heading_half_life_s`]).
+    heading_sum: [f64; 2],
+    /// Decayed sum of the magnitudes of the terms of `heading_sum`.
+    heading_magnitude: f64,
+    /// Decayed count of the windows in `heading_sum`.
+    heading_windows: f64,
 }
 
 impl ImuState {
+    /// The phase of the heading sums as a unit complex number `(re, im)`, once they span
+    /// [`EngineConfig::heading_min_windows`] windows and agree to
+    /// [`EngineConfig::heading_min_coherence`]; `None` before.
+    fn heading(&self, config: &EngineConfig) -> Option<[f64; 2]> {
+        let [re, im] = self.heading_sum;
+        let len = re.hypot(im);
+        (self.heading_windows >= config.heading_min_windows
+            && len >= config.heading_min_coherence * self.heading_magnitude
+            && len > 0.0)
+            .then(|| [re / len, im / len])
+    }
+
     /// The settled samples as slices (complete after [`ImuState::make_contiguous`]).
     fn series(&self) -> ImuSeries<'_> {
         ImuSeries {
@@ -325,6 +345,9 @@ impl Engine {
                     num_best_track_agreements: 0,
                     best_track_settled_ns: None,
                     settled_until_ns: i64::MIN,
+                    heading_sum: [0.0; 2],
+                    heading_magnitude: 0.0,
+                    heading_windows: 0.0,
                 });
             }
             subject_imus.push(mine);
@@ -1643,6 +1666,14 @@ impl Engine {
         let wants_belmonte = self.config.motion_score == MotionScore::Belmonte
             || (self.config.motion_score == MotionScore::Nomen
                 && self.config.model_weights.belmonte > 0.0);
+        let wants_heading = self.config.motion_score == MotionScore::Nomen
+            && self.config.model_weights.heading > 0.0;
+        // Each IMU's heading where its estimate is coherent enough (the phase of its cross
+        // sums, as a unit complex number), and this window's normalised cross sums against the
+        // tracks labelled with its wearer, added after every camera is scored.
+        let headings: Vec<Option<[f64; 2]>> =
+            self.imus.iter().map(|m| m.heading(&self.config)).collect();
+        let mut heading_updates: Vec<(usize, [f64; 2])> = Vec::new();
         for c in 0..self.cameras.len() {
             // Tracks with a few samples in the window; the IMU models need more (below).
             let keys: Vec<(usize, TrackId)> = self
@@ -1763,6 +1794,28 @@ impl Engine {
                     };
                     let (mut scores, k) =
                         compare_features(imu_features, seg_features, &self.config.geometric);
+                    // The heading model: only at a known offset, where the window's cross sum
+                    // is that of the IMU's own clock (a pair scored at its own best lag would
+                    // mix a lag error into the heading).
+                    let cross = (wants_heading && imu.is_offset_known)
+                        .then(|| {
+                            horizontal_cross(
+                                imu_features,
+                                seg_features,
+                                self.config.geometric.min_samples,
+                            )
+                        })
+                        .flatten()
+                        .filter(|c| c.norm() > 0.0);
+                    let heading_score = cross.and_then(|c| {
+                        let [re, im] = headings.get(i).copied().flatten()?;
+                        c.aligned_correlation(re, im)
+                    });
+                    if let Some(c) = cross
+                        && tr.label == Some(imu.subject)
+                    {
+                        heading_updates.push((i, [c.re / c.norm(), c.im / c.norm()]));
+                    }
                     if let Some(scorer) = &self.pair_scorer {
                         scores.dl = scorer.score(imu_win, &skel, imu.site);
                     }
@@ -1807,6 +1860,7 @@ impl Engine {
                             (k.vertical_vel, w.vertical_vel),
                             (k.inclination, w.inclination),
                             (k.turn, w.turn),
+                            (heading_score, w.heading),
                         ];
                         for (v, w) in weighted {
                             if let Some(v) = v {
@@ -1883,6 +1937,36 @@ impl Engine {
                 if let Some(tr) = self.tracks.get_mut(&key) {
                     accumulate(tr.device_evidence.entry(i).or_default(), v, decay);
                 }
+            }
+        }
+        if !wants_heading {
+            return;
+        }
+        let heading_decay = 0.5f64.powf(self.config.hop_s / self.config.heading_half_life_s);
+        for imu in &mut self.imus {
+            imu.heading_sum = imu.heading_sum.map(|v| v * heading_decay);
+            imu.heading_magnitude *= heading_decay;
+            imu.heading_windows *= heading_decay;
+        }
+        for (i, [re, im]) in heading_updates {
+            if let Some(imu) = self.imus.get_mut(i) {
+                imu.heading_sum[0] += re;
+                imu.heading_sum[1] += im;
+                imu.heading_magnitude += re.hypot(im);
+                imu.heading_windows += 1.0;
+            }
+        }
+        for imu in &self.imus {
+            if let Some([re, im]) = imu.heading(&self.config) {
+                let magnitude = imu.heading_sum[0].hypot(imu.heading_sum[1]);
+                self.stats.imu_headings.insert(
+                    imu.device.clone(),
+                    HeadingEstimate {
+                        // The cross sums' phase turns room vectors into the IMU's frame.
+                        room_from_imu_yaw_rad: (-im).atan2(re),
+                        coherence: magnitude / imu.heading_magnitude,
+                    },
+                );
             }
         }
     }

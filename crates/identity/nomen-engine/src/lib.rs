@@ -77,7 +77,13 @@
 //!    [`EngineConfig::fusion`], Belmonte-Hernández's costs, or (default) the weighted mean of
 //!    De Marchi's and nomen's correlations (`nomen_evidence::kinematic`) and, for forearm bands,
 //!    Belmonte-Hernández's similarity ([`ModelWeights`]), plus a learned scorer's when one is
-//!    plugged in ([`Engine::with_pair_scorer`]). Tag fixes score by their distance to the
+//!    plugged in ([`Engine::with_pair_scorer`]). For an IMU with a known clock offset, the
+//!    horizontal accelerations of IMU and joint, as complex numbers, give a cross sum per
+//!    window whose phase is the rotation between the IMU's AHRS frame and the room; summed
+//!    (decayed, [`EngineConfig::heading_half_life_s`]) over the tracks labelled with its wearer,
+//!    that phase is the IMU's heading ([`EngineStats::imu_headings`]), and once it is coherent
+//!    every pair is also correlated in the room frame (`ModelWeights::heading`), which tells
+//!    apart people who move alike in different directions. Tag fixes score by their distance to the
 //!    tag's key joint over the last [`EngineConfig::tag_window_s`]; RSSI by the likelihood of
 //!    the filtered reads at the person's position against the background. Each modality is
 //!    accumulated per (track, subject) by an exponentially weighted mean with its own half-life;
@@ -118,7 +124,7 @@ pub use config::{EngineConfig, ModelWeights, MotionScore, OFFSET_CONFIRM_HISTORY
 pub use engine::Engine;
 pub use error::{EngineError, Result};
 pub use nomen_evidence::{Fusion, FusionConfig, GeometricConfig, KinematicConfig};
-pub use stats::{ClockOffsetEstimate, EngineStats, RejectCounts};
+pub use stats::{ClockOffsetEstimate, EngineStats, HeadingEstimate, RejectCounts};
 
 use nomen_core::{Message, Registry};
 

@@ -42,6 +42,18 @@ pub struct ClockOffsetEstimate {
     pub num_updates: u64,
 }
 
+/// The engine's estimate of the rotation about the vertical between an IMU's AHRS frame and the
+/// room (see `EngineConfig::heading_half_life_s`).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct HeadingEstimate {
+    /// Yaw of the IMU's AHRS frame in the room frame, rad in (−π, π]: a horizontal vector with
+    /// heading `h` in the IMU's frame has heading `h + room_from_imu_yaw_rad` in the room's.
+    pub room_from_imu_yaw_rad: f64,
+    /// How well the windows behind it agree, in [0, 1] (the length of the decayed mean of
+    /// their unit phases, weighted by their correlations).
+    pub coherence: f64,
+}
+
 /// What the engine has done so far.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct EngineStats {
@@ -93,4 +105,6 @@ pub struct EngineStats {
     /// Clock offset estimates per IMU, once made; an estimate that is withdrawn is removed until
     /// the IMU's offset is found again.
     pub clock_offsets: BTreeMap<DeviceId, ClockOffsetEstimate>,
+    /// The latest coherent heading estimate per IMU (kept when it later loses coherence).
+    pub imu_headings: BTreeMap<DeviceId, HeadingEstimate>,
 }

@@ -53,6 +53,38 @@ fn two_people_with_wrist_imus_are_named_after_the_first_windows() {
 }
 
 #[test]
+fn an_imus_heading_in_the_room_is_estimated_from_its_wearers_track() {
+    // Ana's band sits turned by 1 rad about her forearm: her AHRS starts level but with the
+    // room turned by 1 rad about the vertical. Ben's sits straight.
+    let mut people = two_people();
+    if let Some(ana) = people.first_mut() {
+        ana.imu_yaw_rad = 1.0;
+    }
+    let msgs = recording(&people, 20.0);
+    let config = EngineConfig {
+        known_clock_offsets: true,
+        ..EngineConfig::default()
+    };
+    let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    let heading = |device: &str| stats.imu_headings[&DeviceId::new(device)];
+    let (ana, ben) = (heading("ana_imu"), heading("ben_imu"));
+    assert!((ana.room_from_imu_yaw_rad - 1.0).abs() < 0.05, "{ana:?}");
+    assert!(ben.room_from_imu_yaw_rad.abs() < 0.05, "{ben:?}");
+    assert!(ana.coherence > 0.9 && ben.coherence > 0.9, "{stats:?}");
+    assert!(accuracy(&people, &out, 8.0) > 0.98);
+    // Without the heading model, no heading is estimated.
+    let config = EngineConfig {
+        model_weights: ModelWeights {
+            heading: 0.0,
+            ..ModelWeights::default()
+        },
+        ..config
+    };
+    let (_, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    assert!(stats.imu_headings.is_empty());
+}
+
+#[test]
 fn an_intruder_stays_anonymous() {
     let mut people = two_people();
     people.push(Person::new(None, 1.1, 3.0, 3));
@@ -510,6 +542,27 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             "stitch_evidence_weight",
             EngineConfig {
                 stitch_evidence_weight: 1.5,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "heading_min_coherence",
+            EngineConfig {
+                heading_min_coherence: 1.5,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "heading_half_life_s",
+            EngineConfig {
+                heading_half_life_s: 0.0,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "heading_min_windows",
+            EngineConfig {
+                heading_min_windows: f64::NAN,
                 ..EngineConfig::default()
             },
         ),

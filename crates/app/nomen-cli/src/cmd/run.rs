@@ -343,5 +343,12 @@ pub fn run_file(
             est.num_updates
         ));
     }
+    for (device, est) in &engine.stats().imu_headings {
+        summary.push_str(&format!(
+            "\n  heading {device}: {:+.0}° from the room (coherence {:.2})",
+            est.room_from_imu_yaw_rad.to_degrees(),
+            est.coherence
+        ));
+    }
     Ok(summary)
 }

@@ -37,6 +37,10 @@ pub struct Person {
     pub imu_offset_s: f64,
     /// Whether the camera sees the person (a wearer out of view sends IMU data only).
     pub is_in_view: bool,
+    /// The IMU sits on the wrist turned by this much about the forearm's axis (vertical when
+    /// the arm hangs), rad: its AHRS, which starts level with no heading, then sees the room
+    /// turned by it.
+    pub imu_yaw_rad: f64,
     /// `(time_s, y_m)`: the person's observations jump to another place along the row then
     /// (a tracking glitch).
     pub jump: Option<(f64, f64)>,
@@ -56,6 +60,7 @@ impl Person {
             imu_offset_s: 0.0,
             is_in_view: true,
             jump: None,
+            imu_yaw_rad: 0.0,
         }
     }
 
@@ -182,8 +187,14 @@ pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
                 );
             // world_from_sensor = Rot_y(−θ): the sensor turns with the forearm.
             let world_from_sensor = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -th);
+            let (world_from_sensor, gyro) = if p.imu_yaw_rad == 0.0 {
+                (world_from_sensor, Vector3::new(0.0, -dth, 0.0))
+            } else {
+                let mounted = world_from_sensor
+                    * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), p.imu_yaw_rad);
+                (mounted, mounted.inverse() * Vector3::new(0.0, -dth, 0.0))
+            };
             let accel = world_from_sensor.inverse() * (a_world + Vector3::z() * G);
-            let gyro = Vector3::new(0.0, -dth, 0.0);
             msgs.push(Message::Imu(ImuSample {
                 t: ns(t - p.imu_offset_s),
                 device: DeviceId::new(format!("{s}_imu")),
