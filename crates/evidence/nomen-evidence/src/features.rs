@@ -296,12 +296,12 @@ impl HorizontalCross {
         (self.imu_power * self.joint_power).sqrt()
     }
 
-    /// The correlation of the two after turning the IMU's frame by the unit complex number
-    /// `(c, s)` (the frame's rotation, as `conj` of the cross sum's phase), in [−1, 1]; `None`
-    /// for a window without power.
-    pub fn aligned_correlation(&self, c: f64, s: f64) -> Option<f64> {
+    /// The correlation of the two in one frame, given the phase the cross sum has when the
+    /// IMU's frame is turned by the expected angle: `Re(Σ a·conj(s) · conj(u)) / norm` for the
+    /// unit complex number `u = re + i·im`, in [−1, 1]; `None` for a window without power.
+    pub fn aligned_correlation(&self, re: f64, im: f64) -> Option<f64> {
         let norm = self.norm();
-        (norm > 0.0 && norm.is_finite()).then(|| (self.re * c + self.im * s) / norm)
+        (norm > 0.0 && norm.is_finite()).then(|| (self.re * re + self.im * im) / norm)
     }
 }
 
