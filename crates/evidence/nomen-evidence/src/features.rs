@@ -144,6 +144,14 @@ impl SegmentFeatures {
             .zip(joint_positions(skel, from))
             .map(|(b, a)| elevation_rad(&(b - a)))
             .collect();
+        // One world axis of the joint's acceleration, smoothed.
+        let accel_axis = |axis: usize| {
+            smooth(acc.as_deref().map_or_else(missing, |a| {
+                a.iter()
+                    .map(|a| a.get(axis).copied().unwrap_or(f64::NAN))
+                    .collect()
+            }))
+        };
         SegmentFeatures {
             accel_magnitude: acc
                 .as_deref()
@@ -153,26 +161,14 @@ impl SegmentFeatures {
                 .map_or_else(missing, |v| joint_velocity_magnitude_from(skel, v, geo)),
             orientation_magnitude: segment_orientation_magnitude(skel, site, geo),
             swing: smooth(segment_swing(skel, site, lag_samples(&skel.t_s, kin))),
-            vertical_accel: smooth(
-                acc.as_deref()
-                    .map_or_else(missing, |a| a.iter().map(|a| a.z).collect()),
-            ),
+            vertical_accel: accel_axis(2),
             vertical_velocity: smooth(
                 vel.as_deref()
                     .map_or_else(missing, |v| joint_vertical_velocity(skel, v, geo)),
             ),
             elevation: smooth(elevation),
             turn_rate: body_turn_rate_signal(skel, kin),
-            horizontal_accel: [
-                smooth(
-                    acc.as_deref()
-                        .map_or_else(missing, |a| a.iter().map(|a| a.x).collect()),
-                ),
-                smooth(
-                    acc.as_deref()
-                        .map_or_else(missing, |a| a.iter().map(|a| a.y).collect()),
-                ),
-            ],
+            horizontal_accel: [accel_axis(0), accel_axis(1)],
         }
     }
 

@@ -1939,16 +1939,21 @@ impl Engine {
                 }
             }
         }
-        if !wants_heading {
-            return;
+        if wants_heading {
+            self.update_headings(heading_updates);
         }
+    }
+
+    /// Decays every IMU's heading sums by one hop, adds this window's normalised cross sums
+    /// `(IMU, (re, im))`, and reports the headings that are coherent.
+    fn update_headings(&mut self, updates: Vec<(usize, [f64; 2])>) {
         let heading_decay = 0.5f64.powf(self.config.hop_s / self.config.heading_half_life_s);
         for imu in &mut self.imus {
             imu.heading_sum = imu.heading_sum.map(|v| v * heading_decay);
             imu.heading_magnitude *= heading_decay;
             imu.heading_windows *= heading_decay;
         }
-        for (i, [re, im]) in heading_updates {
+        for (i, [re, im]) in updates {
             if let Some(imu) = self.imus.get_mut(i) {
                 imu.heading_sum[0] += re;
                 imu.heading_sum[1] += im;
