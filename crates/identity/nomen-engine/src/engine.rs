@@ -112,6 +112,8 @@ struct ImuState {
     newest: Option<i64>,
     frontier: i64,
     ahrs: Option<Madgwick>,
+    /// Device time of the last sample through `ahrs` (`None`: it has just started).
+    ahrs_last_ns: Option<i64>,
     offset_ns: i64,
     is_offset_known: bool,
     last_refine_end: i64,
@@ -329,6 +331,7 @@ impl Engine {
                     newest: None,
                     frontier: i64::MIN,
                     ahrs: None,
+                    ahrs_last_ns: None,
                     offset_ns: w.clock.offset_ns,
                     is_offset_known: config.known_clock_offsets,
                     last_refine_end: i64::MIN,
@@ -2353,26 +2356,97 @@ impl Engine {
     }
 }
 
-/// Settles an IMU's pending samples below its frontier: Madgwick's orientation per sample.
+/// Span of samples the orientation filter starts from, s (see [`start_ahrs`]).
+const AHRS_START_NS: i64 = 1_000_000_000;
+
+/// Settles an IMU's pending samples below its frontier: Madgwick's orientation per sample. The
+/// filter (re)starts at the first sample and after a gap of a second or more (see
+/// [`start_ahrs`]); samples wait until it can.
 fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
-    while let Some(entry) = imu.pending.first_entry() {
-        if *entry.key() >= imu.frontier {
+    while let Some((&t, &(accel, gyro))) = imu.pending.first_key_value() {
+        if t >= imu.frontier {
             break;
         }
-        let (t, (accel, gyro)) = entry.remove_entry();
-        let dt_s = imu.t.back().map_or(0.0, |&last| (t - last) as f64 * 1e-9);
-        let q = match imu.ahrs.as_mut() {
-            Some(ahrs) if dt_s > 0.0 && dt_s < 1.0 => ahrs.update_imu(&gyro, &accel, dt_s),
+        let dt_s = imu.ahrs_last_ns.map(|last| (t - last) as f64 * 1e-9);
+        let q = match (imu.ahrs.as_mut(), dt_s) {
+            (Some(ahrs), Some(dt_s)) if dt_s > 0.0 && dt_s < 1.0 => {
+                ahrs.update_imu(&gyro, &accel, dt_s)
+            }
+            (Some(ahrs), None) => ahrs.world_from_sensor(),
             _ => {
-                let q = level_from_accel(&accel).unwrap_or(UnitQuaternion::identity());
-                imu.ahrs = Madgwick::new(config.madgwick, q).ok();
-                q
+                if !start_ahrs(imu, config) {
+                    break;
+                }
+                continue;
             }
         };
+        imu.pending.remove(&t);
+        imu.ahrs_last_ns = Some(t);
         imu.t.push_back(t);
         imu.accel.push_back(accel);
         imu.gyro.push_back(gyro);
         imu.world_from_sensor.push_back(q);
+    }
+}
+
+/// Starts the IMU's orientation filter at its first pending sample, once the pending samples
+/// below the frontier span [`AHRS_START_NS`] without a gap of a second (or at the end of the
+/// input, with what there is): level, with the vertical the per-axis median of the specific
+/// forces of those samples brought into the first sample's frame by integrating the gyroscope.
+/// Over a stride the linear accelerations average out, and the median ignores a knock; one
+/// sample alone reads an arm's swing (a pendulum's bob feels its force along the arm, not
+/// along the vertical), and Madgwick's gain corrects that at only about 4°/s. Returns whether
+/// the filter started.
+fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
+    let Some(&first) = imu.pending.keys().next() else {
+        return false;
+    };
+    // The current sample's frame as seen from the first one's.
+    let mut first_from_sensor = UnitQuaternion::identity();
+    let mut last: Option<(i64, Vector3<f64>)> = None;
+    let mut up: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
+    let mut is_complete = imu.frontier == i64::MAX;
+    for (&t, (accel, gyro)) in &imu.pending {
+        if t >= imu.frontier {
+            break;
+        }
+        if let Some((last_t, last_gyro)) = last {
+            if t - last_t >= 1_000_000_000 {
+                is_complete = true;
+                break;
+            }
+            let dt_s = (t - last_t) as f64 * 1e-9;
+            first_from_sensor *= UnitQuaternion::from_scaled_axis(last_gyro * dt_s);
+        }
+        if t - first >= AHRS_START_NS {
+            is_complete = true;
+            break;
+        }
+        let v = first_from_sensor * accel;
+        for (axis, x) in up.iter_mut().zip(v.iter()) {
+            axis.push(*x);
+        }
+        last = Some((t, *gyro));
+    }
+    if !is_complete {
+        return false;
+    }
+    let up_first = Vector3::from_iterator(up.iter_mut().map(|axis| median(axis)));
+    let start = level_from_accel(&up_first).unwrap_or(UnitQuaternion::identity());
+    imu.ahrs = Madgwick::new(config.madgwick, start).ok();
+    imu.ahrs_last_ns = None;
+    imu.ahrs.is_some()
+}
+
+/// The median of `v` (reordered), NaN when empty.
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_unstable_by(f64::total_cmp);
+    let n = v.len();
+    let at = |i: usize| v.get(i).copied().unwrap_or(f64::NAN);
+    if n % 2 == 1 {
+        at(n / 2)
+    } else {
+        0.5 * (at((n / 2).wrapping_sub(1)) + at(n / 2))
     }
 }
 

@@ -7,7 +7,11 @@
 //! - skeleton joints go to the world frame (`world_from_camera` from the registry) and through
 //!   a constant-velocity Kalman filter per joint ([`EngineConfig::joint_filter`]);
 //! - IMU samples go through Madgwick's `update_imu` for `world_from_sensor`, giving the
-//!   linear-acceleration magnitude `|R·a − g ẑ|` and the angular-rate magnitude;
+//!   linear-acceleration magnitude `|R·a − g ẑ|` and the angular-rate magnitude. The filter
+//!   (re)starts, at the first sample and after a gap of a second, from the vertical of the
+//!   next second of samples (the per-axis median of their specific forces, brought into the
+//!   first sample's frame by the gyroscope), not from one reading, which a swing or a knock
+//!   turns away from the vertical;
 //! - location-tag fixes (`rtls_fix`, UWB or BLE tags) are buffered per tag (`tags`);
 //! - RSSI reads feed one Kalman filter per (tag, antenna) when a model was given
 //!   ([`Engine::with_rssi_model`]).

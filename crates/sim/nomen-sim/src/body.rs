@@ -156,6 +156,62 @@ pub fn mounted_kinematics(
     }
 }
 
+/// As [`mounted_kinematics`], with every sample of the motion taken inside `span_s`: within
+/// `h_s` of either end the differences are one-sided (second-order forward or backward
+/// stencils) instead of central. A motion holds still outside its span, so a central difference
+/// across an end would read the jump from rest to walking speed as a shock of tens of g, which
+/// no worn sensor feels (it was moving before the scene started). A span shorter than four
+/// steps keeps the central differences.
+pub fn mounted_kinematics_in_span(
+    motion: &dyn BodyMotion,
+    mount: &Mount,
+    t_s: f64,
+    h_s: f64,
+    span_s: (f64, f64),
+) -> PointKinematics {
+    let step = if t_s - h_s >= span_s.0 && t_s + h_s <= span_s.1 {
+        None
+    } else if t_s - h_s < span_s.0 && t_s + 3.0 * h_s <= span_s.1 {
+        Some(h_s)
+    } else if t_s + h_s > span_s.1 && t_s - 3.0 * h_s >= span_s.0 {
+        Some(-h_s)
+    } else {
+        None
+    };
+    let Some(h) = step else {
+        return mounted_kinematics(motion, mount, t_s, h_s);
+    };
+    let sample = |t: f64| {
+        let (site, seg) = if mount.segment == mount.site {
+            let site = motion.joint_at(t, mount.site);
+            (site, site)
+        } else {
+            motion.joint_pair_at(t, mount.site, mount.segment)
+        };
+        (
+            site.position_m.coords,
+            seg.world_from_joint * mount.segment_from_sensor,
+        )
+    };
+    let (p0, q0) = sample(t_s);
+    let (p1, q1) = sample(t_s + h);
+    let (p2, q2) = sample(t_s + 2.0 * h);
+    let (p3, _) = sample(t_s + 3.0 * h);
+    // One-sided stencils, second-order accurate; with a negative step they look backward.
+    let velocity_mps = (-3.0 * p0 + 4.0 * p1 - p2) / (2.0 * h);
+    let accel_world_mps2 = (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) / (h * h);
+    // r_k = log(q(t + k h) q(t)⁻¹) ≈ ω k h + ω' (k h)² / 2, so (4 r_1 − r_2) / 2h = ω + O(h²).
+    let r1 = (q1 * q0.inverse()).scaled_axis();
+    let r2 = (q2 * q0.inverse()).scaled_axis();
+    PointKinematics {
+        position_m: Point3::from(p0),
+        velocity_mps,
+        accel_world_mps2,
+        world_from_sensor: q0,
+        angular_velocity_world_radps: (4.0 * r1 - r2) / (2.0 * h),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

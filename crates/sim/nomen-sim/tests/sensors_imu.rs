@@ -191,6 +191,50 @@ fn specific_force_plus_gravity_is_the_second_derivative_of_position() {
     }
 }
 
+/// A motion that exists only during `(2, 8)` s and holds its pose outside, as a person who
+/// enters and leaves the scene does.
+struct Bounded<M: BodyMotion>(M);
+
+impl<M: BodyMotion> BodyMotion for Bounded<M> {
+    fn span_s(&self) -> (f64, f64) {
+        (2.0, 8.0)
+    }
+    fn pose_at(&self, t_s: f64) -> BodyPose {
+        self.0.pose_at(t_s.clamp(2.0, 8.0))
+    }
+    fn joint_at(&self, t_s: f64, joint: Joint) -> JointPose {
+        self.0.joint_at(t_s.clamp(2.0, 8.0), joint)
+    }
+}
+
+#[test]
+fn the_first_and_last_samples_of_a_span_read_the_motion_not_a_shock() {
+    let motion = Bounded(wobbling_circle());
+    let run = simulate_imu(
+        &motion,
+        &dev(),
+        &wrist(),
+        motion.span_s(),
+        &ImuConfig::noise_free(),
+        &mut stream(4, "a"),
+    )
+    .unwrap();
+    let (first, last) = (run.samples.first().unwrap(), run.samples.last().unwrap());
+    // The circle's centripetal acceleration is 1.5 · 1.2² ≈ 2.2 m/s² and the bob's 0.45 m/s²,
+    // so a reading stays within 3 m/s² of 1 g; a difference across an end of the span would
+    // read the 1.8 m/s walking speed as a jump of hundreds of m/s².
+    for s in [first, last] {
+        let g = s.accel_mps2.norm();
+        assert!(
+            (g - GRAVITY_MPS2).abs() < 3.0,
+            "t {}: |a| {g}",
+            s.t.as_secs_f64()
+        );
+    }
+    assert!((first.accel_mps2 - run.samples[1].accel_mps2).norm() < 0.5);
+    assert!((last.accel_mps2 - run.samples[run.samples.len() - 2].accel_mps2).norm() < 0.5);
+}
+
 #[test]
 fn mounting_rotation_rotates_the_readings() {
     let motion = wobbling_circle();

@@ -1,6 +1,6 @@
 //! A body-worn IMU: gyroscope, accelerometer and optional magnetometer at a [`Mount`].
 //!
-//! The ideal readings come from [`mounted_kinematics`]: the gyroscope reads the angular velocity
+//! The ideal readings come from [`mounted_kinematics_in_span`]: the gyroscope reads the angular velocity
 //! in the sensor frame, the accelerometer the specific force `R_sensor_from_world·(a − g)`. On
 //! top of them, per device: a random mounting rotation (bands are not aligned with bones), a
 //! constant turn-on bias, an optional bias random walk, white noise whose per-sample σ is the
@@ -15,7 +15,7 @@
 use super::{
     BurstLoss, BurstLossConfig, ClockConfig, DeviceClock, check_in, check_span, normal, symmetric,
 };
-use crate::body::{BodyMotion, Mount, mounted_kinematics};
+use crate::body::{BodyMotion, Mount, mounted_kinematics_in_span};
 use crate::error::Result;
 use crate::rng::SimRng;
 use nalgebra::{Point3, UnitQuaternion, Vector3};
@@ -377,7 +377,7 @@ pub fn simulate_imu_into(
     for k in k_first..=k_last {
         let device_s = k as f64 * period_s;
         let t_s = clock.to_session_s(device_s).clamp(span_s.0, span_s.1);
-        let kin = mounted_kinematics(motion, &mount, t_s, DIFFERENTIATION_STEP_S);
+        let kin = mounted_kinematics_in_span(motion, &mount, t_s, DIFFERENTIATION_STEP_S, span_s);
         let sensor_from_world = kin.world_from_sensor.inverse();
 
         let (gyro, is_gyro_saturated) = saturate(
