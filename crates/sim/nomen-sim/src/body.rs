@@ -120,6 +120,24 @@ impl PointKinematics {
     }
 }
 
+/// Position of the mount's site and `world_from_sensor` at `t_s`.
+fn mounted_pose(
+    motion: &dyn BodyMotion,
+    mount: &Mount,
+    t_s: f64,
+) -> (Point3<f64>, UnitQuaternion<f64>) {
+    let (site, seg) = if mount.segment == mount.site {
+        let site = motion.joint_at(t_s, mount.site);
+        (site, site)
+    } else {
+        motion.joint_pair_at(t_s, mount.site, mount.segment)
+    };
+    (
+        site.position_m,
+        seg.world_from_joint * mount.segment_from_sensor,
+    )
+}
+
 /// Kinematics of a mounted sensor at `t_s` by central differences of the motion with step `h_s`
 /// (second-order accurate; 2–5 ms suits 120 Hz motion capture interpolated smoothly).
 pub fn mounted_kinematics(
@@ -128,18 +146,7 @@ pub fn mounted_kinematics(
     t_s: f64,
     h_s: f64,
 ) -> PointKinematics {
-    let sample = |t: f64| {
-        let (site, seg) = if mount.segment == mount.site {
-            let site = motion.joint_at(t, mount.site);
-            (site, site)
-        } else {
-            motion.joint_pair_at(t, mount.site, mount.segment)
-        };
-        (
-            site.position_m,
-            seg.world_from_joint * mount.segment_from_sensor,
-        )
-    };
+    let sample = |t: f64| mounted_pose(motion, mount, t);
     let (p0, q0) = sample(t_s);
     let (pm, qm) = sample(t_s - h_s);
     let (pp, qp) = sample(t_s + h_s);
@@ -182,16 +189,8 @@ pub fn mounted_kinematics_in_span(
         return mounted_kinematics(motion, mount, t_s, h_s);
     };
     let sample = |t: f64| {
-        let (site, seg) = if mount.segment == mount.site {
-            let site = motion.joint_at(t, mount.site);
-            (site, site)
-        } else {
-            motion.joint_pair_at(t, mount.site, mount.segment)
-        };
-        (
-            site.position_m.coords,
-            seg.world_from_joint * mount.segment_from_sensor,
-        )
+        let (p, q) = mounted_pose(motion, mount, t);
+        (p.coords, q)
     };
     let (p0, q0) = sample(t_s);
     let (p1, q1) = sample(t_s + h);
