@@ -22,6 +22,7 @@
 
 use crate::error::{Result, RtlsError, check_positive};
 use nalgebra::{Matrix3, Point3, Vector3};
+use nomen_filters::median;
 use serde::{Deserialize, Serialize};
 
 /// One TWR range to an anchor.
@@ -434,19 +435,6 @@ pub struct RangeTruth {
     pub measured_m: f64,
     /// True range, m.
     pub true_m: f64,
-}
-
-fn median(v: &mut [f64]) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
 }
 
 /// Estimates the bias from ranges with ground truth: the constant is the median error (robust to

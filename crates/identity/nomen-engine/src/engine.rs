@@ -22,6 +22,7 @@ use nomen_evidence::{
     horizontal_cross, imu_lag_models, segment_lag_models,
 };
 use nomen_filters::kalman::JointKalman;
+use nomen_filters::median;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
 use nomen_rssi::{
     FilterBank, LikelihoodConfig, RssiKalmanConfig, RssiModel, RssiUnit, TagPlacement,
@@ -2356,8 +2357,11 @@ impl Engine {
     }
 }
 
-/// Span of samples the orientation filter starts from, s (see [`start_ahrs`]).
+/// Span of samples the orientation filter starts from, ns (see [`start_ahrs`]).
 const AHRS_START_NS: i64 = 1_000_000_000;
+
+/// A gap between an IMU's samples at least this long restarts its orientation filter, ns.
+const AHRS_MAX_GAP_NS: i64 = 1_000_000_000;
 
 /// Settles an IMU's pending samples below its frontier: Madgwick's orientation per sample. The
 /// filter (re)starts at the first sample and after a gap of a second or more (see
@@ -2367,10 +2371,10 @@ fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
         if t >= imu.frontier {
             break;
         }
-        let dt_s = imu.ahrs_last_ns.map(|last| (t - last) as f64 * 1e-9);
-        let q = match (imu.ahrs.as_mut(), dt_s) {
-            (Some(ahrs), Some(dt_s)) if dt_s > 0.0 && dt_s < 1.0 => {
-                ahrs.update_imu(&gyro, &accel, dt_s)
+        let dt_ns = imu.ahrs_last_ns.map(|last| t - last);
+        let q = match (imu.ahrs.as_mut(), dt_ns) {
+            (Some(ahrs), Some(dt_ns)) if dt_ns > 0 && dt_ns < AHRS_MAX_GAP_NS => {
+                ahrs.update_imu(&gyro, &accel, dt_ns as f64 * 1e-9)
             }
             (Some(ahrs), None) => ahrs.world_from_sensor(),
             _ => {
@@ -2401,17 +2405,28 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
     let Some(&first) = imu.pending.keys().next() else {
         return false;
     };
+    // While the samples below the frontier span less than the start, none of them can end it
+    // (neither its length nor a gap): wait without scanning them again.
+    let is_finishing = imu.frontier == i64::MAX;
+    let newest_settled = imu
+        .pending
+        .range(..imu.frontier)
+        .next_back()
+        .map(|(&t, _)| t);
+    if !is_finishing && newest_settled.is_none_or(|t| t - first < AHRS_START_NS) {
+        return false;
+    }
     // The current sample's frame as seen from the first one's.
     let mut first_from_sensor = UnitQuaternion::identity();
     let mut last: Option<(i64, Vector3<f64>)> = None;
     let mut up: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
-    let mut is_complete = imu.frontier == i64::MAX;
+    let mut is_complete = is_finishing;
     for (&t, (accel, gyro)) in &imu.pending {
         if t >= imu.frontier {
             break;
         }
         if let Some((last_t, last_gyro)) = last {
-            if t - last_t >= 1_000_000_000 {
+            if t - last_t >= AHRS_MAX_GAP_NS {
                 is_complete = true;
                 break;
             }
@@ -2431,23 +2446,12 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
     if !is_complete {
         return false;
     }
-    let up_first = Vector3::from_iterator(up.iter_mut().map(|axis| median(axis)));
+    let up_first =
+        Vector3::from_iterator(up.iter_mut().map(|axis| median(axis).unwrap_or(f64::NAN)));
     let start = level_from_accel(&up_first).unwrap_or(UnitQuaternion::identity());
     imu.ahrs = Madgwick::new(config.madgwick, start).ok();
     imu.ahrs_last_ns = None;
     imu.ahrs.is_some()
-}
-
-/// The median of `v` (reordered), NaN when empty.
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_unstable_by(f64::total_cmp);
-    let n = v.len();
-    let at = |i: usize| v.get(i).copied().unwrap_or(f64::NAN);
-    if n % 2 == 1 {
-        at(n / 2)
-    } else {
-        0.5 * (at((n / 2).wrapping_sub(1)) + at(n / 2))
-    }
 }
 
 /// Settles a track's pending observations below `frontier` through the joint filters.
