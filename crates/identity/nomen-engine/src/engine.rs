@@ -233,6 +233,10 @@ struct TrackState {
     label: Option<usize>,
     /// Scores per subject at the last decision (without the hysteresis bonus).
     subject_scores: BTreeMap<usize, f64>,
+    /// Per subject: the score (without the bonus) of the other track of this camera that held
+    /// the subject at the latest decision where both took part and their observed spans
+    /// overlapped (see [`EngineConfig::exclusion_margin`]); removed once this track holds it.
+    outscored_by: BTreeMap<usize, f64>,
     /// Where the person was at the newest observation (mean of the observed joints), world, m.
     last_anchor_world_m: Option<Point3<f64>>,
     /// A later track continues this one (stitched): it no longer takes part in decisions.
@@ -692,6 +696,7 @@ impl Engine {
                 device_evidence: BTreeMap::new(),
                 label: None,
                 subject_scores: BTreeMap::new(),
+                outscored_by: BTreeMap::new(),
                 last_anchor_world_m: anchor,
                 is_superseded: false,
                 settled_t: i64::MIN,
@@ -2093,7 +2098,15 @@ impl Engine {
                     } else {
                         0.0
                     };
-                    if let Some(cell) = row.get_mut(s) {
+                    // Evidence gathered while the subject was plainly on someone else's track
+                    // tells how alike the two move, not who this is.
+                    let is_excluded = self.config.exclusion_margin >= 0.0
+                        && self
+                            .tracks
+                            .get(key)
+                            .and_then(|tr| tr.outscored_by.get(&s))
+                            .is_some_and(|&held| mean < held - self.config.exclusion_margin);
+                    if !is_excluded && let Some(cell) = row.get_mut(s) {
                         *cell = Some(mean + bonus);
                     }
                 }
@@ -2122,6 +2135,7 @@ impl Engine {
                 })
                 .collect();
             self.share_between_successive_tracks(end, &keys, &rows, &mut labels);
+            self.note_exclusions(end, &keys, &labels);
             for (key, new_label) in keys.iter().zip(labels) {
                 let Some(tr) = self.tracks.get_mut(key) else {
                     continue;
@@ -2130,6 +2144,56 @@ impl Engine {
                     self.stats.num_label_switches += 1;
                 }
                 tr.label = new_label;
+            }
+        }
+    }
+
+    /// A track's span as seen from the observations before `end` only (all of them have
+    /// arrived by then, so the result does not depend on message order). A track seen within
+    /// `ALIVE_AT_END_NS` of `end` may go on past it, and one not seen before `end` starts there:
+    /// both count as alive from then on, so a track that starts after `end` coexists with
+    /// everyone still in view, and only with them.
+    fn span_before(&self, key: &TrackKey, end: i64) -> Option<(i64, i64)> {
+        let tr = self.tracks.get(key)?;
+        let pending = tr.pending.range(..end).next_back().map(|(t, _)| *t);
+        let settled = tr
+            .samples
+            .partition_point(|s| s.t < end)
+            .checked_sub(1)
+            .and_then(|i| tr.samples.get(i))
+            .map(|s| s.t);
+        Some(match pending.max(settled) {
+            Some(last) if last < end - ALIVE_AT_END_NS => (tr.first_t, last),
+            Some(_) => (tr.first_t, i64::MAX),
+            None => (end, i64::MAX),
+        })
+    }
+
+    /// After a camera's decision at `end`: every track that took part alongside the holder of
+    /// a subject (their spans overlap: two people at once) remembers the holder's score for it
+    /// ([`EngineConfig::exclusion_margin`]); a track holding the subject forgets it.
+    fn note_exclusions(&mut self, end: i64, keys: &[TrackKey], labels: &[Option<usize>]) {
+        let held: Vec<(TrackKey, usize, f64, (i64, i64))> = keys
+            .iter()
+            .zip(labels)
+            .filter_map(|(key, label)| {
+                let s = (*label)?;
+                let score = *self.tracks.get(key)?.subject_scores.get(&s)?;
+                Some((*key, s, score, self.span_before(key, end)?))
+            })
+            .collect();
+        let spans: Vec<Option<(i64, i64)>> =
+            keys.iter().map(|k| self.span_before(k, end)).collect();
+        for ((key, label), span) in keys.iter().zip(labels).zip(spans) {
+            let (Some(tr), Some(mine)) = (self.tracks.get_mut(key), span) else {
+                continue;
+            };
+            for &(holder, s, score, theirs) in &held {
+                if *label == Some(s) {
+                    tr.outscored_by.remove(&s);
+                } else if holder != *key && spans_overlap(mine, theirs) {
+                    tr.outscored_by.insert(s, score);
+                }
             }
         }
     }
@@ -2147,26 +2211,7 @@ impl Engine {
         rows: &[Vec<Option<f64>>],
         labels: &mut [Option<usize>],
     ) {
-        // Spans from the observations before `end` only (all of them have arrived by now, so
-        // the result does not depend on message order). A track seen within
-        // `ALIVE_AT_END_NS` of `end` may go on past it, and one not seen before `end` starts
-        // there: both count as alive from then on, so a track that starts after `end` coexists
-        // with everyone still in view, and only with them.
-        let span = |k: &TrackKey| {
-            let tr = self.tracks.get(k)?;
-            let pending = tr.pending.range(..end).next_back().map(|(t, _)| *t);
-            let settled = tr
-                .samples
-                .partition_point(|s| s.t < end)
-                .checked_sub(1)
-                .and_then(|i| tr.samples.get(i))
-                .map(|s| s.t);
-            Some(match pending.max(settled) {
-                Some(last) if last < end - ALIVE_AT_END_NS => (tr.first_t, last),
-                Some(_) => (tr.first_t, i64::MAX),
-                None => (end, i64::MAX),
-            })
-        };
+        let span = |k: &TrackKey| self.span_before(k, end);
         let mut best: Vec<(usize, usize, f64)> = rows
             .iter()
             .enumerate()

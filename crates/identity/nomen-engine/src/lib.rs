@@ -103,6 +103,10 @@
 //!    subject went to a track of its camera that it never coexisted with (the same person
 //!    under an earlier or later id, both still with frames to label) takes that subject too, if
 //!    it clears the threshold. A track below threshold is [`nomen_core::Identity::Anonymous`].
+//!    After each decision, every track that took part alongside the holder of a subject (their
+//!    spans overlap) keeps the holder's score for it: it may take that subject later only
+//!    while its own score is within [`EngineConfig::exclusion_margin`] of that score, so a
+//!    companion who merely moved like the wearer does not inherit her name when she leaves.
 //!
 //! # Output and latency
 //! Exactly one `Message::Identified` per accepted skeleton observation, with its `(t, camera,

@@ -136,6 +136,56 @@ fn an_intruder_stays_anonymous() {
 }
 
 #[test]
+fn a_companion_moving_like_the_wearer_stays_anonymous_when_the_wearer_leaves() {
+    // Dan stands beside Ana, wears nothing and swings much like her (1.0 Hz against her 0.9,
+    // 0.1 s behind); Ana walks out of view at 12 s while her band keeps sending. His track
+    // correlates with her band well enough to clear the rejection threshold, but far less than
+    // hers did while both were in view: he must not inherit her name.
+    let ana = Person::new(Some("ana"), 0.9, 0.0, 1);
+    let dan = Person {
+        subject: None,
+        phase_rad: ana.phase_rad - 2.0 * std::f64::consts::PI * ana.freq_hz * 0.1,
+        freq_hz: 1.0,
+        mod_hz: 0.23,
+        y_m: 0.8,
+        track: 2,
+        ..ana.clone()
+    };
+    let people = vec![ana, dan];
+    let left_s = 12.0;
+    let mut msgs = recording(&people, 20.0);
+    msgs.retain(|m| {
+        !matches!(m, Message::Skeleton(s) if s.track == TrackId(1) && s.t.as_secs_f64() > left_s)
+    });
+    let named_after_left = |config: &EngineConfig| {
+        let (out, _) = run_batch(&registry(&people), &msgs, config).unwrap();
+        let dan: Vec<&Identity> = out
+            .iter()
+            .filter_map(|m| match m {
+                Message::Identified(id)
+                    if id.track == TrackId(2) && id.t.as_secs_f64() > left_s =>
+                {
+                    Some(&id.identity)
+                }
+                _ => None,
+            })
+            .collect();
+        assert!(!dan.is_empty());
+        let named = dan.iter().filter(|i| ***i != Identity::Anonymous).count();
+        (named, accuracy(&people, &out, 6.0))
+    };
+    let (named, acc) = named_after_left(&EngineConfig::default());
+    assert_eq!(named, 0, "accuracy {acc}");
+    assert!(acc > 0.98, "accuracy {acc}");
+    // Without the exclusion his leftover score names him.
+    let (named, _) = named_after_left(&EngineConfig {
+        exclusion_margin: -1.0,
+        ..EngineConfig::default()
+    });
+    assert!(named > 30, "{named} frames named");
+}
+
+#[test]
 fn a_silent_imu_does_not_block_output() {
     let mut people = two_people();
     people[1].imu_until_s = 2.0;
@@ -540,6 +590,13 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             "offset_withdraw_below",
             EngineConfig {
                 offset_withdraw_below: 1.5,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "exclusion_margin",
+            EngineConfig {
+                exclusion_margin: f64::NAN,
                 ..EngineConfig::default()
             },
         ),
