@@ -129,6 +129,11 @@ struct ImuState {
     pending_offset: Option<i64>,
     /// Lag-curve peak per track from the latest search, used before the offset is accepted.
     pair_offsets: BTreeMap<(usize, TrackId), i64>,
+    /// This IMU's lag-curve peaks on its subject's best-scoring tracks of the latest search,
+    /// best first, at most [`EngineConfig::offset_hypotheses`] of them, no two within
+    /// [`EngineConfig::offset_consistency_s`]: before the offset is accepted, a track too short
+    /// for the search is scored at whichever of them fits it best.
+    lag_hypotheses: Vec<i64>,
     /// Sum and count, per coarse lag, of the lag curves against the tracks labelled with the
     /// wearer (see [`Engine::update_offsets`]).
     label_curve: Vec<(f64, usize)>,
@@ -345,6 +350,7 @@ impl Engine {
                     winners: VecDeque::new(),
                     pending_offset: None,
                     pair_offsets: BTreeMap::new(),
+                    lag_hypotheses: Vec::new(),
                     label_curve: Vec::new(),
                     num_label_curves: 0,
                     last_label_search_end: i64::MIN,
@@ -1073,6 +1079,7 @@ impl Engine {
         let refine_every = ns(self.config.offset_refine_interval_s);
         let refine_range = ns(self.config.offset_refine_range_s);
         let confirm_apart = ns(self.config.offset_confirm_apart_s);
+        let same_offset = ns(self.config.offset_consistency_s);
         let mut skel_cache = TrackLagCache::default();
         // An IMU's buffer, per (IMU, offset it was cut with), for the three uses below.
         let mut imu_cache: BTreeMap<(usize, i64), Option<LagSignals>> = BTreeMap::new();
@@ -1242,6 +1249,10 @@ impl Engine {
                         || top - other >= self.config.offset_subject_margin))
                     .then_some((key, top))
             });
+            // The subject's tracks, best first: where its IMUs' lag hypotheses come from.
+            let mut ranked: Vec<(&(usize, TrackId), &f64)> = scores.iter().collect();
+            ranked.sort_by(|a, b| b.1.total_cmp(a.1).then(a.0.cmp(b.0)));
+            let ranked: Vec<(usize, TrackId)> = ranked.into_iter().map(|(k, _)| *k).collect();
             for &i in &mine {
                 let pair_offsets: BTreeMap<(usize, TrackId), i64> = peaks
                     .range((i, (0, TrackId(0)))..)
@@ -1259,6 +1270,20 @@ impl Engine {
                     continue;
                 }
                 imu.pair_offsets = pair_offsets;
+                imu.lag_hypotheses.clear();
+                for key in &ranked {
+                    if imu.lag_hypotheses.len() >= self.config.offset_hypotheses {
+                        break;
+                    }
+                    if let Some((o, _)) = peaks.get(&(i, *key))
+                        && imu
+                            .lag_hypotheses
+                            .iter()
+                            .all(|h| (h - o).abs() > same_offset)
+                    {
+                        imu.lag_hypotheses.push(*o);
+                    }
+                }
                 imu.candidates.push_back(candidate);
                 imu.pending_offset = None;
                 // Winners are kept only where they are read: a single IMU, the rule on.
@@ -1539,6 +1564,7 @@ impl Engine {
                 imu.winners.clear();
                 imu.pending_offset = None;
                 imu.pair_offsets.clear();
+                imu.lag_hypotheses.clear();
                 imu.label_curve.clear();
                 imu.num_label_curves = 0;
                 imu.offset_ns = imu.registry_offset_ns;
@@ -1756,14 +1782,8 @@ impl Engine {
                 // The skeleton side of Belmonte's costs, per band side.
                 let mut arms: Vec<(Side, ForearmSignals)> = Vec::new();
                 for (i, imu) in self.imus.iter().enumerate() {
-                    let offset = if imu.is_offset_known {
-                        imu.offset_ns
-                    } else if let Some(&o) = imu.pair_offsets.get(key) {
-                        o
-                    } else {
-                        continue;
-                    };
-                    let cached = imu_cache.entry((i, offset, grid_index)).or_insert_with(|| {
+                    // The IMU's window and features at `offset` on this grid.
+                    let build = |offset: i64| {
                         let mut win = ImuWindow::default();
                         // Settled samples only: device times before `end` on the current clock
                         // estimate.
@@ -1781,8 +1801,16 @@ impl Engine {
                         let band = (wants_belmonte && band_side(imu.site).is_some())
                             .then(|| BandSignals::new(&win, &self.config.belmonte));
                         (win, features, band)
-                    });
-                    let (imu_win, imu_features) = (&cached.0, &cached.1);
+                    };
+                    let hypotheses: &[i64] = if imu.is_offset_known {
+                        &[]
+                    } else {
+                        &imu.lag_hypotheses
+                    };
+                    let pair_offset = imu.pair_offsets.get(key).copied();
+                    if !imu.is_offset_known && pair_offset.is_none() && hypotheses.is_empty() {
+                        continue;
+                    }
                     let segment = match segments.iter().position(|(j, _)| *j == imu.site) {
                         Some(k) => k,
                         None => {
@@ -1801,8 +1829,49 @@ impl Engine {
                     let Some((_, seg_features)) = segments.get(segment) else {
                         continue;
                     };
-                    let (mut scores, k) =
-                        compare_features(imu_features, seg_features, &self.config.geometric);
+                    // The scores at the chosen hypothesis, already computed.
+                    let mut chosen: Option<PairScores> = None;
+                    let offset = match (imu.is_offset_known, pair_offset) {
+                        (true, _) => imu.offset_ns,
+                        (false, Some(o)) => o,
+                        // A track too short for the search: the lag hypothesis that fits it best.
+                        (false, None) => {
+                            let mut best: Option<(f64, i64, PairScores)> = None;
+                            for &o in hypotheses {
+                                let (_, features_o, _) = imu_cache
+                                    .entry((i, o, grid_index))
+                                    .or_insert_with(|| build(o));
+                                let (scores, k) = compare_features(
+                                    features_o,
+                                    seg_features,
+                                    &self.config.geometric,
+                                );
+                                if let Some(fit) =
+                                    weighted_fit(&scores, &k, &self.config.model_weights)
+                                    && best.as_ref().is_none_or(|(b, _, _)| fit > *b)
+                                {
+                                    best = Some((fit, o, (scores, k)));
+                                }
+                            }
+                            match best {
+                                Some((_, o, pair)) => {
+                                    chosen = Some(pair);
+                                    o
+                                }
+                                None => continue,
+                            }
+                        }
+                    };
+                    let cached = imu_cache
+                        .entry((i, offset, grid_index))
+                        .or_insert_with(|| build(offset));
+                    let (imu_win, imu_features) = (&cached.0, &cached.1);
+                    let (mut scores, k) = match chosen {
+                        Some(pair) => pair,
+                        None => {
+                            compare_features(imu_features, seg_features, &self.config.geometric)
+                        }
+                    };
                     // The heading model: only at a known offset, where the window's cross sum
                     // is that of the IMU's own clock (a pair scored at its own best lag would
                     // mix a lag error into the heading).
@@ -1859,18 +1928,9 @@ impl Engine {
                     if self.config.motion_score == MotionScore::Nomen {
                         let cell = nomen_sums.entry((row, imu.subject)).or_insert((0.0, 0.0));
                         let w = &self.config.model_weights;
-                        let weighted = [
-                            (scores.acc, w.acc),
-                            (scores.vel, w.vel),
-                            (scores.ori, w.ori),
-                            (scores.dl, w.dl),
-                            (k.swing, w.swing),
-                            (k.vertical_accel, w.vertical_accel),
-                            (k.vertical_vel, w.vertical_vel),
-                            (k.inclination, w.inclination),
-                            (k.turn, w.turn),
-                            (heading_score, w.heading),
-                        ];
+                        let weighted = motion_terms(&scores, &k, w)
+                            .into_iter()
+                            .chain([(scores.dl, w.dl), (heading_score, w.heading)]);
                         for (v, w) in weighted {
                             if let Some(v) = v {
                                 cell.0 += w * v;
@@ -2884,6 +2944,42 @@ type PelvisPath = Vec<(i64, Point3<f64>)>;
 
 /// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
 /// per (IMU, offset, grid index).
+/// De Marchi's and nomen's correlations of one pair in one window.
+type PairScores = (nomen_evidence::ModelScores, nomen_evidence::KinematicScores);
+
+/// A pair's motion correlations with their [`crate::ModelWeights`]: De Marchi's three and
+/// nomen's five (not the learned scorer's, the heading or Belmonte's similarity).
+fn motion_terms(
+    scores: &nomen_evidence::ModelScores,
+    k: &nomen_evidence::KinematicScores,
+    w: &crate::ModelWeights,
+) -> [(Option<f64>, f64); 8] {
+    [
+        (scores.acc, w.acc),
+        (scores.vel, w.vel),
+        (scores.ori, w.ori),
+        (k.swing, w.swing),
+        (k.vertical_accel, w.vertical_accel),
+        (k.vertical_vel, w.vertical_vel),
+        (k.inclination, w.inclination),
+        (k.turn, w.turn),
+    ]
+}
+
+/// The weighted mean of [`motion_terms`], or `None` when none could be computed: how well a
+/// lag fits a pair, to choose among lag hypotheses.
+fn weighted_fit(
+    scores: &nomen_evidence::ModelScores,
+    k: &nomen_evidence::KinematicScores,
+    w: &crate::ModelWeights,
+) -> Option<f64> {
+    let (sum, weight) = motion_terms(scores, k, w)
+        .into_iter()
+        .filter_map(|(v, w)| Some((w * v?, w)))
+        .fold((0.0, 0.0), |(s, n), (v, w)| (s + v, n + w));
+    (weight > 0.0).then(|| sum / weight)
+}
+
 type ImuFeatureCache = BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures, Option<BandSignals>)>;
 
 /// Exchanges the people two tracks follow after an id swap: everything that describes the

@@ -518,6 +518,60 @@ fn the_joint_search_takes_only_peaks_that_stand_clear_of_the_rest_of_the_curve()
 }
 
 #[test]
+fn short_tracks_are_scored_at_the_wearers_lag_hypotheses_before_the_offset_is_accepted() {
+    // Ana's band runs 0.3 s late and no offset is ever accepted (every acceptance path off).
+    // After 8 s her camera re-labels her every 1.5 s, with stitching off: her tracks are then
+    // too short for the offset search, so only her band's lags on her earlier, long track (the
+    // lag hypotheses) can score them.
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.3;
+    people[1].imu_offset_s = -0.2;
+    let mut msgs = recording(&people, 18.0);
+    let relabel = |t_s: f64| TrackId(100 + ((t_s - 8.0) / 1.5) as u64);
+    for m in &mut msgs {
+        if let Message::Skeleton(s) = m
+            && s.track == TrackId(1)
+            && s.t.as_secs_f64() >= 8.0
+        {
+            s.track = relabel(s.t.as_secs_f64());
+        }
+    }
+    let never_accepted = EngineConfig {
+        offset_num_consistent: 1000,
+        offset_label_curves: 0,
+        offset_best_track_curves: 0,
+        stitch_max_gap_s: 0.0,
+        ..EngineConfig::default()
+    };
+    let named_ana = |config: &EngineConfig| {
+        let (out, stats) = run_batch(&registry(&people), &msgs, config).unwrap();
+        assert!(stats.clock_offsets.is_empty(), "{:?}", stats.clock_offsets);
+        let short: Vec<&Identity> = out
+            .iter()
+            .filter_map(|m| match m {
+                Message::Identified(id) if id.track.0 >= 100 => Some(&id.identity),
+                _ => None,
+            })
+            .collect();
+        assert!(short.len() > 200);
+        // Nobody else may take her short tracks.
+        assert!(
+            short
+                .iter()
+                .all(|i| i.subject().is_none_or(|s| s.as_str() == "ana"))
+        );
+        short.iter().filter(|i| i.subject().is_some()).count() as f64 / short.len() as f64
+    };
+    let with = named_ana(&never_accepted);
+    assert!(with > 0.6, "{with}");
+    let without = named_ana(&EngineConfig {
+        offset_hypotheses: 0,
+        ..never_accepted
+    });
+    assert!(without < 0.1, "{without}");
+}
+
+#[test]
 fn a_track_id_change_mid_walk_is_reidentified() {
     let mut people = two_people();
     people[0].track_change = Some((12.0, 11));
