@@ -251,7 +251,10 @@ pub struct EngineConfig {
     /// 75.61 %; with true clock offsets 95.93 → 95.75 %); the Belmonte-Hernández intruder
     /// stayed anonymous in 98.1 → 98.7 % of his frames (accuracy 96.4 → 96.7 %), and his
     /// two-band episode went from 89.8 to 90.0 %. Too tight a margin (0.1) keeps a track from
-    /// taking a subject it lost to a wrong holder.
+    /// taking a subject it lost to a wrong holder. The memory does not expire (a companion may
+    /// stay long after the wearer left): a track that turns out later to follow the subject,
+    /// after an id swap the engine did not see, must first score within the margin of the
+    /// holder's last score.
     pub exclusion_margin: f64,
     /// Largest difference searched for between a device's clock offset and the registry's
     /// offset for it (the prior; 0 when the registry says nothing), s. Default 0.6 s (the
