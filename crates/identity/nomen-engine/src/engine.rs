@@ -2136,6 +2136,7 @@ impl Engine {
                     .filter_map(|k| self.tracks.get(k))
                     .collect();
                 let label = self.tracks.get(key).and_then(|tr| tr.label);
+                let outscored_by = self.tracks.get(key).map(|tr| &tr.outscored_by);
                 let mut scores = BTreeMap::new();
                 let mut row = vec![None; self.subjects.len()];
                 for s in 0..self.subjects.len() {
@@ -2161,10 +2162,8 @@ impl Engine {
                     // Evidence gathered while the subject was plainly on someone else's track
                     // tells how alike the two move, not who this is.
                     let is_excluded = self.config.exclusion_margin >= 0.0
-                        && self
-                            .tracks
-                            .get(key)
-                            .and_then(|tr| tr.outscored_by.get(&s))
+                        && outscored_by
+                            .and_then(|m| m.get(&s))
                             .is_some_and(|&held| mean < held - self.config.exclusion_margin);
                     if !is_excluded && let Some(cell) = row.get_mut(s) {
                         *cell = Some(mean + bonus);
@@ -2233,17 +2232,18 @@ impl Engine {
     /// a subject (their spans overlap: two people at once) remembers the holder's score for it
     /// ([`EngineConfig::exclusion_margin`]); a track holding the subject forgets it.
     fn note_exclusions(&mut self, end: i64, keys: &[TrackKey], labels: &[Option<usize>]) {
+        let spans: Vec<Option<(i64, i64)>> =
+            keys.iter().map(|k| self.span_before(k, end)).collect();
         let held: Vec<(TrackKey, usize, f64, (i64, i64))> = keys
             .iter()
             .zip(labels)
-            .filter_map(|(key, label)| {
+            .zip(&spans)
+            .filter_map(|((key, label), span)| {
                 let s = (*label)?;
                 let score = *self.tracks.get(key)?.subject_scores.get(&s)?;
-                Some((*key, s, score, self.span_before(key, end)?))
+                Some((*key, s, score, (*span)?))
             })
             .collect();
-        let spans: Vec<Option<(i64, i64)>> =
-            keys.iter().map(|k| self.span_before(k, end)).collect();
         for ((key, label), span) in keys.iter().zip(labels).zip(spans) {
             let (Some(tr), Some(mine)) = (self.tracks.get_mut(key), span) else {
                 continue;
@@ -2944,6 +2944,8 @@ type PelvisPath = Vec<(i64, Point3<f64>)>;
 
 /// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
 /// per (IMU, offset, grid index).
+type ImuFeatureCache = BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures, Option<BandSignals>)>;
+
 /// De Marchi's and nomen's correlations of one pair in one window.
 type PairScores = (nomen_evidence::ModelScores, nomen_evidence::KinematicScores);
 
@@ -2976,11 +2978,9 @@ fn weighted_fit(
     let (sum, weight) = motion_terms(scores, k, w)
         .into_iter()
         .filter_map(|(v, w)| Some((w * v?, w)))
-        .fold((0.0, 0.0), |(s, n), (v, w)| (s + v, n + w));
+        .fold((0.0, 0.0), |(sum, weight), (v, w)| (sum + v, weight + w));
     (weight > 0.0).then(|| sum / weight)
 }
-
-type ImuFeatureCache = BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures, Option<BandSignals>)>;
 
 /// Exchanges the people two tracks follow after an id swap: everything that describes the
 /// person (settled joint history and filters, evidence, label, newest settled observation)
