@@ -16,10 +16,14 @@
 //! - RSSI reads feed one Kalman filter per (tag, antenna) when a model was given
 //!   ([`Engine::with_rssi_model`]).
 //!
-//! A new camera track that starts where an ended track of the same camera stopped (within
-//! [`EngineConfig::stitch_max_gap_s`] and walking reach) continues its evidence and label, the
-//! motion evidence at [`EngineConfig::stitch_evidence_weight`] of its weight (the stitch may
-//! have picked the wrong one of two people who were close).
+//! A new camera track may continue an ended track of the same camera (stitching) and then
+//! inherits its evidence and label, the motion evidence at
+//! [`EngineConfig::stitch_evidence_weight`] of its weight (the stitch may have picked the wrong
+//! one of two people who were close). The choice is made at the first window end after the new
+//! track's first frame, from settled observations only: when another camera follows the new
+//! track's person, the predecessor is the ended track that this view followed when it ended
+//! ([`EngineConfig::stitch_across_cameras`]); otherwise the ended track (within
+//! [`EngineConfig::stitch_max_gap_s`]) within walking reach of where the new one starts.
 //! SDKs also swap the ids of two people who pass close to each other: when a track's
 //! observation jumps farther than a person moves in the time since its last one (0.25 m plus
 //! 2 m/s) onto within half that jump of where another track of the camera was last seen (both

@@ -837,6 +837,93 @@ fn a_track_too_short_to_score_is_named_from_another_cameras_view_of_its_person()
     );
 }
 
+/// Labels of camera `camera`'s track `track` between `from_s` and `to_s` (`None`: anonymous).
+fn labels_of(
+    out: &[Message],
+    camera: &str,
+    track: u64,
+    from_s: f64,
+    to_s: f64,
+) -> Vec<Option<String>> {
+    out.iter()
+        .filter_map(|m| match m {
+            Message::Identified(id)
+                if id.camera.as_str() == camera
+                    && id.track.0 == track
+                    && (from_s..to_s).contains(&id.t.as_secs_f64()) =>
+            {
+                Some(id.identity.subject().map(|s| s.as_str().to_owned()))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_new_track_continues_the_track_another_camera_saw_its_person_on() {
+    // Ana and Ben, 1.5 m apart, are seen by two cameras. At 10 s the first camera loses both
+    // for half a second, Ana steps 1.1 m towards Ben meanwhile, and both come back under new
+    // ids (Ana 11, Ben 12). Walking reach alone would give Ana's new track Ben's old one (0.4 m
+    // from where she reappears, hers 1.1 m) and Ben's Ana's; the second camera, which saw both
+    // all along, tells who is who.
+    let mut people = two_people();
+    people[0].jump = Some((10.0, 1.1));
+    let (registry, msgs) = with_second_camera(&people, &recording(&people, 16.0));
+    let msgs: Vec<Message> = msgs
+        .into_iter()
+        .filter_map(|m| match m {
+            Message::Skeleton(mut s) if s.camera.as_str() == common::CAMERA => {
+                let t = s.t.as_secs_f64();
+                if (10.0..10.5).contains(&t) {
+                    return None;
+                }
+                if t >= 10.5 {
+                    s.track = TrackId(s.track.0 + 10);
+                }
+                Some(Message::Skeleton(s))
+            }
+            // The second camera follows each person as one track.
+            Message::Skeleton(mut s) => {
+                s.track = TrackId(if s.track.0 >= 1000 { 101 } else { 102 });
+                Some(Message::Skeleton(s))
+            }
+            m => Some(m),
+        })
+        .collect();
+    let config = EngineConfig {
+        known_clock_offsets: true,
+        ..EngineConfig::default()
+    };
+    let (out, stats) = run_batch(&registry, &msgs, &config).unwrap();
+    assert_eq!(stats.num_stitched, 2, "{stats:?}");
+    let ana = labels_of(&out, common::CAMERA, 11, 10.5, 16.0);
+    let ben = labels_of(&out, common::CAMERA, 12, 10.5, 16.0);
+    assert!(
+        ana.len() > 150 && ana.iter().all(|l| l.as_deref() == Some("ana")),
+        "{ana:?}"
+    );
+    assert!(
+        ben.len() > 150 && ben.iter().all(|l| l.as_deref() == Some("ben")),
+        "{ben:?}"
+    );
+    // Message order changes nothing: the predecessor is chosen from settled observations.
+    let (reordered, _) = run_batch(&registry, &shuffled(&msgs), &config).unwrap();
+    assert_eq!(reordered, out);
+    // By walking reach alone, Ana's new track continues Ben's old one, and she stays
+    // unnamed until the second camera's evidence outweighs what it inherited.
+    let reach_only = EngineConfig {
+        stitch_across_cameras: false,
+        ..config
+    };
+    let (out, stats) = run_batch(&registry, &msgs, &reach_only).unwrap();
+    assert_eq!(stats.num_stitched, 2, "{stats:?}");
+    let ana = labels_of(&out, common::CAMERA, 11, 10.5, 16.0);
+    assert!(
+        ana.iter().filter(|l| l.as_deref() != Some("ana")).count() >= 10,
+        "{ana:?}"
+    );
+}
+
 /// Session time, s, of the first message after which `device` has an accepted clock offset.
 fn first_offset_time_s(people: &[Person], msgs: &[Message], config: EngineConfig) -> Option<f64> {
     let mut engine = Engine::new(registry(people), config).unwrap();
