@@ -1219,6 +1219,19 @@ impl Engine {
             .filter(|(_, tr)| covered_span(tr, lo, hi) >= min_track)
             .map(|(k, _)| *k)
             .collect();
+        // Tracks too short to be candidates, for the subjects that have none: their lags score
+        // them (see `EngineConfig::offset_short_track_s`), nothing more.
+        let short_min = ns(self.config.offset_short_track_s);
+        let short: Vec<(usize, TrackId)> = if short_min > 0 && short_min < min_track {
+            self.tracks
+                .iter()
+                .filter(|(_, tr)| (short_min..min_track).contains(&covered_span(tr, lo, hi)))
+                .map(|(k, _)| *k)
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let mut short_peaks: BTreeMap<(usize, (usize, TrackId)), i64> = BTreeMap::new();
         // Per subject: mean peak per track.
         let mut subject_scores: Vec<BTreeMap<(usize, TrackId), f64>> =
             vec![BTreeMap::new(); self.subjects.len()];
@@ -1259,7 +1272,12 @@ impl Engine {
                     coarse.iter().map(|o| o + prior).collect()
                 };
                 let is_coarse = !imu.is_offset_known;
-                for key in &candidates {
+                let shorts: &[(usize, TrackId)] = if is_coarse { &short } else { &[] };
+                for (key, is_short) in candidates
+                    .iter()
+                    .map(|k| (k, false))
+                    .chain(shorts.iter().map(|k| (k, true)))
+                {
                     let Some(sig) =
                         skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
                     else {
@@ -1307,6 +1325,13 @@ impl Engine {
                         if let Some(found) = curve_peak(&fine, curve, prior, 0.0) {
                             (offset, value) = found;
                         }
+                    }
+                    if is_short {
+                        // A short stretch's curve is noisy: only a clear peak scores it.
+                        if is_clear && (offset - prior).abs() < max_off - LAG_STEP_NS / 2 {
+                            short_peaks.insert((i, *key), offset);
+                        }
+                        continue;
                     }
                     let e = track_score.entry(*key).or_insert((0.0, 0));
                     e.0 += value;
@@ -1368,11 +1393,20 @@ impl Engine {
             ranked.sort_by(|a, b| b.1.total_cmp(a.1).then(a.0.cmp(b.0)));
             let ranked: Vec<(usize, TrackId)> = ranked.into_iter().map(|(k, _)| *k).collect();
             for &i in &mine {
-                let pair_offsets: BTreeMap<(usize, TrackId), i64> = peaks
-                    .range((i, (0, TrackId(0)))..)
-                    .take_while(|((j, _), _)| *j == i)
-                    .map(|((_, k), (o, _))| (*k, *o))
-                    .collect();
+                // A subject with no candidate track scores the short ones at their own lags.
+                let pair_offsets: BTreeMap<(usize, TrackId), i64> = if ranked.is_empty() {
+                    short_peaks
+                        .range((i, (0, TrackId(0)))..)
+                        .take_while(|((j, _), _)| *j == i)
+                        .map(|((_, k), o)| (*k, *o))
+                        .collect()
+                } else {
+                    peaks
+                        .range((i, (0, TrackId(0)))..)
+                        .take_while(|((j, _), _)| *j == i)
+                        .map(|((_, k), (o, _))| (*k, *o))
+                        .collect()
+                };
                 // The winning track's peak lag is a candidate only if it is clear.
                 let candidate = winner
                     .and_then(|(key, _)| peaks.get(&(i, key)))
