@@ -3159,9 +3159,10 @@ fn weighted_fit(
 }
 
 /// Exchanges the people two tracks follow after an id swap: everything that describes the
-/// person (settled joint history and filters, evidence, label, newest settled observation)
-/// moves, while what belongs to the id stays (observations not settled yet, arrival times,
-/// stitching).
+/// person (settled joint history and filters, evidence, label, newest settled observation,
+/// whether it is new to the camera and may still continue an ended track) moves, while what
+/// belongs to the id stays (observations not settled yet, arrival times, whether a later track
+/// continued it).
 fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.samples, &mut b.samples);
     std::mem::swap(&mut a.kalman, &mut b.kalman);
@@ -3173,6 +3174,7 @@ fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.subject_scores, &mut b.subject_scores);
     std::mem::swap(&mut a.settled_t, &mut b.settled_t);
     std::mem::swap(&mut a.settled_anchor_world_m, &mut b.settled_anchor_world_m);
+    std::mem::swap(&mut a.is_stitch_pending, &mut b.is_stitch_pending);
 }
 
 /// Which forearm a band at `site` is on, for Belmonte-Hernández's costs; `None` off the
