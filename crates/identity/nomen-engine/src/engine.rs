@@ -1219,10 +1219,10 @@ impl Engine {
             .filter(|(_, tr)| covered_span(tr, lo, hi) >= min_track)
             .map(|(k, _)| *k)
             .collect();
-        // Tracks too short to be candidates, for the subjects that have none: their lags score
+        // While no track is long enough to be a candidate, the shorter ones: their lags score
         // them (see `EngineConfig::offset_short_track_s`), nothing more.
         let short_min = ns(self.config.offset_short_track_s);
-        let short: Vec<(usize, TrackId)> = if short_min > 0 && short_min < min_track {
+        let short: Vec<(usize, TrackId)> = if candidates.is_empty() && short_min > 0 {
             self.tracks
                 .iter()
                 .filter(|(_, tr)| (short_min..min_track).contains(&covered_span(tr, lo, hi)))
