@@ -270,10 +270,10 @@ pub struct EngineConfig {
     /// 68.8 % at 2 s (with `offset_subject_margin` 0; at 2.5 s without that check, 67.7 %).
     pub offset_min_track_s: f64,
     /// Shortest stretch of a track (as for `offset_min_track_s`) for it to be scored at its own
-    /// lag-curve peak, when that peak is clear (`offset_peak_clarity`), against the IMUs of a
-    /// subject that has no track long enough for the offset search (the first seconds of a
-    /// session, or a wearer back in view), s; such a track is never an offset candidate, and it
-    /// gives no lag hypothesis. 0 disables. Default 1.5 s. Before, nobody was named in a
+    /// lag-curve peak, when that peak is clear (`offset_peak_clarity`), against the IMUs whose
+    /// offsets are not accepted yet, while no track is long enough for the offset search (the
+    /// first seconds of a session, or of a wearer back in an empty view), s; such a track is
+    /// never an offset candidate, and it gives no lag hypothesis. 0 disables. Default 1.5 s. Before, nobody was named in a
     /// session's first 2.5 s. Over the ten imu-table scenes (seeds 1–9), 90.07 % of frames
     /// right without and 90.55 % with it (2 people, full network 97.05 → 97.96 %; 8 people,
     /// 91.90 → 94.12 % and, one wrist IMU, 76.81 → 75.92 %, both within the spread wrong early

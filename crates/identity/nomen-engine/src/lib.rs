@@ -82,9 +82,9 @@
 //!    onto the track's timestamps at their offset (before it is accepted, at that pair's own
 //!    lag-curve peak, so identity can be found meanwhile; a track too short for the search, at
 //!    whichever of the IMU's lag hypotheses fits it best in the window: its peaks on the
-//!    [`EngineConfig::offset_hypotheses`] best tracks of its subject; while the subject has no
-//!    track long enough for the search, as at a session's start, a track of at least
-//!    [`EngineConfig::offset_short_track_s`] at its own peak) and scored as
+//!    [`EngineConfig::offset_hypotheses`] best tracks of its subject; while no track is long
+//!    enough for the search, as at a session's start, a track of at least
+//!    [`EngineConfig::offset_short_track_s`] at its own peak when clear) and scored as
 //!    [`EngineConfig::motion_score`] says: De Marchi's correlations fused by
 //!    [`EngineConfig::fusion`], Belmonte-Hernández's costs, or (default) the weighted mean of
 //!    De Marchi's and nomen's correlations (`nomen_evidence::kinematic`) and, for forearm bands,
