@@ -795,6 +795,9 @@ impl Engine {
     /// the simulated 8-person scenes, where people hide each other from one camera while the
     /// other still sees them, walking reach alone chose the wrong person in 4 stitches of 10.
     fn predecessor(&self, key: TrackKey, end: i64) -> Option<TrackKey> {
+        if self.config.stitch_max_gap_s <= 0.0 {
+            return None;
+        }
         let tr = self.tracks.get(&key)?;
         let first = tr.samples.front()?;
         if self.config.stitch_across_cameras
@@ -873,7 +876,8 @@ impl Engine {
                 let (_, b) = sample_range(tr, i64::MIN, end);
                 let last = tr.samples.get(b.checked_sub(1)?)?;
                 let gap = t0 - last.t;
-                (max_gap > 0 && (STITCH_MIN_GAP_NS..=max_gap).contains(&gap))
+                (STITCH_MIN_GAP_NS..=max_gap)
+                    .contains(&gap)
                     .then_some((*k, tr, last))
             })
     }
@@ -1231,11 +1235,11 @@ impl Engine {
         } else {
             Vec::new()
         };
-        let mut short_peaks: BTreeMap<(usize, (usize, TrackId)), i64> = BTreeMap::new();
         // Per subject: mean peak per track.
         let mut subject_scores: Vec<BTreeMap<(usize, TrackId), f64>> =
             vec![BTreeMap::new(); self.subjects.len()];
-        // Per (unaccepted IMU, track): the peak lag, and whether the peak is clear.
+        // Per (unaccepted IMU, track): the peak lag, and whether the peak is clear (a short
+        // track's is marked unclear: it only scores).
         let mut peaks: BTreeMap<(usize, (usize, TrackId)), (i64, bool)> = BTreeMap::new();
         for b in 0..num_scored {
             let Some(mine) = self.subject_imus.get(b).cloned() else {
@@ -1327,9 +1331,11 @@ impl Engine {
                         }
                     }
                     if is_short {
-                        // A short stretch's curve is noisy: only a clear peak scores it.
+                        // A short stretch's curve is noisy: only a clear peak scores it. It
+                        // gives the subject no score (so no winner and no lag hypothesis) and
+                        // is marked unclear, so it is never an offset candidate.
                         if is_clear && (offset - prior).abs() < max_off - LAG_STEP_NS / 2 {
-                            short_peaks.insert((i, *key), offset);
+                            peaks.insert((i, *key), (offset, false));
                         }
                         continue;
                     }
@@ -1393,20 +1399,11 @@ impl Engine {
             ranked.sort_by(|a, b| b.1.total_cmp(a.1).then(a.0.cmp(b.0)));
             let ranked: Vec<(usize, TrackId)> = ranked.into_iter().map(|(k, _)| *k).collect();
             for &i in &mine {
-                // A subject with no candidate track scores the short ones at their own lags.
-                let pair_offsets: BTreeMap<(usize, TrackId), i64> = if ranked.is_empty() {
-                    short_peaks
-                        .range((i, (0, TrackId(0)))..)
-                        .take_while(|((j, _), _)| *j == i)
-                        .map(|((_, k), o)| (*k, *o))
-                        .collect()
-                } else {
-                    peaks
-                        .range((i, (0, TrackId(0)))..)
-                        .take_while(|((j, _), _)| *j == i)
-                        .map(|((_, k), (o, _))| (*k, *o))
-                        .collect()
-                };
+                let pair_offsets: BTreeMap<(usize, TrackId), i64> = peaks
+                    .range((i, (0, TrackId(0)))..)
+                    .take_while(|((j, _), _)| *j == i)
+                    .map(|((_, k), (o, _))| (*k, *o))
+                    .collect();
                 // The winning track's peak lag is a candidate only if it is clear.
                 let candidate = winner
                     .and_then(|(key, _)| peaks.get(&(i, key)))

@@ -712,6 +712,20 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
                 ..EngineConfig::default()
             },
         ),
+        (
+            "offset_short_track_s",
+            EngineConfig {
+                offset_short_track_s: -1.0,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "offset_short_track_s",
+            EngineConfig {
+                offset_short_track_s: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
     ] {
         let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), config) else {
             panic!("{name} out of range was accepted");
