@@ -2334,6 +2334,7 @@ impl Engine {
                 })
                 .collect();
             self.share_between_successive_tracks(end, &keys, &rows, &mut labels);
+            self.hold_back_unsynced_switches(end, &keys, &rows, &mut labels);
             self.note_exclusions(end, &keys, &labels);
             for (key, new_label) in keys.iter().zip(labels) {
                 let Some(tr) = self.tracks.get_mut(key) else {
@@ -2439,6 +2440,68 @@ impl Engine {
             });
             if !coexists && let Some(label) = labels.get_mut(r) {
                 *label = Some(s);
+            }
+        }
+    }
+
+    /// A subject none of whose IMUs has an accepted offset, about to move from the track
+    /// holding it to another track of the camera that coexists with it, goes to neither unless
+    /// the newcomer's score beats the holder's by [`EngineConfig::unsynced_switch_margin`]:
+    /// each pair is scored at its own best lag until then, so two people walking alike are
+    /// hard to tell apart, and an early name is better withheld than moved on a narrow margin.
+    fn hold_back_unsynced_switches(
+        &self,
+        end: i64,
+        keys: &[TrackKey],
+        rows: &[Vec<Option<f64>>],
+        labels: &mut [Option<usize>],
+    ) {
+        let margin = self.config.unsynced_switch_margin;
+        if margin <= 0.0 {
+            return;
+        }
+        let holders: Vec<Option<usize>> = keys
+            .iter()
+            .map(|k| self.tracks.get(k).and_then(|tr| tr.label))
+            .collect();
+        let spans: Vec<Option<(i64, i64)>> =
+            keys.iter().map(|k| self.span_before(k, end)).collect();
+        let score = |r: usize, s: usize| rows.get(r).and_then(|row| row.get(s)).copied().flatten();
+        for r in 0..labels.len() {
+            let (Some(s), Some(mine)) = (
+                labels.get(r).copied().flatten(),
+                spans.get(r).copied().flatten(),
+            ) else {
+                continue;
+            };
+            if holders.get(r).copied().flatten() == Some(s) {
+                continue;
+            }
+            let is_synced = self.subject_imus.get(s).is_some_and(|imus| {
+                imus.iter()
+                    .any(|&i| self.imus.get(i).is_some_and(|m| m.is_offset_known))
+            });
+            if is_synced {
+                continue;
+            }
+            // The score of the coexisting track that held the subject until now (it carries
+            // the hysteresis bonus).
+            let holder = (0..keys.len())
+                .filter(|&q| q != r && holders.get(q).copied().flatten() == Some(s))
+                .filter(|&q| {
+                    spans
+                        .get(q)
+                        .copied()
+                        .flatten()
+                        .is_some_and(|theirs| spans_overlap(mine, theirs))
+                })
+                .filter_map(|q| score(q, s))
+                .reduce(f64::max);
+            if let (Some(held), Some(new)) = (holder, score(r, s))
+                && new - held < margin
+                && let Some(label) = labels.get_mut(r)
+            {
+                *label = None;
             }
         }
     }

@@ -115,6 +115,9 @@
 //!    spans overlap) keeps the holder's score for it: it may take that subject later only
 //!    while its own score is within [`EngineConfig::exclusion_margin`] of that score, so a
 //!    companion who merely moved like the wearer does not inherit her name when she leaves.
+//!    While none of a subject's IMUs has an accepted offset, a move of her name from one
+//!    track to another that coexists with it must beat the holder's score by
+//!    [`EngineConfig::unsynced_switch_margin`], or neither track holds her for that decision.
 //!
 //! # Output and latency
 //! Exactly one `Message::Identified` per accepted skeleton observation, with its `(t, camera,
