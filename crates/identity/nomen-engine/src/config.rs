@@ -375,6 +375,19 @@ pub struct EngineConfig {
     /// more). Over the ten imu-table scenes, mean accuracy was 72.3 / 72.4 / 72.9 / 72.6 % at
     /// 4 / 5 / 6 / 8 curves on seeds 1–6, and 74.5 % (4) against 78.2 % (6) on seeds 7–9.
     pub offset_label_curves: usize,
+    /// The curves the same sum needs while none of its wearer's IMUs has an accepted offset,
+    /// for a wearer with several IMUs (the larger of this and `offset_label_curves` applies).
+    /// Her labels then come from pairs scored at their own best lags, and two people walking
+    /// the same clip a stride apart get each other's: on 5 people, full network, seed 3, all
+    /// five of one subject's offsets were accepted at 10 s on her look-alike's tracks, and that
+    /// run named 59.7 % of its frames right. The joint search averages over the network and
+    /// usually finds its first offset instead. Default 12: over the ten imu-table scenes
+    /// (seeds 1–9) 90.62 % of frames right at 6 (the same as `offset_label_curves`),
+    /// 90.77 / 90.84 / 90.83 % at 9 / 12 / 18 (at 12: 5 people 87.08 → 88.53 %, its seed 3
+    /// 59.7 → 77.0 %; 8 people 93.95 → 94.85 %; the one-wrist scenes unchanged); with no label
+    /// path at all until then, 90.82 % (5 people 88.39 %, but its typical seeds 2 points down:
+    /// the path names most networks' first offsets at 10–20 s).
+    pub offset_label_curves_unsynced: usize,
     /// How far the summed curve's peak must stand above every lag more than 0.15 s from it.
     /// Default 0.05.
     pub offset_label_margin: f64,
@@ -566,6 +579,7 @@ impl Default for EngineConfig {
             offset_refine_range_s: 0.1,
             offset_label_min_track_s: 2.0,
             offset_label_curves: 6,
+            offset_label_curves_unsynced: 12,
             offset_label_margin: 0.05,
             offset_label_min_correlation: 0.15,
             offset_withdraw_below: 0.05,

@@ -1671,6 +1671,19 @@ impl Engine {
                     added.push(curve.to_vec());
                 }
             }
+            // Labels of a body-area network none of whose offsets is accepted yet came from
+            // pairs scored at their own best lags; the joint search, which averages over the
+            // network, usually finds its first offset, and this path waits for more curves.
+            let needed = if !imu.is_offset_known
+                && !self.is_synced(subject)
+                && self.subject_imus.get(subject).is_some_and(|m| m.len() > 1)
+            {
+                self.config
+                    .offset_label_curves
+                    .max(self.config.offset_label_curves_unsynced)
+            } else {
+                self.config.offset_label_curves
+            };
             let Some(imu) = self.imus.get_mut(i) else {
                 continue;
             };
@@ -1687,7 +1700,7 @@ impl Engine {
                 }
             }
             imu.num_label_curves += added.len();
-            if imu.num_label_curves < self.config.offset_label_curves {
+            if imu.num_label_curves < needed {
                 continue;
             }
             let mean = mean_curve(&imu.label_curve);
@@ -2444,6 +2457,14 @@ impl Engine {
         }
     }
 
+    /// Whether any of `subject`'s IMUs has an accepted clock offset.
+    fn is_synced(&self, subject: usize) -> bool {
+        self.subject_imus.get(subject).is_some_and(|imus| {
+            imus.iter()
+                .any(|&i| self.imus.get(i).is_some_and(|m| m.is_offset_known))
+        })
+    }
+
     /// A subject none of whose IMUs has an accepted offset, about to move from the track
     /// holding it to another track of the camera that coexists with it, goes to neither unless
     /// the newcomer's score beats the holder's by [`EngineConfig::unsynced_switch_margin`]:
@@ -2477,11 +2498,7 @@ impl Engine {
             if holders.get(r).copied().flatten() == Some(s) {
                 continue;
             }
-            let is_synced = self.subject_imus.get(s).is_some_and(|imus| {
-                imus.iter()
-                    .any(|&i| self.imus.get(i).is_some_and(|m| m.is_offset_known))
-            });
-            if is_synced {
+            if self.is_synced(s) {
                 continue;
             }
             // The score of the coexisting track that held the subject until now (it carries

@@ -64,7 +64,9 @@
 //!    against the tracks labelled with its wearer, and after
 //!    [`EngineConfig::offset_label_curves`] curves a peak standing
 //!    [`EngineConfig::offset_label_margin`] above every lag more than 0.15 s away is accepted
-//!    too. The same sum, restarted at acceptance and taken every
+//!    too (a wearer with several IMUs, none of them accepted yet, needs
+//!    [`EngineConfig::offset_label_curves_unsynced`] curves: her labels then come from pairs
+//!    scored at their own best lags). The same sum, restarted at acceptance and taken every
 //!    [`EngineConfig::offset_refine_interval_s`], moves an accepted offset whose wearer's tracks
 //!    clearly peak elsewhere (a stride away, or first found on someone else's track), and
 //!    withdraws one at which that sum stays below [`EngineConfig::offset_withdraw_below`] while

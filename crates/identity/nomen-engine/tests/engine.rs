@@ -1107,3 +1107,40 @@ fn a_name_does_not_move_to_a_look_alike_on_a_narrow_margin_before_the_offset_is_
         "{dan_named} frames named, accuracy {acc}"
     );
 }
+
+#[test]
+fn a_networks_offsets_wait_for_more_labelled_curves_until_one_is_accepted() {
+    // Only the labelled-track path may accept offsets here: the joint search never finds a
+    // winner and the best-track pass is off. Each person wears an IMU on both wrists.
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.3;
+    people[1].imu_offset_s = -0.2;
+    for p in &mut people {
+        p.right_wrist_imu = true;
+    }
+    let msgs = recording(&people, 24.0);
+    let labels_only = |unsynced: usize| EngineConfig {
+        offset_margin: 5.0,
+        offset_best_track_curves: 0,
+        offset_label_curves: 6,
+        offset_label_curves_unsynced: unsynced,
+        ..EngineConfig::default()
+    };
+    let at_6 = first_offset_time_s(&people, &msgs, labels_only(6)).unwrap();
+    let at_12 = first_offset_time_s(&people, &msgs, labels_only(12)).unwrap();
+    assert!(at_12 >= at_6 + 3.0, "{at_6} s, then {at_12} s");
+    assert_eq!(first_offset_time_s(&people, &msgs, labels_only(1000)), None);
+    // The later offsets are as right as the earlier ones would be.
+    let (_, stats) = run_batch(&registry(&people), &msgs, &labels_only(12)).unwrap();
+    for (device, want) in [("ana_imu", 0.3), ("ana_imu_right", 0.3), ("ben_imu", -0.2)] {
+        let got = offset_s(&stats, device);
+        assert!((got - want).abs() <= 0.03, "{device}: {got}");
+    }
+    // One IMU per person: nothing to wait for.
+    for p in &mut people {
+        p.right_wrist_imu = false;
+    }
+    let msgs = recording(&people, 24.0);
+    let single = first_offset_time_s(&people, &msgs, labels_only(1000)).unwrap();
+    assert!(single < at_12 - 3.0, "{single} s");
+}

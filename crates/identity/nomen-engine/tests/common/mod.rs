@@ -44,6 +44,8 @@ pub struct Person {
     /// `(time_s, y_m)`: the person's observations jump to another place along the row then
     /// (a tracking glitch).
     pub jump: Option<(f64, f64)>,
+    /// A second IMU, `<subject>_imu_right`, on the right wrist (same clock as the left one).
+    pub right_wrist_imu: bool,
 }
 
 impl Person {
@@ -61,6 +63,7 @@ impl Person {
             is_in_view: true,
             jump: None,
             imu_yaw_rad: 0.0,
+            right_wrist_imu: false,
         }
     }
 
@@ -116,16 +119,19 @@ pub fn registry(people: &[Person]) -> Registry {
     Registry {
         subjects: people
             .iter()
-            .filter_map(|p| p.subject)
-            .map(|s| Subject {
+            .filter_map(|p| Some((p.subject?, p.right_wrist_imu)))
+            .map(|(s, right)| Subject {
                 id: SubjectId::new(s),
                 name: None,
-                wears: vec![Wearable {
-                    device: DeviceId::new(format!("{s}_imu")),
-                    kind: DeviceKind::Imu,
-                    site: Joint::LeftWrist,
-                    clock: ClockModel::default(),
-                }],
+                wears: std::iter::once((format!("{s}_imu"), Joint::LeftWrist))
+                    .chain(right.then(|| (format!("{s}_imu_right"), Joint::RightWrist)))
+                    .map(|(device, site)| Wearable {
+                        device: DeviceId::new(device),
+                        kind: DeviceKind::Imu,
+                        site,
+                        clock: ClockModel::default(),
+                    })
+                    .collect(),
             })
             .collect(),
         cameras: vec![Camera {
@@ -171,13 +177,20 @@ pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
     }
     for p in people {
         let Some(s) = p.subject else { continue };
+        let sides: &[(f64, &str)] = if p.right_wrist_imu {
+            &[(1.0, ""), (-1.0, "_right")]
+        } else {
+            &[(1.0, "")]
+        };
         let num = (duration_s * 100.0) as usize;
-        for k in 0..num {
+        for (k, &(side, suffix)) in (0..num).flat_map(|k| sides.iter().map(move |s| (k, s))) {
             let t = k as f64 / 100.0 + 0.003;
             if t > p.imu_until_s {
                 break;
             }
+            // The right forearm swings the other way (see `Person::wrist`).
             let (th, dth, ddth) = p.theta(t);
+            let (th, dth, ddth) = (side * th, side * dth, side * ddth);
             // Wrist acceleration in the world: second derivative of L·(sin θ, 0, −cos θ).
             let a_world = FOREARM_M
                 * Vector3::new(
@@ -197,7 +210,7 @@ pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
             let accel = world_from_sensor.inverse() * (a_world + Vector3::z() * G);
             msgs.push(Message::Imu(ImuSample {
                 t: ns(t - p.imu_offset_s),
-                device: DeviceId::new(format!("{s}_imu")),
+                device: DeviceId::new(format!("{s}_imu{suffix}")),
                 accel_mps2: accel,
                 gyro_radps: gyro,
                 mag_ut: None,
