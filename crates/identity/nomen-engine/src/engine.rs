@@ -1210,7 +1210,19 @@ impl Engine {
         // that clearly belongs to someone else is no candidate for a searching subject.
         // One search phase for everyone: subjects whose offsets are withdrawn or who are new
         // join the next search instead of adding their own.
-        let is_search_time = end.saturating_sub(self.last_search_end) >= search_every;
+        // A network IMU with nothing to be scored at searches at every window (see
+        // `EngineConfig::offset_search_while_blind`).
+        let is_blind = self.config.offset_search_while_blind
+            && self.imus.iter().any(|m| {
+                !m.is_offset_known
+                    && m.pair_offsets.is_empty()
+                    && m.lag_hypotheses.is_empty()
+                    && self
+                        .subject_imus
+                        .get(m.subject)
+                        .is_some_and(|imus| imus.len() > 1)
+            });
+        let is_search_time = is_blind || end.saturating_sub(self.last_search_end) >= search_every;
         let any_due = is_search_time && self.imus.iter().any(|m| !m.is_offset_known);
         if any_due {
             self.last_search_end = end;

@@ -42,7 +42,9 @@
 //! end on the offset the IMU had then), even when the window itself accepts a new offset, so
 //! its result does not depend on which later samples happen to have arrived. In each window:
 //! 1. **clock offsets**, estimated jointly with identity: a device without an accepted offset
-//!    is searched every [`EngineConfig::offset_search_interval_s`]. For every track covering
+//!    is searched every [`EngineConfig::offset_search_interval_s`] (at every window while an
+//!    IMU of a body-area network has no lag peak on any track yet:
+//!    [`EngineConfig::offset_search_while_blind`]). For every track covering
 //!    [`EngineConfig::offset_min_track_s`] of the last [`EngineConfig::offset_estimation_window_s`],
 //!    each IMU of the subject gets a lag curve (mean Pearson correlation of De Marchi's
 //!    acceleration and orientation-change magnitudes and nomen's vertical acceleration, swing

@@ -1144,3 +1144,43 @@ fn a_networks_offsets_wait_for_more_labelled_curves_until_one_is_accepted() {
     let single = first_offset_time_s(&people, &msgs, labels_only(1000)).unwrap();
     assert!(single < at_12 - 3.0, "{single} s");
 }
+
+#[test]
+fn a_networks_first_names_come_from_the_first_search_that_finds_peaks() {
+    // Each person wears an IMU on both wrists, offsets unknown: until a search finds their
+    // pairs' lag peaks nothing scores them, and with the search at every window while that
+    // lasts the first names come earlier.
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.3;
+    people[1].imu_offset_s = -0.2;
+    for p in &mut people {
+        p.right_wrist_imu = true;
+    }
+    // The camera sees them from 1 s on: the session's paced searches (every second from the
+    // first window's end) then come half a second after their tracks are long enough.
+    let mut msgs = recording(&people, 12.0);
+    msgs.retain(|m| !matches!(m, Message::Skeleton(s) if s.t.as_secs_f64() < 1.0));
+    let first_named = |config: &EngineConfig| {
+        let (out, _) = run_batch(&registry(&people), &msgs, config).unwrap();
+        let first = out
+            .iter()
+            .filter_map(|m| match m {
+                Message::Identified(id) if id.identity != Identity::Anonymous => {
+                    Some(id.t.as_secs_f64())
+                }
+                _ => None,
+            })
+            .fold(f64::INFINITY, f64::min);
+        (first, accuracy(&people, &out, 4.0))
+    };
+    let blind = first_named(&EngineConfig::default());
+    let paced = first_named(&EngineConfig {
+        offset_search_while_blind: false,
+        ..EngineConfig::default()
+    });
+    assert!(
+        blind.0 <= paced.0 - 0.45,
+        "first named at {blind:?} against {paced:?}"
+    );
+    assert!(blind.1 > 0.98, "accuracy after 4 s {}", blind.1);
+}
