@@ -1217,10 +1217,7 @@ impl Engine {
                 !m.is_offset_known
                     && m.pair_offsets.is_empty()
                     && m.lag_hypotheses.is_empty()
-                    && self
-                        .subject_imus
-                        .get(m.subject)
-                        .is_some_and(|imus| imus.len() > 1)
+                    && self.is_network(m.subject)
             });
         let is_search_time = is_blind || end.saturating_sub(self.last_search_end) >= search_every;
         let any_due = is_search_time && self.imus.iter().any(|m| !m.is_offset_known);
@@ -1686,16 +1683,14 @@ impl Engine {
             // Labels of a body-area network none of whose offsets is accepted yet came from
             // pairs scored at their own best lags; the joint search, which averages over the
             // network, usually finds its first offset, and this path waits for more curves.
-            let needed = if !imu.is_offset_known
-                && !self.is_synced(subject)
-                && self.subject_imus.get(subject).is_some_and(|m| m.len() > 1)
-            {
-                self.config
-                    .offset_label_curves
-                    .max(self.config.offset_label_curves_unsynced)
-            } else {
-                self.config.offset_label_curves
-            };
+            let needed =
+                if !imu.is_offset_known && !self.is_synced(subject) && self.is_network(subject) {
+                    self.config
+                        .offset_label_curves
+                        .max(self.config.offset_label_curves_unsynced)
+                } else {
+                    self.config.offset_label_curves
+                };
             let Some(imu) = self.imus.get_mut(i) else {
                 continue;
             };
@@ -2358,9 +2353,12 @@ impl Engine {
                     _ => None,
                 })
                 .collect();
-            self.share_between_successive_tracks(end, &keys, &rows, &mut labels);
-            self.hold_back_unsynced_switches(end, &keys, &rows, &mut labels);
-            self.note_exclusions(end, &keys, &labels);
+            // Each track's span as the observations before `end` tell, for the three steps below.
+            let spans: Vec<Option<(i64, i64)>> =
+                keys.iter().map(|k| self.span_before(k, end)).collect();
+            self.share_between_successive_tracks(&spans, &rows, &mut labels);
+            self.hold_back_unsynced_switches(&keys, &spans, &rows, &mut labels);
+            self.note_exclusions(&keys, &spans, &labels);
             for (key, new_label) in keys.iter().zip(labels) {
                 let Some(tr) = self.tracks.get_mut(key) else {
                     continue;
@@ -2394,16 +2392,19 @@ impl Engine {
         })
     }
 
-    /// After a camera's decision at `end`: every track that took part alongside the holder of
-    /// a subject (their spans overlap: two people at once) remembers the holder's score for it
+    /// After a camera's decision: every track that took part alongside the holder of a subject
+    /// (their `spans` overlap: two people at once) remembers the holder's score for it
     /// ([`EngineConfig::exclusion_margin`]); a track holding the subject forgets it.
-    fn note_exclusions(&mut self, end: i64, keys: &[TrackKey], labels: &[Option<usize>]) {
-        let spans: Vec<Option<(i64, i64)>> =
-            keys.iter().map(|k| self.span_before(k, end)).collect();
+    fn note_exclusions(
+        &mut self,
+        keys: &[TrackKey],
+        spans: &[Option<(i64, i64)>],
+        labels: &[Option<usize>],
+    ) {
         let held: Vec<(TrackKey, usize, f64, (i64, i64))> = keys
             .iter()
             .zip(labels)
-            .zip(&spans)
+            .zip(spans)
             .filter_map(|((key, label), span)| {
                 let s = (*label)?;
                 let score = *self.tracks.get(key)?.subject_scores.get(&s)?;
@@ -2411,7 +2412,7 @@ impl Engine {
             })
             .collect();
         for ((key, label), span) in keys.iter().zip(labels).zip(spans) {
-            let (Some(tr), Some(mine)) = (self.tracks.get_mut(key), span) else {
+            let (Some(tr), Some(mine)) = (self.tracks.get_mut(key), *span) else {
                 continue;
             };
             for &(holder, s, score, theirs) in &held {
@@ -2427,17 +2428,16 @@ impl Engine {
     /// One person seen under successive ids by a camera: the assignment gives each subject to
     /// one track, but a track that ended and its successor (unstitched) may both still have
     /// frames to label. A track whose best subject went to another track that it never
-    /// coexisted with (their times do not overlap, judged from what arrived before `end`) takes
+    /// coexisted with (their `spans` do not overlap; see [`Engine::span_before`]) takes
     /// that subject too, if its score clears the rejection threshold; tracks are taken by
     /// decreasing best score.
     fn share_between_successive_tracks(
         &self,
-        end: i64,
-        keys: &[TrackKey],
+        spans: &[Option<(i64, i64)>],
         rows: &[Vec<Option<f64>>],
         labels: &mut [Option<usize>],
     ) {
-        let span = |k: &TrackKey| self.span_before(k, end);
+        let span = |r: usize| spans.get(r).copied().flatten();
         let mut best: Vec<(usize, usize, f64)> = rows
             .iter()
             .enumerate()
@@ -2455,18 +2455,25 @@ impl Engine {
             if labels.get(r).copied().flatten() == Some(s) {
                 continue;
             }
-            let (Some(key), Some(mine)) = (keys.get(r), keys.get(r).and_then(span)) else {
+            let Some(mine) = span(r) else {
                 continue;
             };
-            let coexists = keys.iter().zip(labels.iter()).any(|(other, label)| {
-                other != key
+            let coexists = labels.iter().enumerate().any(|(q, label)| {
+                q != r
                     && *label == Some(s)
-                    && span(other).is_some_and(|theirs| spans_overlap(mine, theirs))
+                    && span(q).is_some_and(|theirs| spans_overlap(mine, theirs))
             });
             if !coexists && let Some(label) = labels.get_mut(r) {
                 *label = Some(s);
             }
         }
+    }
+
+    /// Whether `subject` wears a body-area network (several IMUs).
+    fn is_network(&self, subject: usize) -> bool {
+        self.subject_imus
+            .get(subject)
+            .is_some_and(|imus| imus.len() > 1)
     }
 
     /// Whether any of `subject`'s IMUs has an accepted clock offset.
@@ -2484,8 +2491,8 @@ impl Engine {
     /// hard to tell apart, and an early name is better withheld than moved on a narrow margin.
     fn hold_back_unsynced_switches(
         &self,
-        end: i64,
         keys: &[TrackKey],
+        spans: &[Option<(i64, i64)>],
         rows: &[Vec<Option<f64>>],
         labels: &mut [Option<usize>],
     ) {
@@ -2497,8 +2504,6 @@ impl Engine {
             .iter()
             .map(|k| self.tracks.get(k).and_then(|tr| tr.label))
             .collect();
-        let spans: Vec<Option<(i64, i64)>> =
-            keys.iter().map(|k| self.span_before(k, end)).collect();
         let score = |r: usize, s: usize| rows.get(r).and_then(|row| row.get(s)).copied().flatten();
         for r in 0..labels.len() {
             let (Some(s), Some(mine)) = (
