@@ -123,6 +123,8 @@ pub struct RecordingReader<R> {
     checker: Checker,
     stats: ReadStats,
     buf: Vec<u8>,
+    /// A message line rebuilt without its `type` key ([`parse_leading_type`]).
+    scratch: Vec<u8>,
     is_done: bool,
 }
 
@@ -169,6 +171,7 @@ impl<R: BufRead> RecordingReader<R> {
             checker,
             stats,
             buf,
+            scratch: Vec::new(),
             is_done: false,
         })
     }
@@ -245,12 +248,49 @@ impl<R: BufRead> RecordingReader<R> {
         while let Some((b'\n' | b'\r', rest)) = text.split_last() {
             text = rest;
         }
-        let msg = match serde_json::from_slice::<Message>(text) {
+        let parsed = match parse_leading_type(text, &mut self.scratch) {
+            Some(msg) => Ok(msg),
+            None => serde_json::from_slice::<Message>(text),
+        };
+        let msg = match parsed {
             Ok(msg) => msg,
             Err(err) => return Err(diagnose(text, &err, &Pos::new(&self.file, line))),
         };
         self.checker.check(&msg, &self.file, line)?;
         Ok(msg)
+    }
+}
+
+/// A message line that opens with `{"type":"imu",` or `{"type":"skeleton",` (as nomen writes
+/// them, and the two kinds that make up nearly every recording), parsed straight into its
+/// variant's struct: the generic path reads an internally tagged enum, for which serde first
+/// buffers every field of the line and then builds the struct from that copy. `None` for any
+/// other line, and for one
+/// the direct parse refuses or that names `type` a second time: the generic path then parses it
+/// (or reports its error) exactly as before, so fast and slow paths accept the same lines and
+/// give the same messages.
+fn parse_leading_type(text: &[u8], scratch: &mut Vec<u8>) -> Option<Message> {
+    const IMU: &[u8] = br#"{"type":"imu","#;
+    const SKELETON: &[u8] = br#"{"type":"skeleton","#;
+    let (prefix, is_imu) = if text.starts_with(IMU) {
+        (IMU, true)
+    } else if text.starts_with(SKELETON) {
+        (SKELETON, false)
+    } else {
+        return None;
+    };
+    let rest = text.get(prefix.len()..)?;
+    // A second `type` key: the generic path decides what that means.
+    if rest.windows(6).any(|w| w == br#""type""#) {
+        return None;
+    }
+    scratch.clear();
+    scratch.push(b'{');
+    scratch.extend_from_slice(rest);
+    if is_imu {
+        serde_json::from_slice(scratch).ok().map(Message::Imu)
+    } else {
+        serde_json::from_slice(scratch).ok().map(Message::Skeleton)
     }
 }
 

@@ -169,3 +169,52 @@ fn files_round_trip_through_the_file_system() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The reader parses the commonest lines (`{"type":"imu",…` and `{"type":"skeleton",…`) on a
+/// shorter path than serde's tagged-enum one; on every line, odd or not, it must agree with
+/// parsing the line as a [`Message`] the plain way.
+#[test]
+fn the_reader_parses_every_line_as_a_plain_message_parse_would() {
+    let imu_line = line(&imu(S, "band1"));
+    let skeleton_line = line(&skeleton(S, 3));
+    assert!(imu_line.starts_with(r#"{"type":"imu","#), "{imu_line}");
+    assert!(
+        skeleton_line.starts_with(r#"{"type":"skeleton","#),
+        "{skeleton_line}"
+    );
+    // The `type` key moved to the end: the generic path.
+    let body = imu_line.replacen(r#""type":"imu","#, "", 1);
+    let type_last = format!(r#"{},"type":"imu"}}"#, body.trim_end_matches('}'));
+    let cases = [
+        imu_line.clone(),
+        skeleton_line.clone(),
+        type_last,
+        // A field the struct does not know.
+        imu_line.replacen(r#""t":"#, r#""note":"x","t":"#, 1),
+        // A second `type` key naming another kind.
+        imu_line.replacen(r#""t":"#, r#""type":"skeleton","t":"#, 1),
+        // The tag says imu, the fields are a skeleton's.
+        skeleton_line.replacen(r#"{"type":"skeleton","#, r#"{"type":"imu","#, 1),
+        // A required field missing.
+        imu_line.replacen(r#""device":"band1","#, "", 1),
+    ];
+    let mut num_accepted = 0;
+    for l in &cases {
+        let plain = serde_json::from_str::<Message>(l);
+        let (good, error) = read_stop(&file(std::slice::from_ref(l)));
+        match plain {
+            Ok(msg) => {
+                assert_eq!((good, error), (vec![msg], None), "{l}");
+                num_accepted += 1;
+            }
+            Err(_) => assert!(good.is_empty() && error.is_some(), "{l}: {good:?}"),
+        }
+    }
+    // Both paths and both outcomes were exercised.
+    assert_eq!(num_accepted, 4);
+    // A refused fast-path line reports the same error as before (the plain parse's).
+    let wrong_fields = &cases[5];
+    let err = error_of(&file(std::slice::from_ref(wrong_fields)));
+    assert!(err.starts_with("rec.jsonl:2: "), "{err}");
+    assert!(err.contains("missing field"), "{err}");
+}
