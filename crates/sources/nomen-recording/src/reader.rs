@@ -265,10 +265,9 @@ impl<R: BufRead> RecordingReader<R> {
 /// them, and the two kinds that make up nearly every recording), parsed straight into its
 /// variant's struct: the generic path reads an internally tagged enum, for which serde first
 /// buffers every field of the line and then builds the struct from that copy. `None` for any
-/// other line, and for one
-/// the direct parse refuses or that names `type` a second time: the generic path then parses it
-/// (or reports its error) exactly as before, so fast and slow paths accept the same lines and
-/// give the same messages.
+/// other line, and for one the direct parse refuses or that names `type` a second time: the
+/// generic path then parses it (or reports its error) exactly as before, so fast and slow paths
+/// accept the same lines and give the same messages.
 fn parse_leading_type(text: &[u8], scratch: &mut Vec<u8>) -> Option<Message> {
     const IMU: &[u8] = br#"{"type":"imu","#;
     const SKELETON: &[u8] = br#"{"type":"skeleton","#;

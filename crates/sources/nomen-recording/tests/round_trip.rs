@@ -212,7 +212,8 @@ fn the_reader_parses_every_line_as_a_plain_message_parse_would() {
     }
     // Both paths and both outcomes were exercised.
     assert_eq!(num_accepted, 4);
-    // A refused fast-path line reports the same error as before (the plain parse's).
+    // A line the fast path refuses is reported by the generic path: file, line and serde's
+    // reason.
     let wrong_fields = &cases[5];
     let err = error_of(&file(std::slice::from_ref(wrong_fields)));
     assert!(err.starts_with("rec.jsonl:2: "), "{err}");
