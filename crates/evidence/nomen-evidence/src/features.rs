@@ -21,6 +21,7 @@ use crate::kinematic::{
 };
 use crate::signal::{Derivative, moving_average, pearson};
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
+use nalgebra::UnitQuaternion;
 use nomen_core::skeleton::Joint;
 
 /// The IMU side of every model, on its window's grid (`NaN` where missing).
@@ -130,6 +131,19 @@ impl SegmentFeatures {
         geo: &GeometricConfig,
         kin: &KinematicConfig,
     ) -> Self {
+        Self::with_turn_rate(skel, site, geo, kin, body_turn_rate_signal(skel, kin))
+    }
+
+    /// [`SegmentFeatures::new`] with the body's turn rate given: it is the same for every site,
+    /// so a caller building several sites of one window computes it once
+    /// ([`crate::body_turn_rate_signal`] of the same window and config).
+    pub fn with_turn_rate(
+        skel: &SkeletonWindow,
+        site: Joint,
+        geo: &GeometricConfig,
+        kin: &KinematicConfig,
+        turn_rate: Vec<f64>,
+    ) -> Self {
         let n = skel.t_s.len();
         let smooth = |mut v: Vec<f64>| {
             moving_average(&mut v, geo.moving_average_len);
@@ -167,7 +181,7 @@ impl SegmentFeatures {
                     .map_or_else(missing, |v| joint_vertical_velocity(skel, v, geo)),
             ),
             elevation: smooth(elevation),
-            turn_rate: body_turn_rate_signal(skel, kin),
+            turn_rate,
             horizontal_accel: [accel_axis(0), accel_axis(1)],
         }
     }
@@ -187,36 +201,121 @@ impl SegmentFeatures {
 /// magnitude, orientation-change magnitude, vertical acceleration, swing and turn rate (the
 /// same values as [`crate::imu_accel_magnitude`], [`crate::imu_orientation_magnitude`],
 /// [`crate::imu_vertical_accel`], [`crate::imu_swing_signal`] and
-/// [`crate::imu_turn_rate_signal`], with the acceleration filtered once for two of them).
+/// [`crate::imu_turn_rate_signal`], with the acceleration filtered once for two of them), at
+/// every `step`-th sample of the window (0, `step`, 2·`step`, …; `step` 0 counts as 1).
+///
+/// The signals are built at the window's full rate and then thinned; without a moving average
+/// (`geo.moving_average_len` ≤ 1) the orientation angles, which need no neighbours, are only
+/// computed at the samples kept. Either way the values equal the full-rate signals' there.
 pub fn imu_lag_models(
     imu: &ImuWindow,
     geo: &GeometricConfig,
     kin: &KinematicConfig,
+    step: usize,
 ) -> [Vec<f64>; 5] {
+    let step = step.max(1);
     let lin = imu_linear_accel_world(imu, geo);
     let mut vertical: Vec<f64> = lin.iter().map(|a| a.z).collect();
     moving_average(&mut vertical, geo.moving_average_len);
-    let mut swing = imu_swing(imu, lag_samples(&imu.t_s, kin));
-    moving_average(&mut swing, geo.moving_average_len);
+    let lag = lag_samples(&imu.t_s, kin);
+    let (orientation, swing) = if geo.moving_average_len <= 1 {
+        (
+            imu_orientation_magnitude_every(imu, step),
+            imu_swing_every(imu, lag, step),
+        )
+    } else {
+        let mut swing = imu_swing(imu, lag);
+        moving_average(&mut swing, geo.moving_average_len);
+        (
+            every_nth(imu_orientation_magnitude(imu, geo), step),
+            every_nth(swing, step),
+        )
+    };
     [
-        smoothed_norms(&lin, geo),
-        imu_orientation_magnitude(imu, geo),
-        vertical,
+        every_nth(smoothed_norms(&lin, geo), step),
+        orientation,
+        every_nth(vertical, step),
         swing,
-        imu_turn_rate_signal(imu, kin),
+        every_nth(imu_turn_rate_signal(imu, kin), step),
     ]
+}
+
+/// Every `step`-th value of `v`, from the first.
+fn every_nth(v: Vec<f64>, step: usize) -> Vec<f64> {
+    if step <= 1 {
+        return v;
+    }
+    v.into_iter().step_by(step).collect()
+}
+
+/// [`imu_orientation_magnitude`] without smoothing, at every `step`-th sample only (the
+/// reference is still the window's first finite orientation).
+fn imu_orientation_magnitude_every(imu: &ImuWindow, step: usize) -> Vec<f64> {
+    let n = imu.t_s.len();
+    let kept = n.div_ceil(step);
+    if imu.world_from_sensor.len() != n {
+        return vec![f64::NAN; kept];
+    }
+    let is_finite_q = |q: &UnitQuaternion<f64>| q.coords.iter().all(|c| c.is_finite());
+    let q0 = imu
+        .world_from_sensor
+        .iter()
+        .find(|q| is_finite_q(q))
+        .copied();
+    imu.world_from_sensor
+        .iter()
+        .step_by(step)
+        .map(|q| match q0 {
+            Some(q0) if is_finite_q(q) => (q0.inverse() * q).angle(),
+            _ => f64::NAN,
+        })
+        .collect()
+}
+
+/// [`imu_swing`] at every `step`-th sample only.
+fn imu_swing_every(imu: &ImuWindow, lag: usize, step: usize) -> Vec<f64> {
+    let ok = |q: &UnitQuaternion<f64>| q.coords.iter().all(|c| c.is_finite());
+    (0..imu.t_s.len())
+        .step_by(step)
+        .map(|k| {
+            let a = k
+                .checked_sub(lag)
+                .and_then(|i| imu.world_from_sensor.get(i));
+            match (a, imu.world_from_sensor.get(k)) {
+                (Some(a), Some(b)) if ok(a) && ok(b) => (a.inverse() * b).angle(),
+                _ => f64::NAN,
+            }
+        })
+        .collect()
 }
 
 /// [`imu_lag_models`]' skeleton side for a sensor worn at `site`: the same values as
 /// [`crate::joint_accel_magnitude`], [`crate::segment_orientation_magnitude`],
 /// [`crate::joint_vertical_accel`], [`crate::segment_swing_signal`] and
-/// [`crate::body_turn_rate_signal`], with the joint differentiated once for two of them.
+/// [`crate::body_turn_rate_signal`], with the joint differentiated once for two of them, at
+/// every `step`-th sample of the window (thinned after they are built at the full rate).
 pub fn segment_lag_models(
     skel: &SkeletonWindow,
     site: Joint,
     geo: &GeometricConfig,
     kin: &KinematicConfig,
+    step: usize,
 ) -> [Vec<f64>; 5] {
+    let [acc, ori, vertical, swing] = segment_site_lag_models(skel, site, geo, kin, step);
+    let turn = every_nth(body_turn_rate_signal(skel, kin), step.max(1));
+    [acc, ori, vertical, swing, turn]
+}
+
+/// The first four of [`segment_lag_models`], the ones that depend on the site: a caller
+/// building several sites of one window computes the body's turn rate, the fifth, once.
+pub fn segment_site_lag_models(
+    skel: &SkeletonWindow,
+    site: Joint,
+    geo: &GeometricConfig,
+    kin: &KinematicConfig,
+    step: usize,
+) -> [Vec<f64>; 4] {
+    let step = step.max(1);
     let n = skel.t_s.len();
     let acc = filtered_joint_derivative(skel, site, Derivative::Acceleration, geo);
     let mut vertical: Vec<f64> = acc
@@ -226,12 +325,14 @@ pub fn segment_lag_models(
     let mut swing = segment_swing(skel, site, lag_samples(&skel.t_s, kin));
     moving_average(&mut swing, geo.moving_average_len);
     [
-        acc.as_deref()
-            .map_or_else(|| vec![f64::NAN; n], |a| smoothed_norms(a, geo)),
-        segment_orientation_magnitude(skel, site, geo),
-        vertical,
-        swing,
-        body_turn_rate_signal(skel, kin),
+        every_nth(
+            acc.as_deref()
+                .map_or_else(|| vec![f64::NAN; n], |a| smoothed_norms(a, geo)),
+            step,
+        ),
+        every_nth(segment_orientation_magnitude(skel, site, geo), step),
+        every_nth(vertical, step),
+        every_nth(swing, step),
     ]
 }
 
@@ -424,14 +525,14 @@ mod tests {
         let same = |a: &[f64], b: &[f64]| {
             a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
         };
-        let [acc, ori, vertical, swing, turn] = imu_lag_models(&imu, &geo, &kin);
+        let [acc, ori, vertical, swing, turn] = imu_lag_models(&imu, &geo, &kin, 1);
         assert!(acc.iter().any(|v| v.is_finite()));
         assert!(same(&acc, &imu_accel_magnitude(&imu, &geo)));
         assert!(same(&ori, &imu_orientation_magnitude(&imu, &geo)));
         assert!(same(&vertical, &crate::imu_vertical_accel(&imu, &geo)));
         assert!(same(&swing, &crate::imu_swing_signal(&imu, &geo, &kin)));
         assert!(same(&turn, &imu_turn_rate_signal(&imu, &kin)));
-        let [acc, ori, vertical, swing, turn] = segment_lag_models(&skel, site, &geo, &kin);
+        let [acc, ori, vertical, swing, turn] = segment_lag_models(&skel, site, &geo, &kin, 1);
         assert!(acc.iter().any(|v| v.is_finite()));
         assert!(same(&acc, &joint_accel_magnitude(&skel, site, &geo)));
         assert!(same(
@@ -448,8 +549,78 @@ mod tests {
         ));
         assert!(same(&turn, &body_turn_rate_signal(&skel, &kin)));
         // A joint the window lacks: every model missing, as the single builders give.
-        let [acc, _, vertical, ..] = segment_lag_models(&skel, Joint::RightAnkle, &geo, &kin);
+        let [acc, _, vertical, ..] = segment_lag_models(&skel, Joint::RightAnkle, &geo, &kin, 1);
         assert!(acc.iter().chain(&vertical).all(|v| v.is_nan()));
+        // The site's four and the body's turn rate, built apart, are the same five.
+        let [acc, ori, vertical, swing] = segment_site_lag_models(&skel, site, &geo, &kin, 2);
+        let five = segment_lag_models(&skel, site, &geo, &kin, 2);
+        for (a, b) in [acc, ori, vertical, swing].iter().zip(&five) {
+            assert!(same(a, b));
+        }
+        let turn: Vec<f64> = body_turn_rate_signal(&skel, &kin)
+            .into_iter()
+            .step_by(2)
+            .collect();
+        assert!(same(&turn, &five[4]));
+        // Features with the turn rate given equal those that compute it (compared as text:
+        // both have `NaN`s where a signal is missing).
+        let given = SegmentFeatures::with_turn_rate(
+            &skel,
+            site,
+            &geo,
+            &kin,
+            body_turn_rate_signal(&skel, &kin),
+        );
+        assert_eq!(
+            format!("{given:?}"),
+            format!("{:?}", SegmentFeatures::new(&skel, site, &geo, &kin))
+        );
+    }
+
+    #[test]
+    fn thinned_lag_models_are_every_nth_value_of_the_full_rate_ones() {
+        let (mut imu, skel) = windows();
+        // A missing orientation: the thinned angles skip it like the full-rate ones.
+        if let Some(q) = imu.world_from_sensor.get_mut(4) {
+            *q = UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(f64::NAN, 0.0, 0.0, 0.0));
+        }
+        let kin = KinematicConfig::default();
+        let same = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        let thin =
+            |v: &[f64], step: usize| -> Vec<f64> { v.iter().step_by(step).copied().collect() };
+        // Without a moving average the angles are computed at the kept samples only; with
+        // one they are smoothed at the full rate first. Both must thin the full-rate values.
+        for moving_average_len in [1, 5] {
+            let geo = GeometricConfig {
+                moving_average_len,
+                ..GeometricConfig::default()
+            };
+            let imu_full = imu_lag_models(&imu, &geo, &kin, 1);
+            let skel_full = segment_lag_models(&skel, Joint::LeftWrist, &geo, &kin, 1);
+            for step in [2, 3, 7] {
+                let imu_thin = imu_lag_models(&imu, &geo, &kin, step);
+                let skel_thin = segment_lag_models(&skel, Joint::LeftWrist, &geo, &kin, step);
+                for (full, thinned) in imu_full
+                    .iter()
+                    .zip(&imu_thin)
+                    .chain(skel_full.iter().zip(&skel_thin))
+                {
+                    assert!(full.iter().any(|v| v.is_finite()));
+                    assert!(
+                        same(&thin(full, step), thinned),
+                        "step {step}, average {moving_average_len}"
+                    );
+                }
+            }
+        }
+        // Step 0 is step 1.
+        let geo = GeometricConfig::default();
+        assert_eq!(
+            imu_lag_models(&imu, &geo, &kin, 0)[1].len(),
+            imu_lag_models(&imu, &geo, &kin, 1)[1].len()
+        );
     }
 
     #[test]

@@ -36,7 +36,7 @@ pub use belmonte::{
 };
 pub use features::{
     HorizontalCross, ImuFeatures, SegmentFeatures, compare_features, horizontal_cross,
-    imu_lag_models, segment_lag_models,
+    imu_lag_models, segment_lag_models, segment_site_lag_models,
 };
 pub use fusion::{Fusion, FusionConfig, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{

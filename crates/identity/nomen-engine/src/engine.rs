@@ -18,8 +18,8 @@ use nomen_core::{
 };
 use nomen_evidence::{
     BandSignals, ForearmSignals, GeometricConfig, ImuFeatures, ImuWindow, PairScorer, ScoreTensor,
-    SegmentFeatures, Side, SkeletonWindow, belmonte_costs_from, compare_features, fuse,
-    horizontal_cross, imu_lag_models, segment_lag_models,
+    SegmentFeatures, Side, SkeletonWindow, belmonte_costs_from, body_turn_rate_signal,
+    compare_features, fuse, horizontal_cross, imu_lag_models, segment_site_lag_models,
 };
 use nomen_filters::kalman::JointKalman;
 use nomen_filters::median;
@@ -1250,10 +1250,23 @@ impl Engine {
         // Per (unaccepted IMU, track): the peak lag, and whether the peak is clear (a short
         // track's is marked unclear: it only scores).
         let mut peaks: BTreeMap<(usize, (usize, TrackId)), (i64, bool)> = BTreeMap::new();
+        // Whether each subject has an IMU still unaccepted: only those search. The others'
+        // scores only matter on the tracks a searching subject would win (below).
+        let is_searching: Vec<bool> = (0..num_scored)
+            .map(|b| {
+                self.subject_imus.get(b).is_some_and(|mine| {
+                    mine.iter()
+                        .any(|&i| self.imus.get(i).is_some_and(|m| !m.is_offset_known))
+                })
+            })
+            .collect();
         for b in 0..num_scored {
             let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
             };
+            if !is_searching.get(b).copied().unwrap_or(false) {
+                continue;
+            }
             let mut track_score: BTreeMap<(usize, TrackId), (f64, usize)> = BTreeMap::new();
             for &i in &mine {
                 let Some(imu) = self.imus.get(i) else {
@@ -1365,15 +1378,79 @@ impl Engine {
                     .collect();
             }
         }
+        // A subject whose offsets are all accepted is read at them only, and its score on a
+        // track only counts against a searching subject that would win that track: it is
+        // computed there alone (the mean of its IMUs' correlations at their offsets).
+        let mut contested: Vec<(usize, TrackId)> = (0..num_scored)
+            .filter(|&b| is_searching.get(b).copied().unwrap_or(false))
+            .filter_map(|b| {
+                subject_scores
+                    .get(b)?
+                    .iter()
+                    .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
+                    .map(|(k, _)| *k)
+            })
+            .collect();
+        contested.sort_unstable();
+        contested.dedup();
+        for c in 0..num_scored {
+            if is_searching.get(c).copied().unwrap_or(true) {
+                continue;
+            }
+            let Some(theirs) = self.subject_imus.get(c) else {
+                continue;
+            };
+            for key in &contested {
+                let (mut sum, mut num) = (0.0, 0usize);
+                for &i in theirs {
+                    let Some(imu) = self.imus.get(i) else {
+                        continue;
+                    };
+                    let Some(imu_sig) = imu_cache
+                        .entry((i, imu.offset_ns))
+                        .or_insert_with(|| {
+                            imu_lag_signals(
+                                imu,
+                                imu.offset_ns,
+                                lo - max_off,
+                                hi + max_off,
+                                &self.config,
+                            )
+                        })
+                        .as_ref()
+                    else {
+                        continue;
+                    };
+                    let Some(sig) =
+                        skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
+                    else {
+                        continue;
+                    };
+                    let offsets = [imu.offset_ns];
+                    let curve = scratch.curve(imu_sig, sig, &offsets, min_samples);
+                    if let Some((_, value)) = curve_peak(
+                        &offsets,
+                        curve,
+                        imu.registry_offset_ns,
+                        self.config.offset_tie_tolerance,
+                    ) {
+                        sum += value;
+                        num += 1;
+                    }
+                }
+                if num > 0
+                    && let Some(scores) = subject_scores.get_mut(c)
+                {
+                    scores.insert(*key, sum / num as f64);
+                }
+            }
+        }
         for b in 0..num_scored {
             let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
             };
             // Only subjects with an IMU still unaccepted search.
-            if !mine
-                .iter()
-                .any(|&i| self.imus.get(i).is_some_and(|m| !m.is_offset_known))
-            {
+            if !is_searching.get(b).copied().unwrap_or(false) {
                 continue;
             }
             let Some(scores) = subject_scores.get(b) else {
@@ -1944,6 +2021,8 @@ impl Engine {
                     }
                 };
                 let mut segments: Vec<(Joint, SegmentFeatures)> = Vec::new();
+                // The body's turn rate, the same for every site: computed once per track.
+                let mut turn_rate: Option<Vec<f64>> = None;
                 // The skeleton side of Belmonte's costs, per band side.
                 let mut arms: Vec<(Side, ForearmSignals)> = Vec::new();
                 for (i, imu) in self.imus.iter().enumerate() {
@@ -1979,13 +2058,19 @@ impl Engine {
                     let segment = match segments.iter().position(|(j, _)| *j == imu.site) {
                         Some(k) => k,
                         None => {
+                            let turn = turn_rate
+                                .get_or_insert_with(|| {
+                                    body_turn_rate_signal(&skel, &self.config.kinematic)
+                                })
+                                .clone();
                             segments.push((
                                 imu.site,
-                                SegmentFeatures::new(
+                                SegmentFeatures::with_turn_rate(
                                     &skel,
                                     imu.site,
                                     &self.config.geometric,
                                     &self.config.kinematic,
+                                    turn,
                                 ),
                             ));
                             segments.len() - 1
@@ -3348,18 +3433,31 @@ fn imu_lag_signals(
         gyro_radps: series.gyro_radps.get(a..b)?.to_vec(),
         world_from_sensor: series.world_from_sensor.get(a..b)?.to_vec(),
     };
-    let models = imu_lag_models(&window, &lag_geometric(config), &config.kinematic);
     // Device times (the lag curve shifts them by each candidate offset itself), thinned like
     // the track's: interpolation walks every IMU sample once per candidate offset.
-    Some(LagSignals::every_nth(&t_ns, &models, IMU_LAG_DECIMATION))
+    let models = imu_lag_models(
+        &window,
+        &lag_geometric(config),
+        &config.kinematic,
+        IMU_LAG_DECIMATION,
+    );
+    Some(LagSignals::thinned(
+        &t_ns,
+        models.into(),
+        IMU_LAG_DECIMATION,
+    ))
 }
+
+/// A track's buffer for the lag search: its times (session ns), its joints, and its body's
+/// turn rate (the fifth lag model, the same for every site) thinned like the other models.
+type TrackLagWindow = (Vec<i64>, SkeletonWindow, Vec<f64>);
 
 /// The lag search's track side for one window: each track's buffer, copied once, and its
 /// signals per site.
 #[derive(Default)]
 struct TrackLagCache {
-    /// A track's times (session ns) and joints in `[lo, hi)`; `None` if too short.
-    windows: BTreeMap<TrackKey, Option<(Vec<i64>, SkeletonWindow)>>,
+    /// A track's buffer in `[lo, hi)`; `None` if too short.
+    windows: BTreeMap<TrackKey, Option<TrackLagWindow>>,
     signals: BTreeMap<(TrackKey, Joint), Option<LagSignals>>,
 }
 
@@ -3393,15 +3491,25 @@ impl TrackLagCache {
                         t_s: t_ns.iter().map(|&t| t as f64 * 1e-9).collect(),
                         joints_world_m: tr.samples.range(a..b).map(|s| s.joints.clone()).collect(),
                     };
-                    Some((t_ns, skel))
+                    let turn: Vec<f64> = body_turn_rate_signal(&skel, &config.kinematic)
+                        .into_iter()
+                        .step_by(LAG_DECIMATION)
+                        .collect();
+                    Some((t_ns, skel, turn))
                 });
-                window.as_ref().map(|(t_ns, skel)| {
-                    let models =
-                        segment_lag_models(skel, site, &lag_geometric(config), &config.kinematic);
+                window.as_ref().map(|(t_ns, skel, turn)| {
                     // The signals are built at the camera's rate, then every `LAG_DECIMATION`-th
                     // sample is correlated: the models are low-passed well below the decimated
-                    // Nyquist rate.
-                    LagSignals::every_nth(t_ns, &models, LAG_DECIMATION)
+                    // Nyquist rate. The models are `segment_lag_models`', the turn rate shared.
+                    let [acc, ori, vertical, swing] = segment_site_lag_models(
+                        skel,
+                        site,
+                        &lag_geometric(config),
+                        &config.kinematic,
+                        LAG_DECIMATION,
+                    );
+                    let models = vec![acc, ori, vertical, swing, turn.clone()];
+                    LagSignals::thinned(t_ns, models, LAG_DECIMATION)
                 })
             })
             .as_ref()

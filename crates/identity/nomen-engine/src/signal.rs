@@ -133,15 +133,12 @@ pub(crate) struct LagSignals {
 }
 
 impl LagSignals {
-    /// Every `step`-th time and the same samples of every model (built at the full rate).
-    pub(crate) fn every_nth(t_ns: &[i64], models: &[Vec<f64>], step: usize) -> LagSignals {
-        let step = step.max(1);
+    /// Every `step`-th of the times `t_ns`, with models already thinned the same way (as
+    /// `nomen_evidence::imu_lag_models` returns them).
+    pub(crate) fn thinned(t_ns: &[i64], models: Vec<Vec<f64>>, step: usize) -> LagSignals {
         LagSignals {
-            t_ns: t_ns.iter().step_by(step).copied().collect(),
-            models: models
-                .iter()
-                .map(|m| m.iter().step_by(step).copied().collect())
-                .collect(),
+            t_ns: t_ns.iter().step_by(step.max(1)).copied().collect(),
+            models,
         }
     }
 }
