@@ -1206,8 +1206,9 @@ impl Engine {
         let min_samples = self.config.geometric.min_samples;
         let mut fine = Vec::new();
         // Every subject's mean peak per track; the accepted offsets of a subject are read at
-        // themselves only. Subjects with nothing to search still score the tracks, so a track
-        // that clearly belongs to someone else is no candidate for a searching subject.
+        // themselves only. Subjects with nothing to search still score the tracks a searching
+        // subject would win, so a track that clearly belongs to someone else is no candidate
+        // for a searching subject.
         // One search phase for everyone: subjects whose offsets are withdrawn or who are new
         // join the next search instead of adding their own.
         // A network IMU with nothing to be scored at searches at every window (see
