@@ -477,7 +477,7 @@ pub struct EngineConfig {
     /// Location-tag and RSSI evidence are inherited whole (their half-lives are short).
     pub stitch_evidence_weight: f64,
     /// Stitch through another camera: when a track of another camera follows a new track's
-    /// person (pelvis positions within `camera_pair_distance_m` on average, every other track
+    /// person (torso positions within `camera_pair_distance_m` on average, every other track
     /// at least twice as far), the new track continues the ended track of its camera that this
     /// view followed when it ended, or none if it followed none of them; walking reach
     /// (`stitch_max_speed_mps`, `stitch_radius_m`) decides only for people no other camera
@@ -489,7 +489,8 @@ pub struct EngineConfig {
     /// 76.81 %, within the spread that wrong early clock offsets give these scenes); with the
     /// true clock offsets, 96.53 → 97.11 % and 90.02 → 91.22 %.
     pub stitch_across_cameras: bool,
-    /// Tracks of different cameras whose pelvis positions stayed this close on average over the
+    /// Tracks of different cameras whose torso positions (the pelvis, else the first of chest,
+    /// neck, head and hips that both views have at that time) stayed this close on average over the
     /// last two evidence windows show the same person: each decides on the evidence of all of them
     /// (weighted by how much each has), so a fresh track seen by another camera for a while is
     /// named at once, and a wrong stitch is outvoted, m. Both tracks must be each other's

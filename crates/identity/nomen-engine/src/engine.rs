@@ -820,7 +820,7 @@ impl Engine {
     }
 
     /// The track of another camera that shows the person of the new track `key` (first seen at
-    /// `t0`): settled pelvis positions from `t0` to `end` at most
+    /// `t0`): settled torso positions ([`anchor_path`]) from `t0` to `end` at most
     /// [`EngineConfig::camera_pair_distance_m`] apart on average over at least
     /// `STITCH_VIEW_MIN_FRAMES` common frame times, and every other track at least twice as far.
     fn view_from_other_camera(&self, key: TrackKey, t0: i64, end: i64) -> Option<TrackKey> {
@@ -828,13 +828,13 @@ impl Engine {
         if limit <= 0.0 || self.cameras.len() < 2 {
             return None;
         }
-        let mine = pelvis_path(self.tracks.get(&key)?, t0, end);
+        let mine = anchor_path(self.tracks.get(&key)?, t0, end);
         let distances = self
             .tracks
             .iter()
             .filter(|(k, _)| k.0 != key.0)
             .filter_map(|(k, tr)| {
-                let theirs = pelvis_path(tr, t0, end);
+                let theirs = anchor_path(tr, t0, end);
                 Some((
                     *k,
                     mean_common_distance(&mine, &theirs, STITCH_VIEW_MIN_FRAMES)?,
@@ -844,7 +844,7 @@ impl Engine {
     }
 
     /// The ended track of `key`'s camera (see [`Engine::ended_before`]) that `view`, a track of
-    /// another camera, followed over its last `STITCH_VIEW_LOOKBACK_NS`: the pelvis paths at
+    /// another camera, followed over its last `STITCH_VIEW_LOOKBACK_NS`: the torso paths at
     /// most [`EngineConfig::camera_pair_distance_m`] apart on average, every other ended track
     /// at least twice as far.
     fn ended_track_followed_by(
@@ -859,8 +859,8 @@ impl Engine {
             .ended_before(key.0, t0, end)
             .filter_map(|(k, tr, last)| {
                 let lo = last.t - STITCH_VIEW_LOOKBACK_NS;
-                let theirs = pelvis_path(tr, lo, last.t + 1);
-                let mine = pelvis_path(view, lo, last.t + 1);
+                let theirs = anchor_path(tr, lo, last.t + 1);
+                let mine = anchor_path(view, lo, last.t + 1);
                 Some((
                     k,
                     mean_common_distance(&mine, &theirs, STITCH_VIEW_MIN_FRAMES)?,
@@ -2307,7 +2307,7 @@ impl Engine {
         }
     }
     /// The tracks of other cameras that show the same person as each of `active` (see
-    /// [`EngineConfig::camera_pair_distance_m`]): settled pelvis positions over the last
+    /// [`EngineConfig::camera_pair_distance_m`]): settled torso positions ([`anchor_path`]) over the last
     /// `CAMERA_PAIR_LOOKBACK_WINDOWS` evidence windows, compared at common frame times (within
     /// `CAMERA_PAIR_MAX_DT_NS`). A pair needs `CAMERA_PAIR_MIN_FRAMES` of them and a mean
     /// distance within the limit, and every track seen at the same time as either of the two in
@@ -2319,18 +2319,18 @@ impl Engine {
             return partners;
         }
         let start = end - CAMERA_PAIR_LOOKBACK_WINDOWS * self.window_ns;
-        let pelvis: Vec<(TrackKey, PelvisPath)> = active
+        let paths: Vec<(TrackKey, AnchorPath)> = active
             .iter()
             .filter_map(|k| {
                 let tr = self.tracks.get(k)?;
-                let path = pelvis_path(tr, start, end);
+                let path = anchor_path(tr, start, end);
                 (path.len() >= CAMERA_PAIR_MIN_FRAMES).then_some((*k, path))
             })
             .collect();
         // Mean distance of every pair of tracks of different cameras with enough common frames.
         let mut distance: BTreeMap<(TrackKey, TrackKey), f64> = BTreeMap::new();
-        for (i, (ka, pa)) in pelvis.iter().enumerate() {
-            for (kb, pb) in pelvis.iter().skip(i + 1) {
+        for (i, (ka, pa)) in paths.iter().enumerate() {
+            for (kb, pb) in paths.iter().skip(i + 1) {
                 if ka.0 == kb.0 {
                     continue;
                 }
@@ -2342,7 +2342,7 @@ impl Engine {
         }
         // Each track's time span in the lookback: only tracks seen at the same time as a
         // candidate are its rivals (a person's successive tracks in one camera are not).
-        let span: BTreeMap<TrackKey, (i64, i64)> = pelvis
+        let span: BTreeMap<TrackKey, (i64, i64)> = paths
             .iter()
             .filter_map(|(k, p)| Some((*k, (p.first()?.0, p.last()?.0))))
             .collect();
@@ -3169,19 +3169,22 @@ fn spans_overlap(a: (i64, i64), b: (i64, i64)) -> bool {
 }
 
 /// Mean distance between two paths (time increasing) over their common times (samples at
-/// most `CAMERA_PAIR_MAX_DT_NS` apart, each used once); `None` with fewer than `min_frames` of
-/// them.
-fn mean_common_distance(
-    a: &[(i64, Point3<f64>)],
-    b: &[(i64, Point3<f64>)],
-    min_frames: usize,
-) -> Option<f64> {
+/// most `CAMERA_PAIR_MAX_DT_NS` apart, each used once), each time measured at the first of the
+/// [`TORSO_ANCHORS`] both paths have there (times without a shared one are skipped); `None`
+/// with fewer than `min_frames` such times.
+fn mean_common_distance(a: &[AnchorSample], b: &[AnchorSample], min_frames: usize) -> Option<f64> {
     let (mut i, mut j) = (0, 0);
     let (mut sum, mut n) = (0.0, 0usize);
     while let (Some((ta, pa)), Some((tb, pb))) = (a.get(i), b.get(j)) {
         if (ta - tb).abs() <= CAMERA_PAIR_MAX_DT_NS {
-            sum += (pa - pb).norm();
-            n += 1;
+            let shared = pa
+                .iter()
+                .zip(pb)
+                .find_map(|(x, y)| Some((x.as_ref()?, y.as_ref()?)));
+            if let Some((x, y)) = shared {
+                sum += (x - y).norm();
+                n += 1;
+            }
             i += 1;
             j += 1;
         } else if ta < tb {
@@ -3193,12 +3196,31 @@ fn mean_common_distance(
     (n >= min_frames.max(1)).then(|| sum / n as f64)
 }
 
-/// A track's settled pelvis positions in `[lo, hi)`.
-fn pelvis_path(tr: &TrackState, lo: i64, hi: i64) -> PelvisPath {
+/// Joints that locate a person for comparing two cameras' views, in order of preference: the
+/// pelvis, else up the spine, else a hip. A view often lacks the pelvis (hidden behind someone
+/// in front) while the other camera sees it: comparing the same joint in both keeps the
+/// distance free of the offset between different joints.
+const TORSO_ANCHORS: [Joint; 6] = [
+    Joint::Pelvis,
+    Joint::Chest,
+    Joint::Neck,
+    Joint::Head,
+    Joint::LeftHip,
+    Joint::RightHip,
+];
+
+/// A track's settled [`TORSO_ANCHORS`] positions in `[lo, hi)` (samples with none left out).
+fn anchor_path(tr: &TrackState, lo: i64, hi: i64) -> AnchorPath {
     let (a, b) = sample_range(tr, lo, hi);
     tr.samples
         .range(a..b)
-        .filter_map(|s| Some((s.t, *s.joints.get(Joint::Pelvis)?)))
+        .filter_map(|s| {
+            let anchors = TORSO_ANCHORS.map(|j| s.joints.get(j).copied());
+            anchors
+                .iter()
+                .any(Option::is_some)
+                .then_some((s.t, anchors))
+        })
         .collect()
 }
 
@@ -3306,8 +3328,11 @@ fn accumulate(acc: &mut Accumulator, score: f64, decay_per_hop: f64) {
 /// A track: its camera's index and its id.
 type TrackKey = (usize, TrackId);
 
-/// A track's pelvis positions (world, m) at its times (session ns).
-type PelvisPath = Vec<(i64, Point3<f64>)>;
+/// A track's [`TORSO_ANCHORS`] (world, m, where seen) at one of its times (session ns).
+type AnchorSample = (i64, [Option<Point3<f64>>; TORSO_ANCHORS.len()]);
+
+/// A track's [`AnchorSample`]s, time increasing.
+type AnchorPath = Vec<AnchorSample>;
 
 /// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
 /// per (IMU, offset, grid index).

@@ -107,7 +107,7 @@
 //!    track × subject matrix, solved by `nomen_assign::solve` with
 //!    [`EngineConfig::rejection_threshold`]; the track's current label gets
 //!    [`EngineConfig::switch_margin`] as a bonus (hysteresis). Tracks of other cameras that
-//!    show the same person (pelvis within [`EngineConfig::camera_pair_distance_m`] on average
+//!    show the same person (torso within [`EngineConfig::camera_pair_distance_m`] on average
 //!    over the last two windows, each the other's unambiguous match) pool their evidence, each
 //!    accumulator weighted by its weight: a track too new to be scored is named from another
 //!    camera's view at once, and a wrong stitch is outweighed. One subject never goes to two

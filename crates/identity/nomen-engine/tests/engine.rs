@@ -5,7 +5,7 @@ mod common;
 
 use common::{Person, accuracy, num_skeletons, recording, registry, world_from_camera};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use nomen_core::skeleton::Joints;
+use nomen_core::skeleton::{Joint, Joints};
 use nomen_core::{
     CameraId, DeviceId, Identity, ImuSample, JointObservation, Message, Registry, RigidTransform,
     SessionTime, SkeletonObservation, TrackId,
@@ -864,6 +864,64 @@ fn a_track_too_short_to_score_is_named_from_another_cameras_view_of_its_person()
     assert!(
         named < 0.05,
         "Ana's fragments named {named} without pooling"
+    );
+}
+
+#[test]
+fn a_view_without_its_pelvis_is_still_matched_to_the_other_cameras_view() {
+    // As above, but the second camera never sees Ana's pelvis (hidden behind someone in front
+    // of it): her fragments are matched to the first camera's track on the chest instead. Both
+    // cameras see a chest (here the midpoint of the elbows, the same world point in either
+    // camera's frame).
+    let people = two_people();
+    let (registry, mut msgs) = with_second_camera(&people, &recording(&people, 24.0));
+    for m in &mut msgs {
+        let Message::Skeleton(s) = m else { continue };
+        let elbows = (
+            s.joints.get(Joint::LeftElbow),
+            s.joints.get(Joint::RightElbow),
+        );
+        if let (Some(l), Some(r)) = elbows {
+            let chest = nalgebra::center(&l.position_m, &r.position_m);
+            s.joints
+                .insert(Joint::Chest, JointObservation::tracked(chest));
+        }
+        if s.camera.as_str() == "cam2" && s.track.0 >= 1000 {
+            s.joints.remove(Joint::Pelvis);
+        }
+    }
+    let config = EngineConfig {
+        stitch_max_gap_s: 0.0,
+        ..EngineConfig::default()
+    };
+    let (out, _) = run_batch(&registry, &msgs, &config).unwrap();
+    let labels: Vec<Option<String>> = out
+        .iter()
+        .filter_map(|m| match m {
+            Message::Identified(id)
+                if id.camera.as_str() == "cam2"
+                    && id.track.0 >= 1000
+                    && id.t.as_secs_f64() > 8.0 =>
+            {
+                Some(id.identity.subject().map(|s| s.as_str().to_owned()))
+            }
+            _ => None,
+        })
+        .collect();
+    let named = labels
+        .iter()
+        .filter(|l| l.as_deref() == Some("ana"))
+        .count();
+    assert!(!labels.is_empty());
+    assert!(
+        named as f64 > 0.9 * labels.len() as f64,
+        "Ana's pelvis-less fragments named {named} of {}",
+        labels.len()
+    );
+    assert!(
+        labels
+            .iter()
+            .all(|l| l.as_deref().is_none_or(|s| s == "ana"))
     );
 }
 
