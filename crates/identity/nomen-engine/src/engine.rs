@@ -41,10 +41,10 @@ const CAMERA_PAIR_MAX_DT_NS: i64 = 16_000_000;
 /// person (a sixth of a second at 30 Hz), and fewest settled frames for a track to take part
 /// at all (as a partner or as a rival that makes a pairing ambiguous). A camera's fresh track
 /// after an occlusion is named from the other camera's view of the person as soon as this
-/// many frames match: on the 8-person scenes (seeds 1–9), 15 frames gave 94.79 % (full
-/// network) and 78.10 % (one wrist IMU), 5 give 95.37 % and 78.17 % (given the true offsets,
-/// 97.15 → 97.73 % and 91.48 → 92.66 %; 8 frames and 3 frames were within 0.1 points on the
-/// full network).
+/// many frames match: on the 8-person scenes (seeds 1–9, measured when it was lowered), 15
+/// frames gave 94.79 % (full network) and 78.10 % (one wrist IMU), 5 gave 95.37 % and 78.17 %
+/// (given the true offsets, 97.15 → 97.73 % and 91.48 → 92.66 %; 8 frames and 3 frames were
+/// within 0.1 points on the full network).
 const CAMERA_PAIR_MIN_FRAMES: usize = 5;
 
 /// How far back two cameras' tracks are compared, in evidence windows: long enough to hold
@@ -2307,11 +2307,11 @@ impl Engine {
         }
     }
     /// The tracks of other cameras that show the same person as each of `active` (see
-    /// [`EngineConfig::camera_pair_distance_m`]): settled torso positions ([`anchor_path`]) over the last
-    /// `CAMERA_PAIR_LOOKBACK_WINDOWS` evidence windows, compared at common frame times (within
-    /// `CAMERA_PAIR_MAX_DT_NS`). A pair needs `CAMERA_PAIR_MIN_FRAMES` of them and a mean
-    /// distance within the limit, and every track seen at the same time as either of the two in
-    /// its camera must be at least twice as far from the other one.
+    /// [`EngineConfig::camera_pair_distance_m`]): settled torso positions ([`anchor_path`])
+    /// over the last `CAMERA_PAIR_LOOKBACK_WINDOWS` evidence windows, compared at common frame
+    /// times (within `CAMERA_PAIR_MAX_DT_NS`). A pair needs `CAMERA_PAIR_MIN_FRAMES` of them
+    /// and a mean distance within the limit, and every track seen at the same time as either
+    /// of the two in its camera must be at least twice as far from the other one.
     fn camera_partners(&self, active: &[TrackKey], end: i64) -> BTreeMap<TrackKey, Vec<TrackKey>> {
         let mut partners: BTreeMap<TrackKey, Vec<TrackKey>> = BTreeMap::new();
         let limit = self.config.camera_pair_distance_m;
