@@ -11,17 +11,16 @@
 
 use crate::geometric::{
     GeometricConfig, carrying_segment, filtered_joint_derivative, imu_linear_accel_world,
-    imu_orientation_magnitude, imu_velocity_magnitude_from, joint_positions,
-    joint_velocity_magnitude_from, segment_orientation_magnitude, smoothed_norms,
+    imu_orientation_magnitude, imu_orientation_magnitude_every, imu_velocity_magnitude_from,
+    joint_positions, joint_velocity_magnitude_from, segment_orientation_magnitude, smoothed_norms,
 };
 use crate::kinematic::{
     KinematicConfig, KinematicScores, body_turn_rate_signal, elevation_rad, imu_swing,
-    imu_turn_rate_signal, imu_vertical_velocity, joint_vertical_velocity, lag_samples,
-    segment_swing,
+    imu_swing_every, imu_turn_rate_signal, imu_vertical_velocity, joint_vertical_velocity,
+    lag_samples, segment_swing,
 };
 use crate::signal::{Derivative, moving_average, pearson};
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
-use nalgebra::UnitQuaternion;
 use nomen_core::skeleton::Joint;
 
 /// The IMU side of every model, on its window's grid (`NaN` where missing).
@@ -246,47 +245,6 @@ fn every_nth(v: Vec<f64>, step: usize) -> Vec<f64> {
         return v;
     }
     v.into_iter().step_by(step).collect()
-}
-
-/// [`imu_orientation_magnitude`] without smoothing, at every `step`-th sample only (the
-/// reference is still the window's first finite orientation).
-fn imu_orientation_magnitude_every(imu: &ImuWindow, step: usize) -> Vec<f64> {
-    let n = imu.t_s.len();
-    let kept = n.div_ceil(step);
-    if imu.world_from_sensor.len() != n {
-        return vec![f64::NAN; kept];
-    }
-    let is_finite_q = |q: &UnitQuaternion<f64>| q.coords.iter().all(|c| c.is_finite());
-    let q0 = imu
-        .world_from_sensor
-        .iter()
-        .find(|q| is_finite_q(q))
-        .copied();
-    imu.world_from_sensor
-        .iter()
-        .step_by(step)
-        .map(|q| match q0 {
-            Some(q0) if is_finite_q(q) => (q0.inverse() * q).angle(),
-            _ => f64::NAN,
-        })
-        .collect()
-}
-
-/// [`imu_swing`] at every `step`-th sample only.
-fn imu_swing_every(imu: &ImuWindow, lag: usize, step: usize) -> Vec<f64> {
-    let ok = |q: &UnitQuaternion<f64>| q.coords.iter().all(|c| c.is_finite());
-    (0..imu.t_s.len())
-        .step_by(step)
-        .map(|k| {
-            let a = k
-                .checked_sub(lag)
-                .and_then(|i| imu.world_from_sensor.get(i));
-            match (a, imu.world_from_sensor.get(k)) {
-                (Some(a), Some(b)) if ok(a) && ok(b) => (a.inverse() * b).angle(),
-                _ => f64::NAN,
-            }
-        })
-        .collect()
 }
 
 /// [`imu_lag_models`]' skeleton side for a sensor worn at `site`: the same values as

@@ -207,9 +207,18 @@ pub(crate) fn imu_velocity_magnitude_from(
 /// IMU orientation-change magnitude, rad: the angle `2·atan2(‖v‖, w)` of `q_0⁻¹ q_k`, with `q_0`
 /// the first finite orientation of the window; moving average.
 pub fn imu_orientation_magnitude(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<f64> {
+    let mut out = imu_orientation_magnitude_every(imu, 1);
+    moving_average(&mut out, cfg.moving_average_len);
+    out
+}
+
+/// [`imu_orientation_magnitude`] without smoothing, at every `step`-th sample only (0, `step`,
+/// 2·`step`, …; `step` ≥ 1); the reference is still the window's first finite orientation.
+pub(crate) fn imu_orientation_magnitude_every(imu: &ImuWindow, step: usize) -> Vec<f64> {
     let n = imu.t_s.len();
+    let step = step.max(1);
     if imu.world_from_sensor.len() != n {
-        return vec![f64::NAN; n];
+        return vec![f64::NAN; n.div_ceil(step)];
     }
     let is_finite_q = |q: &UnitQuaternion<f64>| q.coords.iter().all(|c| c.is_finite());
     let q0 = imu
@@ -217,16 +226,14 @@ pub fn imu_orientation_magnitude(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<
         .iter()
         .find(|q| is_finite_q(q))
         .copied();
-    let mut out: Vec<f64> = imu
-        .world_from_sensor
+    imu.world_from_sensor
         .iter()
+        .step_by(step)
         .map(|q| match q0 {
             Some(q0) if is_finite_q(q) => (q0.inverse() * q).angle(),
             _ => f64::NAN,
         })
-        .collect();
-    moving_average(&mut out, cfg.moving_average_len);
-    out
+        .collect()
 }
 
 /// Positions of `joint` on the window's grid (NaN where absent or non-finite).

@@ -134,8 +134,14 @@ pub(crate) fn elevation_rad(d: &Vector3<f64>) -> f64 {
 
 /// Rotation angle of the sensor over the last `lag` samples, rad (NaN where unknown).
 pub(crate) fn imu_swing(imu: &ImuWindow, lag: usize) -> Vec<f64> {
+    imu_swing_every(imu, lag, 1)
+}
+
+/// [`imu_swing`] at every `step`-th sample only (0, `step`, 2·`step`, …; `step` ≥ 1).
+pub(crate) fn imu_swing_every(imu: &ImuWindow, lag: usize, step: usize) -> Vec<f64> {
     let ok = |q: &UnitQuaternion<f64>| q.coords.iter().all(|c| c.is_finite());
     (0..imu.t_s.len())
+        .step_by(step.max(1))
         .map(|k| {
             let a = k
                 .checked_sub(lag)
