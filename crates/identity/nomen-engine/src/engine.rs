@@ -108,6 +108,12 @@ const SWAP_SPEED_MPS: f64 = 2.0;
 /// ... and the longest a track may have been unseen, ns.
 const SWAP_MAX_GAP_NS: i64 = 1_000_000_000;
 
+/// A track unseen at least this long that comes back may have come back with someone else's
+/// person (three frames at 30 Hz), ns ...
+const SWAP_RETURN_GAP_NS: i64 = 100_000_000;
+/// ... which the other track's own return shows within this long, ns.
+const SWAP_RETURN_WINDOW_NS: i64 = 100_000_000;
+
 struct CameraState {
     id: CameraId,
     world_from_camera: Isometry3<f64>,
@@ -273,6 +279,10 @@ struct TrackState {
     /// m); what id-swap detection compares the next settled observation with.
     settled_t: i64,
     settled_anchor_world_m: Option<Point3<f64>>,
+    /// The newest observation that came after the track had been unseen for
+    /// `SWAP_RETURN_GAP_NS` or more: `(its time, the settled anchor before the gap, that
+    /// anchor's time)`. An id swap can hide in such a return (see [`Engine::swapped_with`]).
+    return_from_gap: Option<GapReturn>,
 }
 
 /// The streaming identity engine. See the crate documentation for the pipeline and latency.
@@ -734,6 +744,7 @@ impl Engine {
                 is_stitch_pending: true,
                 settled_t: i64::MIN,
                 settled_anchor_world_m: None,
+                return_from_gap: None,
             });
         track.pending.insert(t, world);
         track.first_t = track.first_t.min(t);
@@ -921,33 +932,74 @@ impl Engine {
     /// person moves in the time between (`SWAP_NOISE_M` + `SWAP_SPEED_MPS` × elapsed), and
     /// within half that jump of another track's last settled observation (which also fits that
     /// track's elapsed time). Both must be at most `SWAP_MAX_GAP_NS` old.
+    ///
+    /// Failing that, two returns from occlusion: another track came back from a gap
+    /// (`SWAP_RETURN_GAP_NS`) at most `SWAP_RETURN_WINDOW_NS` ago, while `track` was still
+    /// unseen, where `track` was last seen, and `x` lies where that track was before its gap.
+    /// Each move is measured against how far a person gets in its time; the exchanged moves
+    /// must both be within reach and together under half the moves the ids say. That track's
+    /// returning observation is returned with it (its time, the anchor before its gap and that
+    /// anchor's time): it showed `track`'s person and goes with them.
     fn swapped_with(
         &self,
         c: usize,
         track: TrackId,
         t: i64,
         x: &Point3<f64>,
-    ) -> Option<(usize, TrackId)> {
+    ) -> Option<(TrackKey, Option<GapReturn>)> {
+        let reach_over = |elapsed: i64| SWAP_NOISE_M + SWAP_SPEED_MPS * elapsed as f64 * 1e-9;
         let reach = |tr: &TrackState| {
             let elapsed = t - tr.settled_t;
-            (elapsed > 0 && elapsed <= SWAP_MAX_GAP_NS)
-                .then_some(SWAP_NOISE_M + SWAP_SPEED_MPS * elapsed as f64 * 1e-9)
+            (elapsed > 0 && elapsed <= SWAP_MAX_GAP_NS).then_some(reach_over(elapsed))
         };
         let me = self.tracks.get(&(c, track))?;
-        let jump = (x - me.settled_anchor_world_m?).norm();
+        let mine = me.settled_anchor_world_m?;
+        let jump = (x - mine).norm();
         if jump <= reach(me)? {
             return None;
         }
-        self.tracks
-            .range((c, TrackId(0))..)
-            .take_while(|(k, _)| k.0 == c)
-            .filter(|(k, tr)| k.1 != track && !tr.is_superseded)
+        let others = || {
+            self.tracks
+                .range((c, TrackId(0))..)
+                .take_while(|(k, _)| k.0 == c)
+                .filter(|(k, tr)| k.1 != track && !tr.is_superseded)
+        };
+        let onto_last = others()
             .filter_map(|(k, tr)| {
                 let d = (x - tr.settled_anchor_world_m?).norm();
                 (d <= reach(tr)? && d < 0.5 * jump).then_some((*k, d))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(k, _)| k)
+            .map(|(k, _)| (k, None));
+        if onto_last.is_some() {
+            return onto_last;
+        }
+        // Both people unseen for a while and back under each other's ids: the other track
+        // came back just before, where this one was, and this observation lies where the
+        // other one was before its gap.
+        others()
+            .filter_map(|(k, tr)| {
+                let (ret_t, before, before_t) = tr.return_from_gap?;
+                let since_return = t - ret_t;
+                // This track must still have been unseen when the other came back.
+                if !(0..=SWAP_RETURN_WINDOW_NS).contains(&since_return)
+                    || t - before_t > SWAP_MAX_GAP_NS
+                    || me.settled_t >= ret_t
+                {
+                    return None;
+                }
+                let returned_at = tr.settled_anchor_world_m?;
+                // Each move relative to how far a person gets in its time: as the ids say
+                // (this track's jump is already out of reach) and exchanged.
+                let kept = jump / reach_over(t - me.settled_t)
+                    + (returned_at - before).norm() / reach_over(ret_t - before_t);
+                let to_before = (x - before).norm() / reach_over(t - before_t);
+                let to_me = (returned_at - mine).norm() / reach_over((ret_t - me.settled_t).max(0));
+                let ok = to_before <= 1.0 && to_me <= 1.0 && to_before + to_me < 0.5 * kept;
+                ok.then_some((*k, to_before + to_me, (ret_t, before, before_t)))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _, returned)| (k, Some(returned)))
     }
 
     /// Settles camera `c`'s observations before `frontier` in time order across its tracks (the
@@ -970,11 +1022,29 @@ impl Engine {
                 break;
             };
             if let Some(x) = anchor
-                && let Some(other) = self.swapped_with(c, id, t, &x)
+                && let Some((other, returned)) = self.swapped_with(c, id, t, &x)
                 && let Some(mut mine) = self.tracks.remove(&(c, id))
             {
                 if let Some(theirs) = self.tracks.get_mut(&other) {
                     exchange_people(&mut mine, theirs);
+                    // The other track came back from a gap with this track's person: that one
+                    // observation goes with the person, and each track's newest settled
+                    // observation is its person's.
+                    let mut swapped_at = t;
+                    if let Some((ret_t, before, before_t)) = returned {
+                        if mine.samples.back().is_some_and(|s| s.t == ret_t)
+                            && let Some(sample) = mine.samples.pop_back()
+                        {
+                            theirs.samples.push_back(sample);
+                        }
+                        theirs.settled_t = mine.settled_t;
+                        theirs.settled_anchor_world_m = mine.settled_anchor_world_m;
+                        mine.settled_t = before_t;
+                        mine.settled_anchor_world_m = Some(before);
+                        swapped_at = ret_t;
+                    }
+                    mine.return_from_gap = None;
+                    theirs.return_from_gap = None;
                     // Lags found against a track's history go with that history.
                     for imu in &mut self.imus {
                         let a = imu.pair_offsets.remove(&(c, id));
@@ -986,17 +1056,28 @@ impl Engine {
                             imu.pair_offsets.insert((c, id), o);
                         }
                     }
-                    self.swaps.entry((c, id)).or_default().push((t, other.1));
-                    self.swaps.entry(other).or_default().push((t, id));
+                    // Both at one time, or the walk in `person_track` would bounce back. This
+                    // track had no frame between the other's return and now.
+                    self.swaps
+                        .entry((c, id))
+                        .or_default()
+                        .push((swapped_at, other.1));
+                    self.swaps.entry(other).or_default().push((swapped_at, id));
                     self.stats.num_swaps += 1;
                 }
                 self.tracks.insert((c, id), mine);
             }
             if let Some(tr) = self.tracks.get_mut(&(c, id)) {
                 settle_track(tr, t + 1, &self.config, noise);
-                if anchor.is_some() {
+                if let Some(x) = anchor {
+                    tr.return_from_gap = match tr.settled_anchor_world_m {
+                        Some(before) if t - tr.settled_t >= SWAP_RETURN_GAP_NS => {
+                            Some((t, before, tr.settled_t))
+                        }
+                        _ => tr.return_from_gap,
+                    };
                     tr.settled_t = t;
-                    tr.settled_anchor_world_m = anchor;
+                    tr.settled_anchor_world_m = Some(x);
                 }
             }
         }
@@ -3327,6 +3408,10 @@ fn accumulate(acc: &mut Accumulator, score: f64, decay_per_hop: f64) {
 
 /// A track: its camera's index and its id.
 type TrackKey = (usize, TrackId);
+
+/// A track's observation after a gap: its time (session ns), the track's settled anchor before
+/// the gap (world, m) and that anchor's time (session ns).
+type GapReturn = (i64, Point3<f64>, i64);
 
 /// A track's [`TORSO_ANCHORS`] (world, m, where seen) at one of its times (session ns).
 type AnchorSample = (i64, [Option<Point3<f64>>; TORSO_ANCHORS.len()]);

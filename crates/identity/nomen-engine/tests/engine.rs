@@ -621,6 +621,40 @@ fn an_id_swap_between_two_tracks_is_undone_at_once() {
 }
 
 #[test]
+fn an_id_swap_hidden_in_two_returns_from_occlusion_is_undone() {
+    // Ana and Ben stand 0.8 m apart. Ben's track (2) is unseen from 11.5 s and Ana's (1) from
+    // 11.8 s; at 12.0 s track 2 comes back showing Ana, and at 12.03 s track 1 showing Ben.
+    // Track 2's jump is within what half a second allows, so only the pair of returns tells
+    // the swap.
+    let mut people = two_people();
+    people[1].y_m = 0.8;
+    people[0].track_change = Some((12.0, 2));
+    people[1].track_change = Some((12.0, 1));
+    let hidden = |track: u64, t: f64| match track {
+        2 => (11.5..12.0).contains(&t),
+        1 => (11.8..12.02).contains(&t),
+        _ => false,
+    };
+    let msgs: Vec<Message> = recording(&people, 24.0)
+        .into_iter()
+        .filter(|m| match m {
+            Message::Skeleton(s) => !hidden(s.track.0, s.t.as_secs_f64()),
+            _ => true,
+        })
+        .collect();
+    let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    assert_eq!(stats.num_swaps, 1);
+    let around: Vec<Message> = out
+        .iter()
+        .filter(|m| m.t().as_secs_f64() < 13.0)
+        .cloned()
+        .collect();
+    let acc = accuracy(&people, &around, 11.0);
+    assert!(acc > 0.99, "accuracy around the swap {acc}");
+    assert!(accuracy(&people, &out, 8.0) > 0.99);
+}
+
+#[test]
 fn a_track_that_jumps_where_nobody_was_keeps_its_person() {
     // A tracking glitch moves Ana's observations 1.5 m away from everyone: no swap.
     let mut people = two_people();
