@@ -1292,7 +1292,11 @@ impl Engine {
         let same_offset = ns(self.config.offset_consistency_s);
         let mut skel_cache = TrackLagCache::default();
         // An IMU's buffer, per (IMU, offset it was cut with), for the three uses below.
-        let mut imu_cache: BTreeMap<(usize, i64), Option<LagSignals>> = BTreeMap::new();
+        let mut imu_cache = ImuLagCache {
+            lo: lo - max_off,
+            hi: hi + max_off,
+            signals: BTreeMap::new(),
+        };
         // Interpolation weights and curve, reused by every lag curve.
         let mut scratch = LagScratch::default();
         let min_samples = self.config.geometric.min_samples;
@@ -1365,19 +1369,7 @@ impl Engine {
                 let Some(imu) = self.imus.get(i) else {
                     continue;
                 };
-                let Some(imu_sig) = imu_cache
-                    .entry((i, imu.offset_ns))
-                    .or_insert_with(|| {
-                        imu_lag_signals(
-                            imu,
-                            imu.offset_ns,
-                            lo - max_off,
-                            hi + max_off,
-                            &self.config,
-                        )
-                    })
-                    .as_ref()
-                else {
+                let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, &self.config) else {
                     continue;
                 };
                 // Unknown offsets: a coarse grid over the whole range, then the fine grid
@@ -1487,7 +1479,7 @@ impl Engine {
         contested.sort_unstable();
         contested.dedup();
         for c in 0..num_scored {
-            if is_searching.get(c).copied().unwrap_or(true) {
+            if is_searching.get(c).copied().unwrap_or(false) {
                 continue;
             }
             let Some(theirs) = self.subject_imus.get(c) else {
@@ -1499,18 +1491,7 @@ impl Engine {
                     let Some(imu) = self.imus.get(i) else {
                         continue;
                     };
-                    let Some(imu_sig) = imu_cache
-                        .entry((i, imu.offset_ns))
-                        .or_insert_with(|| {
-                            imu_lag_signals(
-                                imu,
-                                imu.offset_ns,
-                                lo - max_off,
-                                hi + max_off,
-                                &self.config,
-                            )
-                        })
-                        .as_ref()
+                    let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, &self.config)
                     else {
                         continue;
                     };
@@ -1701,13 +1682,7 @@ impl Engine {
                 let cut = imu.registry_offset_ns;
                 grid.clear();
                 grid.extend(coarse.iter().step_by(BEST_TRACK_LAG_STEPS).map(|o| o + cut));
-                if let Some(imu_sig) = imu_cache
-                    .entry((i, cut))
-                    .or_insert_with(|| {
-                        imu_lag_signals(imu, cut, lo - max_off, hi + max_off, &self.config)
-                    })
-                    .as_ref()
-                {
+                if let Some(imu_sig) = imu_cache.signals(i, imu, cut, &self.config) {
                     for key in &candidates {
                         let Some(sig) =
                             skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
@@ -1818,13 +1793,7 @@ impl Engine {
             let prior = imu.registry_offset_ns;
             let grid: Vec<i64> = coarse.iter().map(|o| o + prior).collect();
             let mut added: Vec<Vec<f64>> = Vec::new();
-            if let Some(imu_sig) = imu_cache
-                .entry((i, imu.offset_ns))
-                .or_insert_with(|| {
-                    imu_lag_signals(imu, imu.offset_ns, lo - max_off, hi + max_off, &self.config)
-                })
-                .as_ref()
-            {
+            if let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, &self.config) {
                 for (key, tr) in self
                     .tracks
                     .iter()
@@ -1968,13 +1937,7 @@ impl Engine {
             // The curves against every track labelled with the wearer, weighted by how much of
             // the buffer each covers: a long track's peak is sharper than a short one's.
             let mut sum = vec![(0.0, 0.0); offsets.len()];
-            if let Some(imu_sig) = imu_cache
-                .entry((i, imu.offset_ns))
-                .or_insert_with(|| {
-                    imu_lag_signals(imu, imu.offset_ns, lo - max_off, hi + max_off, &self.config)
-                })
-                .as_ref()
-            {
+            if let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, &self.config) {
                 for (key, tr) in self
                     .tracks
                     .iter()
@@ -3568,6 +3531,31 @@ fn imu_lag_signals(
         models.into(),
         IMU_LAG_DECIMATION,
     ))
+}
+
+/// The lag search's IMU side for one window: each IMU's signals over `[lo, hi)` (device clock
+/// shifted by the offset the buffer is cut at), per (IMU, that offset).
+struct ImuLagCache {
+    lo: i64,
+    hi: i64,
+    signals: BTreeMap<(usize, i64), Option<LagSignals>>,
+}
+
+impl ImuLagCache {
+    /// [`imu_lag_signals`] of IMU `index` (`imu`) cut at `cut_ns`; `None` if too short.
+    fn signals(
+        &mut self,
+        index: usize,
+        imu: &ImuState,
+        cut_ns: i64,
+        config: &EngineConfig,
+    ) -> Option<&LagSignals> {
+        let (lo, hi) = (self.lo, self.hi);
+        self.signals
+            .entry((index, cut_ns))
+            .or_insert_with(|| imu_lag_signals(imu, cut_ns, lo, hi, config))
+            .as_ref()
+    }
 }
 
 /// A track's buffer for the lag search: its times (session ns), its joints, and its body's
