@@ -3,8 +3,8 @@
 use crate::config::{EngineConfig, MotionScore, OFFSET_CONFIRM_HISTORY, ns};
 use crate::error::{EngineError, Result};
 use crate::signal::{
-    ImuSeries, LagSignals, LagWeight, curve_peak, imu_window_on_grid, is_contradicted, lag_curve,
-    mean_curve, rival_value, summed_peak,
+    ImuSeries, LagSignals, LagWeight, PEAK_DROP, curve_peak, falls_on_both_sides,
+    imu_window_on_grid, is_contradicted, lag_curve, mean_curve, rival_value, summed_peak,
 };
 use crate::stats::{EngineStats, HeadingEstimate};
 use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m, fix_similarity};
@@ -1417,6 +1417,11 @@ impl Engine {
                     // candidate. A known offset is read at itself and is no candidate.
                     let clarity = self.config.offset_peak_clarity;
                     let is_clear = is_coarse
+                        && offsets
+                            .iter()
+                            .enumerate()
+                            .min_by_key(|(_, o)| o.abs_diff(offset))
+                            .is_some_and(|(k, _)| falls_on_both_sides(curve, k, PEAK_DROP))
                         && (clarity <= 0.0
                             || value
                                 - rival_value(&offsets, curve, offset, OFFSET_PEAK_SEPARATION_NS)

@@ -145,8 +145,12 @@ impl LagSignals {
 
 /// The lag curve: for each candidate offset in `offsets_ns` (session = device + offset), the
 /// mean over models of the Pearson correlation between the IMU's signals (device clock, shifted
-/// by the offset and interpolated onto the track's times) and the track's. `NaN` where no model
-/// has enough pairs.
+/// by the offset and interpolated onto the track's times) and the track's. `NaN` where the first
+/// model (the acceleration, whose peak is sharp) has too few pairs, whatever the others have:
+/// the slow models alone do not fix a lag. On the simulated 8-person one-wrist scenes a track
+/// whose wrist the camera lost had only the body's turn rate left, and one turn on a 3.6 s track
+/// correlated 0.87 with another person's band half a second off its clock offset, an offset the
+/// best-track sum then accepted.
 pub(crate) fn lag_curve(
     imu: &LagSignals,
     track: &LagSignals,
@@ -169,7 +173,13 @@ pub(crate) fn lag_curve(
         // model; track times outside the IMU's samples or in a gap pair with nothing.
         interpolation_weights(&imu.t_ns, offset, &track.t_ns, max_gap_ns, weights);
         let (mut sum, mut num) = (0.0, 0usize);
-        for ((a, b), (sa, sb)) in imu.models.iter().zip(&track.models).zip(&shifts) {
+        for (m, ((a, b), (sa, sb))) in imu
+            .models
+            .iter()
+            .zip(&track.models)
+            .zip(&shifts)
+            .enumerate()
+        {
             let mut sums = PearsonSums::new(*sa, *sb);
             sums.extend(weights.iter().map(|w| {
                 (
@@ -177,9 +187,14 @@ pub(crate) fn lag_curve(
                     b.get(w.query).copied().unwrap_or(f64::NAN),
                 )
             }));
-            if let Some(r) = sums.correlation(min_samples) {
-                sum += r;
-                num += 1;
+            match sums.correlation(min_samples) {
+                Some(r) => {
+                    sum += r;
+                    num += 1;
+                }
+                // Without the first model (the sharp one) nothing fixes the lag.
+                None if m == 0 => break,
+                None => {}
             }
         }
         out.push(if num > 0 { sum / num as f64 } else { f64::NAN });
@@ -287,17 +302,40 @@ pub(crate) fn summed_peak(
     half_step_ns: i64,
     separation_ns: i64,
 ) -> Option<(i64, f64, f64)> {
-    let (offset, peak) = offsets_ns
+    let (k, offset, peak) = offsets_ns
         .iter()
         .zip(curve)
-        .filter(|(o, v)| v.is_finite() && (*o - prior_ns).abs() < max_offset_ns - half_step_ns)
-        .max_by(|a, b| a.1.total_cmp(b.1))
-        .map(|(o, v)| (*o, *v))?;
+        .enumerate()
+        .filter(|(_, (o, v))| v.is_finite() && (*o - prior_ns).abs() < max_offset_ns - half_step_ns)
+        .max_by(|a, b| a.1.1.total_cmp(b.1.1))
+        .map(|(k, (o, v))| (k, *o, *v))?;
+    if !falls_on_both_sides(curve, k, PEAK_DROP) {
+        return None;
+    }
     Some((
         offset,
         peak,
         rival_value(offsets_ns, curve, offset, separation_ns),
     ))
+}
+
+/// How far a lag curve must fall on each side of a peak, towards the ends of the searched range,
+/// for the peak to be one: on the simulated 8-person one-wrist scenes, lag curves that kept
+/// rising to an end of the range (a slow trend, not a step) had their highest value inside the
+/// range next to that end, and those values were taken for clock offsets 0.52–0.56 s from the
+/// prior, all wrong.
+pub(crate) const PEAK_DROP: f64 = 0.02;
+
+/// Whether `curve` falls at least `drop` below its value at index `k` somewhere on each side of
+/// `k` (not necessarily next to it): a local maximum of the curve and not the top of a slope
+/// that goes on rising past the end of the range. Missing values (`NaN`) count as no fall.
+pub(crate) fn falls_on_both_sides(curve: &[f64], k: usize, drop: f64) -> bool {
+    let Some(&peak) = curve.get(k) else {
+        return false;
+    };
+    let falls = |v: &f64| v.is_finite() && *v <= peak - drop;
+    curve.get(..k).is_some_and(|l| l.iter().any(falls))
+        && curve.get(k + 1..).is_some_and(|r| r.iter().any(falls))
 }
 
 /// The highest finite value of a lag curve farther than `separation_ns` from `peak_ns` (`−∞`
@@ -399,6 +437,59 @@ mod tests {
         assert!(summed_peak(&offsets, &none, 0, 500, 50, 150).is_none());
         assert!(mean_curve(&[(1.0, 2), (0.0, 0)])[1].is_nan());
         assert_eq!(mean_curve(&[(1.0, 2)]), vec![0.5]);
+    }
+
+    #[test]
+    fn a_peak_must_fall_on_both_sides_towards_the_range_ends() {
+        // A slope rising to the end: its highest value inside the range is no peak.
+        let offsets: Vec<i64> = (-5..=5).map(|k| k * 100).collect();
+        let ramp = [0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.46];
+        assert!(!falls_on_both_sides(&ramp, 9, PEAK_DROP));
+        assert!(summed_peak(&offsets, &ramp, 0, 500, 50, 150).is_none());
+        // The same slope levelling off and falling before the end is one.
+        let mut bent = ramp;
+        bent[10] = 0.42;
+        assert!(falls_on_both_sides(&bent, 9, PEAK_DROP));
+        assert_eq!(
+            summed_peak(&offsets, &bent, 0, 500, 50, 150).unwrap().0,
+            400
+        );
+        // The fall may lie farther away than the neighbour, but must be `drop` deep; a missing
+        // value is no fall, and neither is an index past the end.
+        let shallow = [0.1, 0.29, 0.3, 0.29, 0.1];
+        assert!(falls_on_both_sides(&shallow, 2, 0.02));
+        assert!(!falls_on_both_sides(&shallow, 2, 0.25));
+        assert!(!falls_on_both_sides(&[f64::NAN, 0.3, 0.1], 1, 0.02));
+        assert!(!falls_on_both_sides(&shallow, 5, 0.02));
+    }
+
+    #[test]
+    fn a_lag_curve_needs_the_first_model() {
+        // Two models on a 10 ms grid; the second one identical on both sides, the first missing
+        // on the track, then present.
+        let t: Vec<i64> = (0..200).map(|k| k * 10).collect();
+        let wave: Vec<f64> = t
+            .iter()
+            .map(|&t| (t as f64 * 0.013).sin() + (t as f64 * 0.031).cos())
+            .collect();
+        let imu = LagSignals {
+            t_ns: t.clone(),
+            models: vec![wave.clone(), wave.clone()],
+        };
+        let blind = LagSignals {
+            t_ns: t.clone(),
+            models: vec![vec![f64::NAN; t.len()], wave.clone()],
+        };
+        let (mut weights, mut out) = (Vec::new(), Vec::new());
+        lag_curve(&imu, &blind, &[-20, 0, 20], 50, 16, &mut weights, &mut out);
+        assert!(out.iter().all(|v| v.is_nan()), "{out:?}");
+        let seen = LagSignals {
+            t_ns: t,
+            models: vec![wave.clone(), wave],
+        };
+        lag_curve(&imu, &seen, &[-20, 0, 20], 50, 16, &mut weights, &mut out);
+        assert!((out[1] - 1.0).abs() < 1e-9, "{out:?}");
+        assert!(out[0] < out[1] && out[2] < out[1], "{out:?}");
     }
 
     #[test]
