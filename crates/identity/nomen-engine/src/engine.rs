@@ -1652,8 +1652,9 @@ impl Engine {
         }
         // Every IMU, accepted or not, against every candidate track: the lag curve's best
         // value over the tracks at every `BEST_TRACK_LAG_STEPS`-th coarse lag, summed over
-        // passes. No decision enters this sum, so a wrong early label cannot confirm the offset
-        // it came from. Once it has `offset_best_track_curves` passes, a peak standing
+        // passes, leaving out the tracks someone else's synchronised IMU explains. The IMU's
+        // own labels do not enter this sum, so a wrong early label cannot confirm the offset it
+        // came from. Once it has `offset_best_track_curves` passes, a peak standing
         // `offset_best_track_margin` above every lag more than `OFFSET_PEAK_SEPARATION_NS` away
         // accepts the offset, or moves an accepted one that lies farther than that from it;
         // `offset_settle_passes` such peaks in a row at the accepted offset settle it.
@@ -1689,6 +1690,18 @@ impl Engine {
                 grid.extend(coarse.iter().step_by(BEST_TRACK_LAG_STEPS).map(|o| o + cut));
                 if let Some(imu_sig) = imu_cache.signals(i, imu, cut, &self.config) {
                     for key in &candidates {
+                        // A track named after someone else with an accepted offset is
+                        // explained by that person's IMU: a look-alike's track (the same gait
+                        // a fraction of a stride off, the same turns for a while) would
+                        // otherwise give this IMU a second peak in every pass.
+                        let is_explained = self
+                            .tracks
+                            .get(key)
+                            .and_then(|tr| tr.label)
+                            .is_some_and(|l| l != imu.subject && self.is_synced(l));
+                        if is_explained {
+                            continue;
+                        }
                         let Some(sig) =
                             skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
                         else {

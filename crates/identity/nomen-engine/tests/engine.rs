@@ -485,6 +485,39 @@ fn an_offset_is_also_found_from_the_best_track_at_every_lag() {
 }
 
 #[test]
+fn a_look_alikes_track_explained_by_her_synchronised_band_is_no_peak_for_another_band() {
+    // Cleo swings exactly like Ben 0.2 s later and comes into view at 20 s; both bands' clocks
+    // are 0.15 s behind. Only the best-track curve may find offsets. Ben's is found from his
+    // own track before Cleo arrives. Then Cleo's band has two equal peaks, her own track at
+    // −0.15 s and Ben's at −0.35 s; Ben's track is his band's, so only hers counts.
+    let ben = Person {
+        imu_offset_s: -0.15,
+        ..Person::new(Some("ben"), 1.3, 1.5, 2)
+    };
+    let cleo = Person {
+        subject: Some("cleo"),
+        y_m: 0.3,
+        track: 3,
+        time_shift_s: 0.2,
+        in_view_from_s: 20.0,
+        ..ben.clone()
+    };
+    let people = vec![ben, cleo];
+    let msgs = recording(&people, 60.0);
+    let config = EngineConfig {
+        offset_margin: 5.0,
+        offset_label_curves: 0,
+        ..EngineConfig::default()
+    };
+    let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    let ben = offset_s(&stats, "ben_imu");
+    assert!((ben + 0.15).abs() <= 0.025, "ben offset {ben}");
+    let cleo = offset_s(&stats, "cleo_imu");
+    assert!((cleo + 0.15).abs() <= 0.025, "cleo offset {cleo} {stats:?}");
+    assert!(accuracy(&people, &out, 45.0) > 0.95);
+}
+
+#[test]
 fn the_joint_search_takes_only_peaks_that_stand_clear_of_the_rest_of_the_curve() {
     // Ana's swing repeats its magnitude signals every 0.56 s, so at 0.4 s her curve's other
     // peak lies outside the searched range; Ben's repeat every 0.38 s, and at −0.2 s his

@@ -46,6 +46,11 @@ pub struct Person {
     pub jump: Option<(f64, f64)>,
     /// A second IMU, `<subject>_imu_right`, on the right wrist (same clock as the left one).
     pub right_wrist_imu: bool,
+    /// The swing runs this late, s: a person with the same swing parameters and a shift moves
+    /// exactly like the other one that much later (a look-alike).
+    pub time_shift_s: f64,
+    /// The camera sees the person from this time on, s (if `is_in_view`).
+    pub in_view_from_s: f64,
 }
 
 impl Person {
@@ -64,6 +69,8 @@ impl Person {
             jump: None,
             imu_yaw_rad: 0.0,
             right_wrist_imu: false,
+            time_shift_s: 0.0,
+            in_view_from_s: 0.0,
         }
     }
 
@@ -77,6 +84,7 @@ impl Person {
 
     /// Swing angle θ(t) and its first two derivatives.
     fn theta(&self, t: f64) -> (f64, f64, f64) {
+        let t = t - self.time_shift_s;
         let w = 2.0 * std::f64::consts::PI * self.freq_hz;
         let m = 2.0 * std::f64::consts::PI * self.mod_hz;
         let amp = 0.5 + 0.3 * (m * t).sin();
@@ -156,7 +164,10 @@ pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
     let num_frames = (duration_s * 30.0) as usize;
     for k in 0..num_frames {
         let t = k as f64 / 30.0;
-        for p in people.iter().filter(|p| p.is_in_view) {
+        for p in people
+            .iter()
+            .filter(|p| p.is_in_view && t >= p.in_view_from_s)
+        {
             let mut joints = Joints::new();
             let pelvis = Point3::new(1.0, p.y_at(t), 0.95);
             let mut put = |j, pw: Point3<f64>| {
