@@ -261,6 +261,10 @@ struct TrackState {
     /// Mean model score per IMU (reported as the evidence behind a label).
     device_evidence: BTreeMap<usize, Accumulator>,
     label: Option<usize>,
+    /// A subject whose move from this track to a coexisting one was held back (see
+    /// [`Engine::hold_back_unsynced_switches`]): this track still holds it for that rule while
+    /// it is anonymous, until its next named decision.
+    held_back: Option<usize>,
     /// Scores per subject at the last decision (without the hysteresis bonus).
     subject_scores: BTreeMap<usize, f64>,
     /// Per subject: the score (without the bonus) of the other track of this camera that held
@@ -737,6 +741,7 @@ impl Engine {
                 rssi_evidence: BTreeMap::new(),
                 device_evidence: BTreeMap::new(),
                 label: None,
+                held_back: None,
                 subject_scores: BTreeMap::new(),
                 outscored_by: BTreeMap::new(),
                 last_anchor_world_m: anchor,
@@ -795,13 +800,15 @@ impl Engine {
             let tag_evidence = old.tag_evidence.clone();
             let rssi_evidence = old.rssi_evidence.clone();
             let device_evidence = old.device_evidence.clone();
-            let (label, subject_scores) = (old.label, old.subject_scores.clone());
+            let (label, held_back, subject_scores) =
+                (old.label, old.held_back, old.subject_scores.clone());
             if let Some(tr) = self.tracks.get_mut(&key) {
                 tr.evidence = evidence;
                 tr.tag_evidence = tag_evidence;
                 tr.rssi_evidence = rssi_evidence;
                 tr.device_evidence = device_evidence;
                 tr.label = label;
+                tr.held_back = held_back;
                 tr.subject_scores = subject_scores;
             }
             self.stats.num_stitched += 1;
@@ -1331,15 +1338,28 @@ impl Engine {
             .collect();
         // While no track is long enough to be a candidate, the shorter ones: their lags score
         // them (see `EngineConfig::offset_short_track_s`), nothing more.
+        // They read everything up to the window's end: they are never offset candidates, so
+        // lags whose IMU samples have not all arrived yet only cost them a few pairs, and a
+        // session's first tracks are scored from 1.5 s instead of 2.1 s on.
         let short_min = ns(self.config.offset_short_track_s);
+        let short_hi = end;
         let short: Vec<(usize, TrackId)> = if candidates.is_empty() && short_min > 0 {
             self.tracks
                 .iter()
-                .filter(|(_, tr)| (short_min..min_track).contains(&covered_span(tr, lo, hi)))
+                .filter(|(_, tr)| {
+                    covered_span(tr, lo, hi) < min_track
+                        && covered_span(tr, lo, short_hi) >= short_min
+                })
                 .map(|(k, _)| *k)
                 .collect()
         } else {
             Vec::new()
+        };
+        let mut short_skel_cache = TrackLagCache::default();
+        let mut short_imu_cache = ImuLagCache {
+            lo: lo - max_off,
+            hi: short_hi + max_off,
+            signals: BTreeMap::new(),
         };
         // Per subject: mean peak per track.
         let mut subject_scores: Vec<BTreeMap<(usize, TrackId), f64>> =
@@ -1372,6 +1392,11 @@ impl Engine {
                 let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, &self.config) else {
                     continue;
                 };
+                let short_imu_sig = if short.is_empty() || imu.is_offset_known {
+                    None
+                } else {
+                    short_imu_cache.signals(i, imu, imu.offset_ns, &self.config)
+                };
                 // Unknown offsets: a coarse grid over the whole range, then the fine grid
                 // around the coarse peak (a quarter of the work of the fine grid throughout).
                 // A known offset is only read at itself: the IMU's correlation there tells
@@ -1389,12 +1414,32 @@ impl Engine {
                     .map(|k| (k, false))
                     .chain(shorts.iter().map(|k| (k, true)))
                 {
-                    let Some(sig) =
-                        skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
-                    else {
-                        continue;
+                    let (imu_sig, sig) = if is_short {
+                        let (Some(imu_sig), Some(sig)) = (
+                            short_imu_sig,
+                            short_skel_cache.signals(
+                                &self.tracks,
+                                *key,
+                                imu.site,
+                                lo,
+                                short_hi,
+                                &self.config,
+                            ),
+                        ) else {
+                            continue;
+                        };
+                        (imu_sig, sig)
+                    } else {
+                        let Some(sig) =
+                            skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
+                        else {
+                            continue;
+                        };
+                        (imu_sig, sig)
                     };
-                    let curve = if is_coarse {
+                    let curve = if is_short {
+                        scratch.curve(imu_sig, sig, &offsets, min_samples)
+                    } else if is_coarse {
                         scratch.coarse_curve(
                             i,
                             imu.offset_ns,
@@ -2516,7 +2561,7 @@ impl Engine {
             let spans: Vec<Option<(i64, i64)>> =
                 keys.iter().map(|k| self.span_before(k, end)).collect();
             self.share_between_successive_tracks(&spans, &rows, &mut labels);
-            self.hold_back_unsynced_switches(&keys, &spans, &rows, &mut labels);
+            let held_back = self.hold_back_unsynced_switches(&keys, &spans, &rows, &mut labels);
             self.note_exclusions(&keys, &spans, &labels);
             for (key, new_label) in keys.iter().zip(labels) {
                 let Some(tr) = self.tracks.get_mut(key) else {
@@ -2526,6 +2571,16 @@ impl Engine {
                     self.stats.num_label_switches += 1;
                 }
                 tr.label = new_label;
+                if new_label.is_some() {
+                    tr.held_back = None;
+                }
+            }
+            for (q, subject) in held_back {
+                if let Some(tr) = keys.get(q).and_then(|k| self.tracks.get_mut(k))
+                    && tr.label.is_none()
+                {
+                    tr.held_back = Some(subject);
+                }
             }
         }
     }
@@ -2654,14 +2709,15 @@ impl Engine {
         spans: &[Option<(i64, i64)>],
         rows: &[Vec<Option<f64>>],
         labels: &mut [Option<usize>],
-    ) {
+    ) -> Vec<(usize, usize)> {
+        let mut held_back = Vec::new();
         let margin = self.config.unsynced_switch_margin;
         if margin <= 0.0 {
-            return;
+            return held_back;
         }
         let holders: Vec<Option<usize>> = keys
             .iter()
-            .map(|k| self.tracks.get(k).and_then(|tr| tr.label))
+            .map(|k| self.tracks.get(k).and_then(|tr| tr.label.or(tr.held_back)))
             .collect();
         let score = |r: usize, s: usize| rows.get(r).and_then(|row| row.get(s)).copied().flatten();
         for r in 0..labels.len() {
@@ -2677,9 +2733,9 @@ impl Engine {
             if self.is_synced(s) {
                 continue;
             }
-            // The score of the coexisting track that held the subject until now (it carries
-            // the hysteresis bonus).
-            let holder = (0..keys.len())
+            // The coexisting tracks that held the subject until now, and the best of their
+            // scores (it carries the hysteresis bonus).
+            let holders_of: Vec<usize> = (0..keys.len())
                 .filter(|&q| q != r && holders.get(q).copied().flatten() == Some(s))
                 .filter(|&q| {
                     spans
@@ -2688,15 +2744,20 @@ impl Engine {
                         .flatten()
                         .is_some_and(|theirs| spans_overlap(mine, theirs))
                 })
-                .filter_map(|q| score(q, s))
+                .collect();
+            let held = holders_of
+                .iter()
+                .filter_map(|&q| score(q, s))
                 .reduce(f64::max);
-            if let (Some(held), Some(new)) = (holder, score(r, s))
+            if let (Some(held), Some(new)) = (held, score(r, s))
                 && new - held < margin
                 && let Some(label) = labels.get_mut(r)
             {
                 *label = None;
+                held_back.extend(holders_of.iter().map(|&q| (q, s)));
             }
         }
+        held_back
     }
 
     /// Emits every observation whose decision window is `end` or earlier.

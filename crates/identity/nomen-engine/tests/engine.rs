@@ -1104,6 +1104,53 @@ fn a_sessions_first_tracks_are_named_before_they_are_long_enough_for_the_offset_
     assert_eq!(wrong, 0);
 }
 
+#[test]
+fn a_short_track_is_scored_on_everything_it_has_seen_so_far() {
+    // The offset search's buffer stops `max_clock_offset_s` before the window's end (a
+    // candidate's every lag needs the IMU there). A session's first tracks, scored at their own
+    // lag peaks and never candidates, read up to the window's end: at the window ending at
+    // 1.5 s they cover 1.5 s (`offset_short_track_s`) instead of 0.9 s. Two wrist IMUs each
+    // (a body-area network searches at every window until it has peaks).
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.3;
+    for p in &mut people {
+        p.right_wrist_imu = true;
+    }
+    let msgs = recording(&people, 6.0);
+    let (out, _) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    let named_before = |until: f64| {
+        let early: Vec<(Option<&str>, Option<&str>)> = out
+            .iter()
+            .filter_map(|m| match m {
+                Message::Identified(id) if id.t.as_secs_f64() < until => {
+                    let person = people
+                        .iter()
+                        .find(|p| p.track_at(id.t.as_secs_f64()) == id.track)?;
+                    Some((id.identity.subject().map(|s| s.as_str()), person.subject))
+                }
+                _ => None,
+            })
+            .collect();
+        let right = early.iter().filter(|(got, want)| got == want).count();
+        let wrong = early
+            .iter()
+            .filter(|(got, want)| got.is_some() && got != want)
+            .count();
+        (right as f64 / early.len().max(1) as f64, wrong)
+    };
+    // Buffers stopping 0.6 s early named nobody before 1 s and 16 % before 1.5 s.
+    let (right, wrong) = named_before(1.0);
+    assert!(
+        right > 0.15 && wrong == 0,
+        "before 1 s: {right} right, {wrong} wrong"
+    );
+    let (right, wrong) = named_before(1.5);
+    assert!(
+        right > 0.25 && wrong == 0,
+        "before 1.5 s: {right} right, {wrong} wrong"
+    );
+}
+
 /// Session time, s, of the first message after which `device` has an accepted clock offset.
 fn first_offset_time_s(people: &[Person], msgs: &[Message], config: EngineConfig) -> Option<f64> {
     let mut engine = Engine::new(registry(people), config).unwrap();
@@ -1259,10 +1306,11 @@ fn a_networks_first_names_come_from_the_first_search_that_finds_peaks() {
     for p in &mut people {
         p.right_wrist_imu = true;
     }
-    // The camera sees them from 1 s on: the session's paced searches (every second from the
-    // first window's end) then come half a second after their tracks are long enough.
+    // The camera sees them from 1.5 s on: their tracks are long enough to be scored at the
+    // window ending at 3 s, and the session's paced searches (every second from the first
+    // window's end) come half a second later.
     let mut msgs = recording(&people, 12.0);
-    msgs.retain(|m| !matches!(m, Message::Skeleton(s) if s.t.as_secs_f64() < 1.0));
+    msgs.retain(|m| !matches!(m, Message::Skeleton(s) if s.t.as_secs_f64() < 1.5));
     let first_named = |config: &EngineConfig| {
         let (out, _) = run_batch(&registry(&people), &msgs, config).unwrap();
         let first = out
