@@ -1338,9 +1338,10 @@ impl Engine {
             .collect();
         // While no track is long enough to be a candidate, the shorter ones: their lags score
         // them (see `EngineConfig::offset_short_track_s`), nothing more.
-        // They read everything up to the window's end: they are never offset candidates, so
-        // lags whose IMU samples have not all arrived yet only cost them a few pairs, and a
-        // session's first tracks are scored from 1.5 s instead of 2.1 s on.
+        // They read everything up to the window's end, not where the buffer stops: they are
+        // never offset candidates, so lags whose IMU samples have not all arrived yet only cost
+        // them a few pairs, and a track seen since the session's start is first scored at the
+        // window ending at 1.5 s instead of 2.5 s.
         let short_min = ns(self.config.offset_short_track_s);
         let short_hi = end;
         let short: Vec<(usize, TrackId)> = if candidates.is_empty() && short_min > 0 {

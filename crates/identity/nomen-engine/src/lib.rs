@@ -88,7 +88,8 @@
 //!    whichever of the IMU's lag hypotheses fits it best in the window: its peaks on the
 //!    [`EngineConfig::offset_hypotheses`] best tracks of its subject; while no track is long
 //!    enough for the search, as at a session's start, a track of at least
-//!    [`EngineConfig::offset_short_track_s`] at its own peak when clear) and scored as
+//!    [`EngineConfig::offset_short_track_s`] at its own peak when clear, read up to the
+//!    window's end rather than where the search's buffer stops) and scored as
 //!    [`EngineConfig::motion_score`] says: De Marchi's correlations fused by
 //!    [`EngineConfig::fusion`], Belmonte-Hernández's costs, or (default) the weighted mean of
 //!    De Marchi's and nomen's correlations (`nomen_evidence::kinematic`) and, for forearm bands,
@@ -121,7 +122,9 @@
 //!    companion who merely moved like the wearer does not inherit her name when she leaves.
 //!    While none of a subject's IMUs has an accepted offset, a move of her name from one
 //!    track to another that coexists with it must beat the holder's score by
-//!    [`EngineConfig::unsynced_switch_margin`], or neither track holds her for that decision.
+//!    [`EngineConfig::unsynced_switch_margin`], or neither track holds her for that decision;
+//!    the track that held her then goes on holding her for this rule (anonymous) until its
+//!    next named decision, so the name does not pass to the look-alike one window later.
 //!
 //! # Output and latency
 //! Exactly one `Message::Identified` per accepted skeleton observation, with its `(t, camera,
