@@ -149,8 +149,8 @@ impl LagSignals {
 /// model (the acceleration, whose peak is sharp) has too few pairs, whatever the others have:
 /// the slow models alone do not fix a lag. On the simulated 8-person one-wrist scenes a track
 /// whose wrist the camera lost had only the body's turn rate left, and one turn on a 3.6 s track
-/// correlated 0.87 with another person's band half a second off its clock offset, an offset the
-/// best-track sum then accepted.
+/// correlated 0.87 with another person's band at a lag 0.8 s from that band's clock offset,
+/// which the best-track sum then accepted.
 pub(crate) fn lag_curve(
     imu: &LagSignals,
     track: &LagSignals,
@@ -293,7 +293,8 @@ pub(crate) fn curve_peak(
 /// `(offset, value, rival)` of the highest finite value at a lag inside `prior_ns ±
 /// max_offset_ns` less half a step (a peak at the end of the range only says the best lag lies
 /// beyond it), with `rival` the highest value farther than `separation_ns` from it (`−∞` if
-/// none).
+/// none). `None` if the curve does not fall by [`PEAK_DROP`] on both sides of that value (see
+/// [`falls_on_both_sides`]): the top of a slope rising to the end of the range is no peak.
 pub(crate) fn summed_peak(
     offsets_ns: &[i64],
     curve: &[f64],
