@@ -78,6 +78,15 @@ const LAG_DECIMATION: usize = 2;
 /// above the track's 15 Hz), for the same reason.
 const IMU_LAG_DECIMATION: usize = 3;
 
+/// A track observed more than this after the newest sample of a subject's IMUs, while none of
+/// them has sent anything for a whole window, loses its motion evidence for that subject, ns.
+/// The wearer left or took the bands off: an accumulated score is a mean that only moves when
+/// a window scores the pair, so it stayed as it was, and a look-alike who stayed kept the
+/// departed wearer's name (a synthetic test: 479 frames of 16 s; the 8-person one-wrist scene,
+/// seed 4: Ana's band stopped at 55.7 s and her score on Cleo's track took Cleo's frames from
+/// 56.5 to 58.5 s). The slack keeps the wearer's own last frames, decided a window later.
+const SILENT_WEARER_SLACK_NS: i64 = 500_000_000;
+
 /// A summed lag curve's peak must stand above every lag farther than this from it, ns (a third
 /// of a stride: the neighbouring stride peaks of a walk lie beyond it).
 const OFFSET_PEAK_SEPARATION_NS: i64 = 150_000_000;
@@ -2060,6 +2069,23 @@ impl Engine {
         // (hardware-synchronised rigs) share them too.
         let mut grids: Vec<Vec<i64>> = Vec::new();
         let mut imu_cache: ImuFeatureCache = BTreeMap::new();
+        // Subjects wearing IMUs none of which has a settled sample in this window, with the
+        // session time of their IMUs' newest settled sample: their motion evidence on a track
+        // seen since then is dropped (see `SILENT_WEARER_SLACK_NS`).
+        let silent: Vec<(usize, i64)> = (0..self.subjects.len())
+            .filter_map(|b| {
+                let imus = self.subject_imus.get(b)?;
+                let mut newest = i64::MIN;
+                for &i in imus {
+                    let imu = self.imus.get(i)?;
+                    let k = imu.t.partition_point(|&t| t < imu.settled_until_ns);
+                    if let Some(&t) = k.checked_sub(1).and_then(|k| imu.t.get(k)) {
+                        newest = newest.max(t + imu.offset_ns);
+                    }
+                }
+                (!imus.is_empty() && newest > i64::MIN && newest < start).then_some((b, newest))
+            })
+            .collect();
         let wants_belmonte = self.config.motion_score == MotionScore::Belmonte
             || (self.config.motion_score == MotionScore::Nomen
                 && self.config.model_weights.belmonte > 0.0);
@@ -2343,6 +2369,17 @@ impl Engine {
                 let Some(tr) = self.tracks.get_mut(key) else {
                     continue;
                 };
+                // The track's newest settled observation in the window.
+                let (_, seen_to) = sample_range(tr, start, end);
+                let seen = seen_to
+                    .checked_sub(1)
+                    .and_then(|k| tr.samples.get(k))
+                    .map(|s| s.t);
+                for (b, newest) in &silent {
+                    if seen.is_some_and(|t| t > newest + SILENT_WEARER_SLACK_NS) {
+                        tr.evidence.remove(b);
+                    }
+                }
                 let tag_scores = tag_window_scores(
                     &self.tags,
                     tr,

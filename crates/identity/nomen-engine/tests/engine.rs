@@ -1259,6 +1259,38 @@ fn a_name_does_not_move_to_a_look_alike_on_a_narrow_margin_before_the_offset_is_
 }
 
 #[test]
+fn a_look_alike_does_not_inherit_the_name_of_a_wearer_whose_band_went_silent() {
+    // Ana leaves at 12 s and her band stops sending. Dan wears nothing and swings exactly
+    // like her, 0.2 s later, and stays.
+    let ana = Person {
+        imu_until_s: 12.0,
+        in_view_until_s: 12.0,
+        ..Person::new(Some("ana"), 0.9, 0.0, 1)
+    };
+    let dan = Person {
+        subject: None,
+        time_shift_s: 0.2,
+        y_m: 0.8,
+        track: 2,
+        imu_until_s: f64::INFINITY,
+        in_view_until_s: f64::INFINITY,
+        ..ana.clone()
+    };
+    let people = vec![ana, dan];
+    let msgs = recording(&people, 30.0);
+    let (out, _) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    let dan_named_late = out
+        .iter()
+        .filter(|m| {
+            matches!(m, Message::Identified(id)
+                if id.track == TrackId(2) && id.t.as_secs_f64() > 14.0
+                    && id.identity != Identity::Anonymous)
+        })
+        .count();
+    assert_eq!(dan_named_late, 0);
+}
+
+#[test]
 fn a_networks_offsets_wait_for_more_labelled_curves_until_one_is_accepted() {
     // Only the labelled-track path may accept offsets here: the joint search never finds a
     // winner and the best-track pass is off. Each person wears an IMU on both wrists.

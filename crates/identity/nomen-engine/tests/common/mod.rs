@@ -51,6 +51,8 @@ pub struct Person {
     pub time_shift_s: f64,
     /// The camera sees the person from this time on, s (if `is_in_view`).
     pub in_view_from_s: f64,
+    /// ... and until this time, s.
+    pub in_view_until_s: f64,
 }
 
 impl Person {
@@ -71,6 +73,7 @@ impl Person {
             right_wrist_imu: false,
             time_shift_s: 0.0,
             in_view_from_s: 0.0,
+            in_view_until_s: f64::INFINITY,
         }
     }
 
@@ -166,7 +169,7 @@ pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
         let t = k as f64 / 30.0;
         for p in people
             .iter()
-            .filter(|p| p.is_in_view && t >= p.in_view_from_s)
+            .filter(|p| p.is_in_view && (p.in_view_from_s..p.in_view_until_s).contains(&t))
         {
             let mut joints = Joints::new();
             let pelvis = Point3::new(1.0, p.y_at(t), 0.95);
