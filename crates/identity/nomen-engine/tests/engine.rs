@@ -17,6 +17,46 @@ fn offset_s(stats: &EngineStats, device: &str) -> f64 {
     stats.clock_offsets[&DeviceId::new(device)].offset_ns as f64 * 1e-9
 }
 
+/// Of the decisions on observations before `until_s`: the fraction naming the person's
+/// subject (anonymous for someone without one), and how many name someone else.
+fn named_before(people: &[Person], out: &[Message], until_s: f64) -> (f64, usize) {
+    let early: Vec<(Option<&str>, Option<&str>)> = out
+        .iter()
+        .filter_map(|m| match m {
+            Message::Identified(id) if id.t.as_secs_f64() < until_s => {
+                let person = people
+                    .iter()
+                    .find(|p| p.track_at(id.t.as_secs_f64()) == id.track)?;
+                Some((id.identity.subject().map(|s| s.as_str()), person.subject))
+            }
+            _ => None,
+        })
+        .collect();
+    let right = early.iter().filter(|(got, want)| got == want).count();
+    let wrong = early
+        .iter()
+        .filter(|(got, want)| got.is_some() && got != want)
+        .count();
+    (right as f64 / early.len().max(1) as f64, wrong)
+}
+
+/// Runs `msgs` (Ana and Ben exchange ids at 12 s) and checks the engine undid one swap and
+/// named the second around it, and everything from 8 s on, right.
+fn assert_swap_at_12_s_is_undone(people: &[Person], msgs: &[Message]) {
+    let (out, stats) = run_batch(&registry(people), msgs, &EngineConfig::default()).unwrap();
+    assert_eq!(stats.num_swaps, 1);
+    // The second around the swap: the frames after it, and those before it whose decision was
+    // still due when it happened.
+    let around: Vec<Message> = out
+        .iter()
+        .filter(|m| m.t().as_secs_f64() < 13.0)
+        .cloned()
+        .collect();
+    let acc = accuracy(people, &around, 11.0);
+    assert!(acc > 0.99, "accuracy around the swap {acc}");
+    assert!(accuracy(people, &out, 8.0) > 0.99);
+}
+
 /// The defaults, except that the joint offset search takes a peak that is not clear of the
 /// rest of its lag curve: the synthetic swings are pendulums whose magnitude signals repeat
 /// every half period (0.38 s for Ben, 0.56 s for Ana), so their curves have near-equal peaks
@@ -639,18 +679,7 @@ fn an_id_swap_between_two_tracks_is_undone_at_once() {
     people[0].track_change = Some((12.0, 2));
     people[1].track_change = Some((12.0, 1));
     let msgs = recording(&people, 24.0);
-    let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
-    assert_eq!(stats.num_swaps, 1);
-    // The second around the swap: the frames after it, and those before it whose decision was
-    // still due when it happened.
-    let around: Vec<Message> = out
-        .iter()
-        .filter(|m| m.t().as_secs_f64() < 13.0)
-        .cloned()
-        .collect();
-    let acc = accuracy(&people, &around, 11.0);
-    assert!(acc > 0.99, "accuracy around the swap {acc}");
-    assert!(accuracy(&people, &out, 8.0) > 0.99);
+    assert_swap_at_12_s_is_undone(&people, &msgs);
 }
 
 #[test]
@@ -675,16 +704,7 @@ fn an_id_swap_hidden_in_two_returns_from_occlusion_is_undone() {
             _ => true,
         })
         .collect();
-    let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
-    assert_eq!(stats.num_swaps, 1);
-    let around: Vec<Message> = out
-        .iter()
-        .filter(|m| m.t().as_secs_f64() < 13.0)
-        .cloned()
-        .collect();
-    let acc = accuracy(&people, &around, 11.0);
-    assert!(acc > 0.99, "accuracy around the swap {acc}");
-    assert!(accuracy(&people, &out, 8.0) > 0.99);
+    assert_swap_at_12_s_is_undone(&people, &msgs);
 }
 
 #[test]
@@ -1067,30 +1087,7 @@ fn a_sessions_first_tracks_are_named_before_they_are_long_enough_for_the_offset_
     let msgs = recording(&people, 10.0);
     let named = |config: &EngineConfig| {
         let (out, _) = run_batch(&registry(&people), &msgs, config).unwrap();
-        let early: Vec<(Option<String>, Option<&str>)> = out
-            .iter()
-            .filter_map(|m| match m {
-                Message::Identified(id) if id.t.as_secs_f64() < 2.5 => {
-                    let person = people
-                        .iter()
-                        .find(|p| p.track_at(id.t.as_secs_f64()) == id.track)?;
-                    Some((
-                        id.identity.subject().map(|s| s.as_str().to_owned()),
-                        person.subject,
-                    ))
-                }
-                _ => None,
-            })
-            .collect();
-        let right = early
-            .iter()
-            .filter(|(got, want)| got.as_deref() == *want)
-            .count();
-        let wrong = early
-            .iter()
-            .filter(|(got, want)| got.is_some() && got.as_deref() != *want)
-            .count();
-        (right as f64 / early.len().max(1) as f64, wrong)
+        named_before(&people, &out, 2.5)
     };
     let (right, wrong) = named(&EngineConfig::default());
     let (before, _) = named(&EngineConfig {
@@ -1118,33 +1115,13 @@ fn a_short_track_is_scored_on_everything_it_has_seen_so_far() {
     }
     let msgs = recording(&people, 6.0);
     let (out, _) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
-    let named_before = |until: f64| {
-        let early: Vec<(Option<&str>, Option<&str>)> = out
-            .iter()
-            .filter_map(|m| match m {
-                Message::Identified(id) if id.t.as_secs_f64() < until => {
-                    let person = people
-                        .iter()
-                        .find(|p| p.track_at(id.t.as_secs_f64()) == id.track)?;
-                    Some((id.identity.subject().map(|s| s.as_str()), person.subject))
-                }
-                _ => None,
-            })
-            .collect();
-        let right = early.iter().filter(|(got, want)| got == want).count();
-        let wrong = early
-            .iter()
-            .filter(|(got, want)| got.is_some() && got != want)
-            .count();
-        (right as f64 / early.len().max(1) as f64, wrong)
-    };
     // Buffers stopping 0.6 s early named nobody before 1 s and 16 % before 1.5 s.
-    let (right, wrong) = named_before(1.0);
+    let (right, wrong) = named_before(&people, &out, 1.0);
     assert!(
         right > 0.15 && wrong == 0,
         "before 1 s: {right} right, {wrong} wrong"
     );
-    let (right, wrong) = named_before(1.5);
+    let (right, wrong) = named_before(&people, &out, 1.5);
     assert!(
         right > 0.25 && wrong == 0,
         "before 1.5 s: {right} right, {wrong} wrong"
