@@ -140,7 +140,7 @@ fn main() {
         }
         engine.finish(&mut out);
         println!(
-            "last minute of {LONG_SCENARIO} ({:.0} s, offsets searched): {:.3} s = {:.0}× real time with offset_settle_passes = {settle} ({} of {} offsets settled)",
+            "last minute of {LONG_SCENARIO} ({:.0} s, offsets searched): {:.3} s = {:.0}× real time with offset_settle_passes = {settle} ({} settlings of {} offsets)",
             long.duration_s,
             last_minute_s,
             60.0 / last_minute_s,

@@ -2,6 +2,7 @@
 
 use crate::config::{EngineConfig, MotionScore, OFFSET_CONFIRM_HISTORY, ns};
 use crate::error::{EngineError, Result};
+use crate::lag_memo::{ImuLagMemo, imu_lag_signals as imu_lag_signals_from};
 use crate::signal::{
     ImuSeries, LagSignals, LagWeight, PEAK_DROP, curve_peak, falls_on_both_sides,
     imu_window_on_grid, is_contradicted, lag_curve, mean_curve, rival_value, summed_peak,
@@ -19,7 +20,7 @@ use nomen_core::{
 use nomen_evidence::{
     BandSignals, ForearmSignals, GeometricConfig, ImuFeatures, ImuWindow, PairScorer, ScoreTensor,
     SegmentFeatures, Side, SkeletonWindow, belmonte_costs_from, body_turn_rate_signal,
-    compare_features, fuse, horizontal_cross, imu_lag_models, segment_site_lag_models,
+    compare_features, fuse, horizontal_cross, segment_site_lag_models,
 };
 use nomen_filters::kalman::JointKalman;
 use nomen_filters::median;
@@ -144,6 +145,10 @@ struct ImuState {
     gyro: VecDeque<Vector3<f64>>,
     /// Madgwick's `world_from_sensor` after each sample.
     world_from_sensor: VecDeque<UnitQuaternion<f64>>,
+    /// Settled samples forgotten so far: the stream index of `t[0]`.
+    num_forgotten: usize,
+    /// The lag search's signals kept from one window to the next.
+    lag_memo: ImuLagMemo,
     newest: Option<i64>,
     frontier: i64,
     ahrs: Option<Madgwick>,
@@ -231,7 +236,9 @@ impl ImuState {
     }
 
     fn pop_front(&mut self) {
-        self.t.pop_front();
+        if self.t.pop_front().is_some() {
+            self.num_forgotten += 1;
+        }
         self.accel.pop_front();
         self.gyro.pop_front();
         self.world_from_sensor.pop_front();
@@ -384,6 +391,8 @@ impl Engine {
                     accel: VecDeque::new(),
                     gyro: VecDeque::new(),
                     world_from_sensor: VecDeque::new(),
+                    num_forgotten: 0,
+                    lag_memo: ImuLagMemo::default(),
                     newest: None,
                     frontier: i64::MIN,
                     ahrs: None,
@@ -1307,6 +1316,12 @@ impl Engine {
         let confirm_apart = ns(self.config.offset_confirm_apart_s);
         let same_offset = ns(self.config.offset_consistency_s);
         let mut skel_cache = TrackLagCache::default();
+        // Each IMU's lag signals kept from the last window's search, put back at the end.
+        let mut lag_memos: Vec<ImuLagMemo> = self
+            .imus
+            .iter_mut()
+            .map(|m| std::mem::take(&mut m.lag_memo))
+            .collect();
         // An IMU's buffer, per (IMU, offset it was cut with), for the three uses below.
         let mut imu_cache = ImuLagCache {
             lo: lo - max_off,
@@ -1399,13 +1414,15 @@ impl Engine {
                 let Some(imu) = self.imus.get(i) else {
                     continue;
                 };
-                let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, &self.config) else {
+                let Some(imu_sig) =
+                    imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+                else {
                     continue;
                 };
                 let short_imu_sig = if short.is_empty() || imu.is_offset_known {
                     None
                 } else {
-                    short_imu_cache.signals(i, imu, imu.offset_ns, &self.config)
+                    short_imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
                 };
                 // Unknown offsets: a coarse grid over the whole range, then the fine grid
                 // around the coarse peak (a quarter of the work of the fine grid throughout).
@@ -1551,7 +1568,8 @@ impl Engine {
                     let Some(imu) = self.imus.get(i) else {
                         continue;
                     };
-                    let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, &self.config)
+                    let Some(imu_sig) =
+                        imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
                     else {
                         continue;
                     };
@@ -1743,7 +1761,8 @@ impl Engine {
                 let cut = imu.registry_offset_ns;
                 grid.clear();
                 grid.extend(coarse.iter().step_by(BEST_TRACK_LAG_STEPS).map(|o| o + cut));
-                if let Some(imu_sig) = imu_cache.signals(i, imu, cut, &self.config) {
+                if let Some(imu_sig) = imu_cache.signals(i, imu, cut, &mut lag_memos, &self.config)
+                {
                     for key in &candidates {
                         // A track named after someone else with an accepted offset is
                         // explained by that person's IMU: a look-alike's track (the same gait
@@ -1866,7 +1885,9 @@ impl Engine {
             let prior = imu.registry_offset_ns;
             let grid: Vec<i64> = coarse.iter().map(|o| o + prior).collect();
             let mut added: Vec<Vec<f64>> = Vec::new();
-            if let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, &self.config) {
+            if let Some(imu_sig) =
+                imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+            {
                 for (key, tr) in self
                     .tracks
                     .iter()
@@ -2010,7 +2031,9 @@ impl Engine {
             // The curves against every track labelled with the wearer, weighted by how much of
             // the buffer each covers: a long track's peak is sharper than a short one's.
             let mut sum = vec![(0.0, 0.0); offsets.len()];
-            if let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, &self.config) {
+            if let Some(imu_sig) =
+                imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+            {
                 for (key, tr) in self
                     .tracks
                     .iter()
@@ -2052,6 +2075,9 @@ impl Engine {
                 imu.offset_ns = offset.clamp(prior - max_off, prior + max_off);
                 record_offset(&mut self.stats, &imu.device, imu.offset_ns, corr);
             }
+        }
+        for (imu, memo) in self.imus.iter_mut().zip(lag_memos) {
+            imu.lag_memo = memo;
         }
     }
 
@@ -3600,9 +3626,10 @@ fn lag_geometric(config: &EngineConfig) -> GeometricConfig {
     }
 }
 
-/// An IMU's acceleration and orientation-change magnitudes at its own sample times (device
-/// clock) in `[lo − cut_offset_ns, hi − cut_offset_ns)`, for the lag search, and never past
-/// `settled_until_ns` (the samples the window waited for, whatever else has arrived).
+/// An IMU's acceleration and orientation-change magnitudes (and the other lag models) at its
+/// own sample times (device clock) in `[lo − cut_offset_ns, hi − cut_offset_ns)`, for the lag
+/// search, and never past `settled_until_ns` (the samples the window waited for, whatever else
+/// has arrived); the values earlier searches computed come from `memo` ([`ImuLagMemo`]).
 ///
 /// Acceleration gives a sharp peak but repeats every step; the orientation change over the long
 /// buffer follows the turns of the walk, which do not repeat, and picks the right step. (The
@@ -3615,39 +3642,24 @@ fn lag_geometric(config: &EngineConfig) -> GeometricConfig {
 /// (78.3 against 78.2 % over the ten imu-table scenes, seeds 1–9), so it is not done.
 fn imu_lag_signals(
     imu: &ImuState,
+    memo: &mut ImuLagMemo,
     cut_offset_ns: i64,
     lo: i64,
     hi: i64,
     config: &EngineConfig,
 ) -> Option<LagSignals> {
-    let series = imu.series();
-    let until = (hi - cut_offset_ns).min(imu.settled_until_ns);
-    let a = series.t_ns.partition_point(|&t| t < lo - cut_offset_ns);
-    let b = series.t_ns.partition_point(|&t| t < until);
-    if b < a + 16 {
-        return None;
-    }
-    let t_ns = series.t_ns.get(a..b)?.to_vec();
-    let window = ImuWindow {
-        device: None,
-        t_s: t_ns.iter().map(|&t| t as f64 * 1e-9).collect(),
-        accel_mps2: series.accel_mps2.get(a..b)?.to_vec(),
-        gyro_radps: series.gyro_radps.get(a..b)?.to_vec(),
-        world_from_sensor: series.world_from_sensor.get(a..b)?.to_vec(),
-    };
     // Device times (the lag curve shifts them by each candidate offset itself), thinned like
     // the track's: interpolation walks every IMU sample once per candidate offset.
-    let models = imu_lag_models(
-        &window,
+    imu_lag_signals_from(
+        memo,
+        &imu.series(),
+        imu.num_forgotten,
+        IMU_LAG_DECIMATION,
+        lo - cut_offset_ns,
+        (hi - cut_offset_ns).min(imu.settled_until_ns),
         &lag_geometric(config),
         &config.kinematic,
-        IMU_LAG_DECIMATION,
-    );
-    Some(LagSignals::thinned(
-        &t_ns,
-        models.into(),
-        IMU_LAG_DECIMATION,
-    ))
+    )
 }
 
 /// The lag search's IMU side for one window: each IMU's signals over `[lo, hi)` (device clock
@@ -3659,18 +3671,23 @@ struct ImuLagCache {
 }
 
 impl ImuLagCache {
-    /// [`imu_lag_signals`] of IMU `index` (`imu`) cut at `cut_ns`; `None` if too short.
-    fn signals(
-        &mut self,
+    /// [`imu_lag_signals`] of IMU `index` (`imu`, its memo in `memos`) cut at `cut_ns`; `None`
+    /// if too short.
+    fn signals<'a>(
+        &'a mut self,
         index: usize,
         imu: &ImuState,
         cut_ns: i64,
+        memos: &mut [ImuLagMemo],
         config: &EngineConfig,
-    ) -> Option<&LagSignals> {
+    ) -> Option<&'a LagSignals> {
         let (lo, hi) = (self.lo, self.hi);
         self.signals
             .entry((index, cut_ns))
-            .or_insert_with(|| imu_lag_signals(imu, cut_ns, lo, hi, config))
+            .or_insert_with(|| {
+                let memo = memos.get_mut(index)?;
+                imu_lag_signals(imu, memo, cut_ns, lo, hi, config)
+            })
             .as_ref()
     }
 }

@@ -144,6 +144,7 @@
 mod config;
 mod engine;
 mod error;
+mod lag_memo;
 mod signal;
 mod stats;
 mod tags;

@@ -95,9 +95,9 @@ pub struct EngineStats {
     /// Accepted clock offsets moved to a clearly better peak of the lag curves summed against
     /// the wearer's labelled tracks.
     pub num_offsets_moved: u64,
-    /// Accepted clock offsets settled: the best-track sum peaked clearly at them for
-    /// `EngineConfig::offset_settle_passes` passes in a row, so the pass skips their IMUs while
-    /// they stay there.
+    /// Settlings of accepted clock offsets: the best-track sum peaked clearly at one for
+    /// `EngineConfig::offset_settle_passes` passes in a row, so the pass skips its IMU while it
+    /// stays there (an offset that moves and settles again counts again).
     pub num_offsets_settled: u64,
     /// Accepted clock offsets withdrawn because the wearer's labelled tracks hardly correlate at
     /// them and better at another lag (see `EngineConfig::offset_withdraw_below`).
