@@ -89,6 +89,18 @@ impl SensorAxis {
             SensorAxis::NegZ => -Vector3::z(),
         }
     }
+
+    /// The axis pointing the other way.
+    pub fn opposite(self) -> SensorAxis {
+        match self {
+            SensorAxis::PosX => SensorAxis::NegX,
+            SensorAxis::NegX => SensorAxis::PosX,
+            SensorAxis::PosY => SensorAxis::NegY,
+            SensorAxis::NegY => SensorAxis::PosY,
+            SensorAxis::PosZ => SensorAxis::NegZ,
+            SensorAxis::NegZ => SensorAxis::PosZ,
+        }
+    }
 }
 
 /// Configuration of [`belmonte_costs`].
@@ -182,11 +194,20 @@ impl BandSignals {
             Some(axis) => std::slice::from_ref(axis),
             None => &SensorAxis::ALL,
         };
-        BandSignals {
-            axis_pitch_rad: axes
+        let mut axis_pitch_rad: Vec<(SensorAxis, Vec<f64>)> = Vec::with_capacity(axes.len());
+        for &axis in axes {
+            // An axis's pitch is its opposite's negated: the rotation, the horizontal length,
+            // `atan2` and the average are odd in the axis, and IEEE rounding is symmetric, so
+            // the negation is exact and the arctangents are computed for three axes, not six.
+            let opposite = axis_pitch_rad
                 .iter()
-                .map(|&axis| (axis, band_axis_pitch_rad(imu, axis, cfg)))
-                .collect(),
+                .find(|(a, _)| *a == axis.opposite())
+                .map(|(_, pitch)| pitch.iter().map(|v| -v).collect());
+            let pitch = opposite.unwrap_or_else(|| band_axis_pitch_rad(imu, axis, cfg));
+            axis_pitch_rad.push((axis, pitch));
+        }
+        BandSignals {
+            axis_pitch_rad,
             yaw_rate_radps: band_yaw_rate_radps(imu, cfg),
         }
     }

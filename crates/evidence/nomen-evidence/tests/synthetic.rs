@@ -4,10 +4,11 @@
 
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
 use nomen_core::skeleton::{Joint, Joints};
+use nomen_evidence::belmonte::band_axis_pitch_rad;
 use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
-    BelmonteConfig, GeometricConfig, ImuWindow, SensorAxis, Side, SkeletonWindow, belmonte_costs,
-    best_lag, geometric_scores, imu_accel_magnitude, imu_orientation_magnitude,
+    BandSignals, BelmonteConfig, GeometricConfig, ImuWindow, SensorAxis, Side, SkeletonWindow,
+    belmonte_costs, best_lag, geometric_scores, imu_accel_magnitude, imu_orientation_magnitude,
     imu_velocity_magnitude, joint_accel_magnitude, joint_velocity_magnitude,
     segment_orientation_magnitude,
 };
@@ -282,6 +283,24 @@ fn belmonte_costs_are_lower_for_the_wearer() {
         wrong.yaw_rate_mse.unwrap_or(f64::NAN),
     );
     assert!(ry < 0.2 * wy, "yaw-rate mse {ry} vs {wy}");
+}
+
+#[test]
+fn a_bands_six_axis_pitches_are_three_computed_and_three_negated_exactly() {
+    let t_s = grid(200);
+    let cfg = BelmonteConfig::default();
+    let imu = imu_window(&ALICE, &t_s, 0.0);
+    let band = BandSignals::new(&imu, &cfg);
+    assert_eq!(band.axis_pitch_rad.len(), SensorAxis::ALL.len());
+    for (axis, pitch) in &band.axis_pitch_rad {
+        // Exactly what the axis gives computed on its own (a zero may come out with the other
+        // sign, which compares equal).
+        let alone = band_axis_pitch_rad(&imu, *axis, &cfg);
+        assert_eq!(pitch.len(), alone.len());
+        for (a, b) in pitch.iter().zip(&alone) {
+            assert!(a == b || (a.is_nan() && b.is_nan()), "{axis:?}: {a} {b}");
+        }
+    }
 }
 
 #[test]
