@@ -52,7 +52,9 @@
 //!    ±[`EngineConfig::max_clock_offset_s`] of the registry's offset for the device, the prior,
 //!    in 40 ms steps, then 10 ms around the coarse peak; near-tied peaks go to the one nearer
 //!    the prior; a peak at the end of the range is no candidate). Every offset path searches
-//!    around that prior.
+//!    around that prior. An IMU's lag signals are kept from one window's search to the next
+//!    (`lag_memo`): each search filters only its newest samples, with 1.5 s of older ones
+//!    before them, and keeps the values lying 1 s or more before the newest sample.
 //!    The subject's score for a track is the mean of its IMUs' peaks; only when the best track
 //!    beats the next one of its camera by [`EngineConfig::offset_margin`], beats every other
 //!    subject's score on that track by [`EngineConfig::offset_subject_margin`] (two people
