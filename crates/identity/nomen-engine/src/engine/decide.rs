@@ -1,0 +1,417 @@
+//! A window's decision: each camera's assignment of subjects to its active tracks, with the
+//! evidence of other cameras' views pooled, and the rules around it (successive tracks, held-back
+//! switches, exclusions).
+
+use super::*;
+
+impl Engine {
+    /// The tracks of other cameras that show the same person as each of `active` (see
+    /// [`EngineConfig::camera_pair_distance_m`]): settled torso positions ([`anchor_path`])
+    /// over the last `CAMERA_PAIR_LOOKBACK_WINDOWS` evidence windows, compared at common frame
+    /// times (within `CAMERA_PAIR_MAX_DT_NS`). A pair needs `CAMERA_PAIR_MIN_FRAMES` of them
+    /// and a mean distance within the limit, and every track seen at the same time as either
+    /// of the two in its camera must be at least twice as far from the other one.
+    pub(super) fn camera_partners(
+        &self,
+        active: &[TrackKey],
+        end: i64,
+    ) -> BTreeMap<TrackKey, Vec<TrackKey>> {
+        let mut partners: BTreeMap<TrackKey, Vec<TrackKey>> = BTreeMap::new();
+        let limit = self.config.camera_pair_distance_m;
+        if limit <= 0.0 || self.cameras.len() < 2 {
+            return partners;
+        }
+        let start = end - CAMERA_PAIR_LOOKBACK_WINDOWS * self.window_ns;
+        let paths: Vec<(TrackKey, AnchorPath)> = active
+            .iter()
+            .filter_map(|k| {
+                let tr = self.tracks.get(k)?;
+                let path = anchor_path(tr, start, end);
+                (path.len() >= CAMERA_PAIR_MIN_FRAMES).then_some((*k, path))
+            })
+            .collect();
+        // Mean distance of every pair of tracks of different cameras with enough common frames.
+        let mut distance: BTreeMap<(TrackKey, TrackKey), f64> = BTreeMap::new();
+        for (i, (ka, pa)) in paths.iter().enumerate() {
+            for (kb, pb) in paths.iter().skip(i + 1) {
+                if ka.0 == kb.0 {
+                    continue;
+                }
+                if let Some(d) = mean_common_distance(pa, pb, CAMERA_PAIR_MIN_FRAMES) {
+                    distance.insert((*ka, *kb), d);
+                    distance.insert((*kb, *ka), d);
+                }
+            }
+        }
+        // Each track's time span in the lookback: only tracks seen at the same time as a
+        // candidate are its rivals (a person's successive tracks in one camera are not).
+        let span: BTreeMap<TrackKey, (i64, i64)> = paths
+            .iter()
+            .filter_map(|(k, p)| Some((*k, (p.first()?.0, p.last()?.0))))
+            .collect();
+        let overlaps = |x: &TrackKey, y: &TrackKey| match (span.get(x), span.get(y)) {
+            (Some(a), Some(b)) => spans_overlap(*a, *b),
+            _ => false,
+        };
+        // The nearest rival of `b` from `a`'s point of view: tracks of `b`'s camera seen with `b`.
+        let rival = |a: &TrackKey, b: &TrackKey| {
+            distance
+                .range((*a, (b.0, TrackId(0)))..)
+                .take_while(|((x, y), _)| x == a && y.0 == b.0)
+                .filter(|((_, y), _)| y != b && overlaps(y, b))
+                .map(|(_, d)| *d)
+                .fold(f64::INFINITY, f64::min)
+        };
+        for ((a, b), d) in &distance {
+            if *d <= limit && rival(a, b) >= 2.0 * d && rival(b, a) >= 2.0 * d {
+                partners.entry(*a).or_default().push(*b);
+            }
+        }
+        partners
+    }
+
+    /// Assigns subjects to the active tracks of each camera.
+    pub(super) fn decide(&mut self, end: i64) {
+        // Only tracks with frames still to emit take part: one that ended before this decision's
+        // frames (`end − delay − hop` onwards) keeps its last label, so a subject who walked
+        // out and came back under a new id is not fought over by the old and the new track.
+        let active_since = end - self.delay_ns - self.hop_ns;
+        let active: Vec<TrackKey> = self
+            .tracks
+            .iter()
+            .filter(|(_, tr)| tr.last_t >= active_since && !tr.is_superseded)
+            .map(|(k, _)| *k)
+            .collect();
+        let partners = self.camera_partners(&active, end);
+        for c in 0..self.cameras.len() {
+            let keys: Vec<TrackKey> = active.iter().filter(|k| k.0 == c).copied().collect();
+            if keys.is_empty() || self.subjects.is_empty() {
+                continue;
+            }
+            let mut rows = Vec::with_capacity(keys.len());
+            for key in &keys {
+                // The track's own evidence and that of the other cameras' views of its person.
+                let views: Vec<&TrackState> = std::iter::once(key)
+                    .chain(partners.get(key).into_iter().flatten())
+                    .filter_map(|k| self.tracks.get(k))
+                    .collect();
+                let label = self.tracks.get(key).and_then(|tr| tr.label);
+                let outscored_by = self.tracks.get(key).map(|tr| &tr.outscored_by);
+                let mut scores = BTreeMap::new();
+                let mut row = vec![None; self.subjects.len()];
+                for s in 0..self.subjects.len() {
+                    // Every modality the subject has evidence from counts equally (crate docs).
+                    let present: Vec<f64> = [
+                        pooled_mean(views.iter().map(|tr| tr.evidence.get(&s))),
+                        pooled_mean(views.iter().map(|tr| tr.tag_evidence.get(&s))),
+                        pooled_mean(views.iter().map(|tr| tr.rssi_evidence.get(&s))),
+                    ]
+                    .into_iter()
+                    .flatten()
+                    .collect();
+                    if present.is_empty() {
+                        continue;
+                    }
+                    let mean = present.iter().sum::<f64>() / present.len() as f64;
+                    scores.insert(s, mean);
+                    let bonus = if label == Some(s) {
+                        self.config.switch_margin
+                    } else {
+                        0.0
+                    };
+                    // Evidence gathered while the subject was plainly on someone else's track
+                    // tells how alike the two move, not who this is.
+                    let is_excluded = self.config.exclusion_margin >= 0.0
+                        && outscored_by
+                            .and_then(|m| m.get(&s))
+                            .is_some_and(|&held| mean < held - self.config.exclusion_margin);
+                    if !is_excluded && let Some(cell) = row.get_mut(s) {
+                        *cell = Some(mean + bonus);
+                    }
+                }
+                if let Some(tr) = self.tracks.get_mut(key) {
+                    tr.subject_scores = scores;
+                }
+                rows.push(row);
+            }
+            let Ok(matrix) = CostMatrix::from_gated_rows(&rows) else {
+                continue;
+            };
+            let config = AssignConfig {
+                objective: Objective::Maximize,
+                rejection_threshold: Some(self.config.rejection_threshold),
+                ..AssignConfig::default()
+            };
+            let Ok(assignment) = solve(&matrix, &config) else {
+                continue;
+            };
+            let mut labels: Vec<Option<usize>> = assignment
+                .rows
+                .iter()
+                .map(|decision| match decision {
+                    RowDecision::Assigned { col, .. } => Some(*col),
+                    _ => None,
+                })
+                .collect();
+            // Each track's span as the observations before `end` tell, for the three steps below.
+            let spans: Vec<Option<(i64, i64)>> =
+                keys.iter().map(|k| self.span_before(k, end)).collect();
+            self.share_between_successive_tracks(&spans, &rows, &mut labels);
+            let held_back = self.hold_back_unsynced_switches(&keys, &spans, &rows, &mut labels);
+            self.note_exclusions(&keys, &spans, &labels);
+            for (key, new_label) in keys.iter().zip(labels) {
+                let Some(tr) = self.tracks.get_mut(key) else {
+                    continue;
+                };
+                if tr.label.is_some() && new_label.is_some() && tr.label != new_label {
+                    self.stats.num_label_switches += 1;
+                }
+                tr.label = new_label;
+                if new_label.is_some() {
+                    tr.held_back = None;
+                }
+            }
+            for (q, subject) in held_back {
+                if let Some(tr) = keys.get(q).and_then(|k| self.tracks.get_mut(k))
+                    && tr.label.is_none()
+                {
+                    tr.held_back = Some(subject);
+                }
+            }
+        }
+    }
+
+    /// A track's span as seen from the observations before `end` only (all of them have
+    /// arrived by then, so the result does not depend on message order). A track seen within
+    /// `ALIVE_AT_END_NS` of `end` may go on past it, and one not seen before `end` starts there:
+    /// both count as alive from then on, so a track that starts after `end` coexists with
+    /// everyone still in view, and only with them.
+    pub(super) fn span_before(&self, key: &TrackKey, end: i64) -> Option<(i64, i64)> {
+        let tr = self.tracks.get(key)?;
+        let pending = tr.pending.range(..end).next_back().map(|(t, _)| *t);
+        let settled = tr
+            .samples
+            .partition_point(|s| s.t < end)
+            .checked_sub(1)
+            .and_then(|i| tr.samples.get(i))
+            .map(|s| s.t);
+        Some(match pending.max(settled) {
+            Some(last) if last < end - ALIVE_AT_END_NS => (tr.first_t, last),
+            Some(_) => (tr.first_t, i64::MAX),
+            None => (end, i64::MAX),
+        })
+    }
+
+    /// After a camera's decision: every track that took part alongside the holder of a subject
+    /// (their `spans` overlap: two people at once) remembers the holder's score for it
+    /// ([`EngineConfig::exclusion_margin`]); a track holding the subject forgets it.
+    pub(super) fn note_exclusions(
+        &mut self,
+        keys: &[TrackKey],
+        spans: &[Option<(i64, i64)>],
+        labels: &[Option<usize>],
+    ) {
+        let held: Vec<(TrackKey, usize, f64, (i64, i64))> = keys
+            .iter()
+            .zip(labels)
+            .zip(spans)
+            .filter_map(|((key, label), span)| {
+                let s = (*label)?;
+                let score = *self.tracks.get(key)?.subject_scores.get(&s)?;
+                Some((*key, s, score, (*span)?))
+            })
+            .collect();
+        for ((key, label), span) in keys.iter().zip(labels).zip(spans) {
+            let (Some(tr), Some(mine)) = (self.tracks.get_mut(key), *span) else {
+                continue;
+            };
+            for &(holder, s, score, theirs) in &held {
+                if *label == Some(s) {
+                    tr.outscored_by.remove(&s);
+                } else if holder != *key && spans_overlap(mine, theirs) {
+                    tr.outscored_by.insert(s, score);
+                }
+            }
+        }
+    }
+
+    /// One person seen under successive ids by a camera: the assignment gives each subject to
+    /// one track, but a track that ended and its successor (unstitched) may both still have
+    /// frames to label. A track whose best subject went to another track that it never
+    /// coexisted with (their `spans` do not overlap; see [`Engine::span_before`]) takes
+    /// that subject too, if its score clears the rejection threshold; tracks are taken by
+    /// decreasing best score.
+    pub(super) fn share_between_successive_tracks(
+        &self,
+        spans: &[Option<(i64, i64)>],
+        rows: &[Vec<Option<f64>>],
+        labels: &mut [Option<usize>],
+    ) {
+        let span = |r: usize| spans.get(r).copied().flatten();
+        let mut best: Vec<(usize, usize, f64)> = rows
+            .iter()
+            .enumerate()
+            .filter_map(|(r, row)| {
+                let (s, v) = row
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(s, v)| Some((s, (*v)?)))
+                    .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))?;
+                (v >= self.config.rejection_threshold).then_some((r, s, v))
+            })
+            .collect();
+        best.sort_by(|a, b| b.2.total_cmp(&a.2).then(a.0.cmp(&b.0)));
+        for (r, s, _) in best {
+            if labels.get(r).copied().flatten() == Some(s) {
+                continue;
+            }
+            let Some(mine) = span(r) else {
+                continue;
+            };
+            let coexists = labels.iter().enumerate().any(|(q, label)| {
+                q != r
+                    && *label == Some(s)
+                    && span(q).is_some_and(|theirs| spans_overlap(mine, theirs))
+            });
+            if !coexists && let Some(label) = labels.get_mut(r) {
+                *label = Some(s);
+            }
+        }
+    }
+
+    /// Whether `subject` wears a body-area network (several IMUs).
+    pub(super) fn is_network(&self, subject: usize) -> bool {
+        self.subject_imus
+            .get(subject)
+            .is_some_and(|imus| imus.len() > 1)
+    }
+
+    /// Whether any of `subject`'s IMUs has an accepted clock offset.
+    pub(super) fn is_synced(&self, subject: usize) -> bool {
+        self.subject_imus.get(subject).is_some_and(|imus| {
+            imus.iter()
+                .any(|&i| self.imus.get(i).is_some_and(|m| m.is_offset_known))
+        })
+    }
+
+    /// A subject none of whose IMUs has an accepted offset, about to move from the track
+    /// holding it to another track of the camera that coexists with it, goes to neither unless
+    /// the newcomer's score beats the holder's by [`EngineConfig::unsynced_switch_margin`]:
+    /// each pair is scored at its own best lag until then, so two people walking alike are
+    /// hard to tell apart, and an early name is better withheld than moved on a narrow margin.
+    pub(super) fn hold_back_unsynced_switches(
+        &self,
+        keys: &[TrackKey],
+        spans: &[Option<(i64, i64)>],
+        rows: &[Vec<Option<f64>>],
+        labels: &mut [Option<usize>],
+    ) -> Vec<(usize, usize)> {
+        let mut held_back = Vec::new();
+        let margin = self.config.unsynced_switch_margin;
+        if margin <= 0.0 {
+            return held_back;
+        }
+        let holders: Vec<Option<usize>> = keys
+            .iter()
+            .map(|k| self.tracks.get(k).and_then(|tr| tr.label.or(tr.held_back)))
+            .collect();
+        let score = |r: usize, s: usize| rows.get(r).and_then(|row| row.get(s)).copied().flatten();
+        for r in 0..labels.len() {
+            let (Some(s), Some(mine)) = (
+                labels.get(r).copied().flatten(),
+                spans.get(r).copied().flatten(),
+            ) else {
+                continue;
+            };
+            if holders.get(r).copied().flatten() == Some(s) {
+                continue;
+            }
+            if self.is_synced(s) {
+                continue;
+            }
+            // The coexisting tracks that held the subject until now, and the best of their
+            // scores (it carries the hysteresis bonus).
+            let holders_of: Vec<usize> = (0..keys.len())
+                .filter(|&q| q != r && holders.get(q).copied().flatten() == Some(s))
+                .filter(|&q| {
+                    spans
+                        .get(q)
+                        .copied()
+                        .flatten()
+                        .is_some_and(|theirs| spans_overlap(mine, theirs))
+                })
+                .collect();
+            let held = holders_of
+                .iter()
+                .filter_map(|&q| score(q, s))
+                .reduce(f64::max);
+            if let (Some(held), Some(new)) = (held, score(r, s))
+                && new - held < margin
+                && let Some(label) = labels.get_mut(r)
+            {
+                *label = None;
+                held_back.extend(holders_of.iter().map(|&q| (q, s)));
+            }
+        }
+        held_back
+    }
+}
+
+/// The weighted mean of the accumulators present (each weighted by its evidence weight); `None`
+/// without any.
+pub(super) fn pooled_mean<'a>(accs: impl Iterator<Item = Option<&'a Accumulator>>) -> Option<f64> {
+    let (sum, weight) = accs
+        .flatten()
+        .filter(|a| a.weight > 0.0)
+        .fold((0.0, 0.0), |(s, w), a| {
+            (s + a.mean * a.weight, w + a.weight)
+        });
+    (weight > 0.0).then(|| sum / weight)
+}
+
+/// Mean distance between two paths (time increasing) over their common times (samples at
+/// most `CAMERA_PAIR_MAX_DT_NS` apart, each used once), each time measured at the first of the
+/// [`TORSO_ANCHORS`] both paths have there (times without a shared one are skipped); `None`
+/// with fewer than `min_frames` such times.
+pub(super) fn mean_common_distance(
+    a: &[AnchorSample],
+    b: &[AnchorSample],
+    min_frames: usize,
+) -> Option<f64> {
+    let (mut i, mut j) = (0, 0);
+    let (mut sum, mut n) = (0.0, 0usize);
+    while let (Some((ta, pa)), Some((tb, pb))) = (a.get(i), b.get(j)) {
+        if (ta - tb).abs() <= CAMERA_PAIR_MAX_DT_NS {
+            let shared = pa
+                .iter()
+                .zip(pb)
+                .find_map(|(x, y)| Some((x.as_ref()?, y.as_ref()?)));
+            if let Some((x, y)) = shared {
+                sum += (x - y).norm();
+                n += 1;
+            }
+            i += 1;
+            j += 1;
+        } else if ta < tb {
+            i += 1;
+        } else {
+            j += 1;
+        }
+    }
+    (n >= min_frames.max(1)).then(|| sum / n as f64)
+}
+
+/// A track's settled [`TORSO_ANCHORS`] positions in `[lo, hi)` (samples with none left out).
+pub(super) fn anchor_path(tr: &TrackState, lo: i64, hi: i64) -> AnchorPath {
+    let (a, b) = sample_range(tr, lo, hi);
+    tr.samples
+        .range(a..b)
+        .filter_map(|s| {
+            let anchors = TORSO_ANCHORS.map(|j| s.joints.get(j).copied());
+            anchors
+                .iter()
+                .any(Option::is_some)
+                .then_some((s.t, anchors))
+        })
+        .collect()
+}

@@ -1,0 +1,1026 @@
+//! Clock-offset estimation: the lag search over every IMU and candidate track, run at each
+//! window before scoring (see the crate docs, step 1), and the per-window caches of its signals
+//! and curves.
+
+use super::*;
+
+impl Engine {
+    /// Clock offsets. A device without an accepted offset is searched every
+    /// `offset_search_interval_s` jointly with its wearer's identity: for every candidate track,
+    /// each of the subject's IMUs gets a lag curve over `offset_estimation_window_s`; the
+    /// subject's score for a track is the mean of its IMUs' peaks. When the best track beats the
+    /// next one of its camera by `offset_margin` and every other subject's score on it by
+    /// `offset_subject_margin` (a subject with accepted offsets is read at them only), each
+    /// unaccepted IMU's peak lag on that track is a candidate; `offset_num_consistent` agreeing
+    /// candidates in a row make the offset. Lag curves against the tracks labelled with an IMU's
+    /// wearer are summed per IMU: a clear peak of the sum accepts an offset, or moves an accepted
+    /// one, and a sum that contradicts an accepted offset withdraws it (see the crate docs).
+    /// Every IMU also sums, over passes, the best value of its lag curves over all candidate
+    /// tracks at each lag; a clear peak of that sum accepts or moves its offset. An
+    /// accepted offset is refined every `offset_refine_interval_s` against the tracks labelled
+    /// with its wearer (their curves averaged, weighted by coverage).
+    pub(super) fn update_offsets(&mut self, end: i64) {
+        let max_off = ns(self.config.max_clock_offset_s);
+        let span = ns(self.config.offset_estimation_window_s);
+        let hi = end - max_off;
+        let lo = hi - span;
+        // Lags relative to each device's prior (the registry's offset): the fine grid, and the
+        // coarse one the searches for unknown offsets start from.
+        let full: Vec<i64> = (-max_off / LAG_STEP_NS..=max_off / LAG_STEP_NS)
+            .map(|k| k * LAG_STEP_NS)
+            .collect();
+        let coarse: Vec<i64> = full.iter().step_by(COARSE_LAG_STEPS).copied().collect();
+        let min_track = ns(self.config.offset_min_track_s);
+        let search_every = ns(self.config.offset_search_interval_s);
+        let refine_every = ns(self.config.offset_refine_interval_s);
+        let refine_range = ns(self.config.offset_refine_range_s);
+        let confirm_apart = ns(self.config.offset_confirm_apart_s);
+        let same_offset = ns(self.config.offset_consistency_s);
+        let mut skel_cache = TrackLagCache::default();
+        // Each IMU's lag signals kept from the last window's search, put back at the end.
+        let mut lag_memos: Vec<ImuLagMemo> = self
+            .imus
+            .iter_mut()
+            .map(|m| std::mem::take(&mut m.lag_memo))
+            .collect();
+        // An IMU's buffer, per (IMU, offset it was cut with), for the three uses below.
+        let mut imu_cache = ImuLagCache {
+            lo: lo - max_off,
+            hi: hi + max_off,
+            signals: BTreeMap::new(),
+        };
+        // Interpolation weights and curve, reused by every lag curve.
+        let mut scratch = LagScratch::default();
+        let min_samples = self.config.geometric.min_samples;
+        let mut fine = Vec::new();
+        // Every subject's mean peak per track; the accepted offsets of a subject are read at
+        // themselves only. Subjects with nothing to search still score the tracks a searching
+        // subject would win, so a track that clearly belongs to someone else is no candidate
+        // for a searching subject.
+        // One search phase for everyone: subjects whose offsets are withdrawn or who are new
+        // join the next search instead of adding their own.
+        // A network IMU with nothing to be scored at searches at every window (see
+        // `EngineConfig::offset_search_while_blind`).
+        let is_blind = self.config.offset_search_while_blind
+            && self.imus.iter().any(|m| {
+                !m.is_offset_known
+                    && m.pair_offsets.is_empty()
+                    && m.lag_hypotheses.is_empty()
+                    && self.is_network(m.subject)
+            });
+        let is_search_time = is_blind || end.saturating_sub(self.last_search_end) >= search_every;
+        let any_due = is_search_time && self.imus.iter().any(|m| !m.is_offset_known);
+        if any_due {
+            self.last_search_end = end;
+        }
+        // Nothing to search: the loops below do nothing.
+        let num_scored = if any_due { self.subjects.len() } else { 0 };
+        let candidates: Vec<(usize, TrackId)> = self
+            .tracks
+            .iter()
+            .filter(|(_, tr)| covered_span(tr, lo, hi) >= min_track)
+            .map(|(k, _)| *k)
+            .collect();
+        // While no track is long enough to be a candidate, the shorter ones: their lags score
+        // them (see `EngineConfig::offset_short_track_s`), nothing more.
+        // They read everything up to the window's end, not where the buffer stops: they are
+        // never offset candidates, so lags whose IMU samples have not all arrived yet only cost
+        // them a few pairs, and a track seen since the session's start is first scored at the
+        // window ending at 1.5 s instead of 2.5 s.
+        let short_min = ns(self.config.offset_short_track_s);
+        let short_hi = end;
+        let short: Vec<(usize, TrackId)> = if candidates.is_empty() && short_min > 0 {
+            self.tracks
+                .iter()
+                .filter(|(_, tr)| {
+                    covered_span(tr, lo, hi) < min_track
+                        && covered_span(tr, lo, short_hi) >= short_min
+                })
+                .map(|(k, _)| *k)
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let mut short_skel_cache = TrackLagCache::default();
+        let mut short_imu_cache = ImuLagCache {
+            lo: lo - max_off,
+            hi: short_hi + max_off,
+            signals: BTreeMap::new(),
+        };
+        // Per subject: mean peak per track.
+        let mut subject_scores: Vec<BTreeMap<(usize, TrackId), f64>> =
+            vec![BTreeMap::new(); self.subjects.len()];
+        // Per (unaccepted IMU, track): the peak lag, and whether the peak is clear (a short
+        // track's is marked unclear: it only scores).
+        let mut peaks: BTreeMap<(usize, (usize, TrackId)), (i64, bool)> = BTreeMap::new();
+        // Whether each subject has an IMU still unaccepted: only those search. The others'
+        // scores only matter on the tracks a searching subject would win (below).
+        let is_searching: Vec<bool> = (0..num_scored)
+            .map(|b| {
+                self.subject_imus.get(b).is_some_and(|mine| {
+                    mine.iter()
+                        .any(|&i| self.imus.get(i).is_some_and(|m| !m.is_offset_known))
+                })
+            })
+            .collect();
+        for b in 0..num_scored {
+            let Some(mine) = self.subject_imus.get(b).cloned() else {
+                continue;
+            };
+            if !is_searching.get(b).copied().unwrap_or(false) {
+                continue;
+            }
+            let mut track_score: BTreeMap<(usize, TrackId), (f64, usize)> = BTreeMap::new();
+            for &i in &mine {
+                let Some(imu) = self.imus.get(i) else {
+                    continue;
+                };
+                let Some(imu_sig) =
+                    imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+                else {
+                    continue;
+                };
+                let short_imu_sig = if short.is_empty() || imu.is_offset_known {
+                    None
+                } else {
+                    short_imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+                };
+                // Unknown offsets: a coarse grid over the whole range, then the fine grid
+                // around the coarse peak (a quarter of the work of the fine grid throughout).
+                // A known offset is only read at itself: the IMU's correlation there tells
+                // which track its wearer is (refinement is separate, below).
+                let prior = imu.registry_offset_ns;
+                let offsets: Vec<i64> = if imu.is_offset_known {
+                    vec![imu.offset_ns]
+                } else {
+                    coarse.iter().map(|o| o + prior).collect()
+                };
+                let is_coarse = !imu.is_offset_known;
+                let shorts: &[(usize, TrackId)] = if is_coarse { &short } else { &[] };
+                for (key, is_short) in candidates
+                    .iter()
+                    .map(|k| (k, false))
+                    .chain(shorts.iter().map(|k| (k, true)))
+                {
+                    let (imu_sig, sig) = if is_short {
+                        let (Some(imu_sig), Some(sig)) = (
+                            short_imu_sig,
+                            short_skel_cache.signals(
+                                &self.tracks,
+                                *key,
+                                imu.site,
+                                lo,
+                                short_hi,
+                                &self.config,
+                            ),
+                        ) else {
+                            continue;
+                        };
+                        (imu_sig, sig)
+                    } else {
+                        let Some(sig) =
+                            skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
+                        else {
+                            continue;
+                        };
+                        (imu_sig, sig)
+                    };
+                    let curve = if is_short {
+                        scratch.curve(imu_sig, sig, &offsets, min_samples)
+                    } else if is_coarse {
+                        scratch.coarse_curve(
+                            i,
+                            imu.offset_ns,
+                            *key,
+                            imu_sig,
+                            sig,
+                            &offsets,
+                            min_samples,
+                        )
+                    } else {
+                        scratch.curve(imu_sig, sig, &offsets, min_samples)
+                    };
+                    let Some((mut offset, mut value)) =
+                        curve_peak(&offsets, curve, prior, self.config.offset_tie_tolerance)
+                    else {
+                        continue;
+                    };
+                    // Whether this pair's peak stands clear of every lag a stride or a
+                    // look-alike away (on the coarse curve): only a clear one may be a
+                    // candidate. A known offset is read at itself and is no candidate.
+                    let clarity = self.config.offset_peak_clarity;
+                    let is_clear = is_coarse
+                        && offsets
+                            .iter()
+                            .enumerate()
+                            .min_by_key(|(_, o)| o.abs_diff(offset))
+                            .is_some_and(|(k, _)| falls_on_both_sides(curve, k, PEAK_DROP))
+                        && (clarity <= 0.0
+                            || value
+                                - rival_value(&offsets, curve, offset, OFFSET_PEAK_SEPARATION_NS)
+                                >= clarity);
+                    if is_coarse {
+                        let reach = COARSE_LAG_STEPS as i64 * LAG_STEP_NS;
+                        let near = offset.div_euclid(LAG_STEP_NS) * LAG_STEP_NS;
+                        fine.clear();
+                        fine.extend(
+                            (-(COARSE_LAG_STEPS as i64)..=COARSE_LAG_STEPS as i64)
+                                .map(|k| near + k * LAG_STEP_NS)
+                                .filter(|o| {
+                                    (o - prior).abs() <= max_off && (o - offset).abs() <= reach
+                                }),
+                        );
+                        let curve = scratch.curve(imu_sig, sig, &fine, min_samples);
+                        if let Some(found) = curve_peak(&fine, curve, prior, 0.0) {
+                            (offset, value) = found;
+                        }
+                    }
+                    if is_short {
+                        // A short stretch's curve is noisy: only a clear peak scores it. It
+                        // gives the subject no score (so no winner and no lag hypothesis) and
+                        // is marked unclear, so it is never an offset candidate.
+                        if is_clear && (offset - prior).abs() < max_off - LAG_STEP_NS / 2 {
+                            peaks.insert((i, *key), (offset, false));
+                        }
+                        continue;
+                    }
+                    let e = track_score.entry(*key).or_insert((0.0, 0));
+                    e.0 += value;
+                    e.1 += 1;
+                    // A peak at the end of the searched range only says the best lag lies
+                    // beyond it: it scores the track but is no offset candidate.
+                    if !imu.is_offset_known && (offset - prior).abs() < max_off - LAG_STEP_NS / 2 {
+                        peaks.insert((i, *key), (offset, is_clear));
+                    }
+                }
+            }
+            if let Some(scores) = subject_scores.get_mut(b) {
+                *scores = track_score
+                    .iter()
+                    .map(|(k, (s, n))| (*k, s / *n as f64))
+                    .collect();
+            }
+        }
+        // A subject whose offsets are all accepted is read at them only, and its score on a
+        // track only counts against a searching subject that would win that track: it is
+        // computed there alone (the mean of its IMUs' correlations at their offsets).
+        let mut contested: Vec<(usize, TrackId)> = (0..num_scored)
+            .filter(|&b| is_searching.get(b).copied().unwrap_or(false))
+            .filter_map(|b| {
+                subject_scores
+                    .get(b)?
+                    .iter()
+                    .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
+                    .map(|(k, _)| *k)
+            })
+            .collect();
+        contested.sort_unstable();
+        contested.dedup();
+        for c in 0..num_scored {
+            if is_searching.get(c).copied().unwrap_or(false) {
+                continue;
+            }
+            let Some(theirs) = self.subject_imus.get(c) else {
+                continue;
+            };
+            for key in &contested {
+                let (mut sum, mut num) = (0.0, 0usize);
+                for &i in theirs {
+                    let Some(imu) = self.imus.get(i) else {
+                        continue;
+                    };
+                    let Some(imu_sig) =
+                        imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+                    else {
+                        continue;
+                    };
+                    let Some(sig) =
+                        skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
+                    else {
+                        continue;
+                    };
+                    let offsets = [imu.offset_ns];
+                    let curve = scratch.curve(imu_sig, sig, &offsets, min_samples);
+                    if let Some((_, value)) = curve_peak(
+                        &offsets,
+                        curve,
+                        imu.registry_offset_ns,
+                        self.config.offset_tie_tolerance,
+                    ) {
+                        sum += value;
+                        num += 1;
+                    }
+                }
+                if num > 0
+                    && let Some(scores) = subject_scores.get_mut(c)
+                {
+                    scores.insert(*key, sum / num as f64);
+                }
+            }
+        }
+        for b in 0..num_scored {
+            let Some(mine) = self.subject_imus.get(b).cloned() else {
+                continue;
+            };
+            // Only subjects with an IMU still unaccepted search.
+            if !is_searching.get(b).copied().unwrap_or(false) {
+                continue;
+            }
+            let Some(scores) = subject_scores.get(b) else {
+                continue;
+            };
+            // The best track, its margin over the next one of the same camera, and over every
+            // other subject's score on it (two people walking alike must not both claim it).
+            let best = scores
+                .iter()
+                .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
+                .map(|(k, v)| (*k, *v));
+            let winner = best.and_then(|(key, top)| {
+                let second = scores
+                    .iter()
+                    .filter(|(k, _)| k.0 == key.0 && **k != key)
+                    .map(|(_, v)| *v)
+                    .fold(0.0f64, f64::max);
+                let other = subject_scores
+                    .iter()
+                    .enumerate()
+                    .filter(|(c, _)| *c != b)
+                    .filter_map(|(_, s)| s.get(&key).copied())
+                    .fold(f64::NEG_INFINITY, f64::max);
+                (top >= self.config.offset_min_correlation
+                    && top - second >= self.config.offset_margin
+                    && (self.config.offset_subject_margin < 0.0
+                        || top - other >= self.config.offset_subject_margin))
+                    .then_some((key, top))
+            });
+            // The subject's tracks, best first: where its IMUs' lag hypotheses come from.
+            let mut ranked: Vec<(&(usize, TrackId), &f64)> = scores.iter().collect();
+            ranked.sort_by(|a, b| b.1.total_cmp(a.1).then(a.0.cmp(b.0)));
+            let ranked: Vec<(usize, TrackId)> = ranked.into_iter().map(|(k, _)| *k).collect();
+            for &i in &mine {
+                let pair_offsets: BTreeMap<(usize, TrackId), i64> = peaks
+                    .range((i, (0, TrackId(0)))..)
+                    .take_while(|((j, _), _)| *j == i)
+                    .map(|((_, k), (o, _))| (*k, *o))
+                    .collect();
+                // The winning track's peak lag is a candidate only if it is clear.
+                let candidate = winner
+                    .and_then(|(key, _)| peaks.get(&(i, key)))
+                    .and_then(|(o, is_clear)| is_clear.then_some(*o));
+                let Some(imu) = self.imus.get_mut(i) else {
+                    continue;
+                };
+                if imu.is_offset_known {
+                    continue;
+                }
+                imu.pair_offsets = pair_offsets;
+                imu.lag_hypotheses.clear();
+                for key in &ranked {
+                    if imu.lag_hypotheses.len() >= self.config.offset_hypotheses {
+                        break;
+                    }
+                    if let Some((o, _)) = peaks.get(&(i, *key))
+                        && imu
+                            .lag_hypotheses
+                            .iter()
+                            .all(|h| (h - o).abs() > same_offset)
+                    {
+                        imu.lag_hypotheses.push(*o);
+                    }
+                }
+                imu.candidates.push_back(candidate);
+                imu.pending_offset = None;
+                // Winners are kept only where they are read: a single IMU, the rule on.
+                let is_confirming = confirm_apart > 0 && mine.len() == 1;
+                if is_confirming && let (Some(o), Some((key, _))) = (candidate, winner) {
+                    imu.winners.push_back((o, key, end));
+                    while imu.winners.len() > OFFSET_CONFIRM_HISTORY {
+                        imu.winners.pop_front();
+                    }
+                }
+                while imu.candidates.len() > self.config.offset_num_consistent {
+                    imu.candidates.pop_front();
+                }
+                let agreed: Option<Vec<i64>> = imu.candidates.iter().copied().collect();
+                let Some(mut agreed) = agreed else {
+                    continue;
+                };
+                if agreed.len() < self.config.offset_num_consistent {
+                    continue;
+                }
+                agreed.sort_unstable();
+                let (Some(&first), Some(&last)) = (agreed.first(), agreed.last()) else {
+                    continue;
+                };
+                if last - first > ns(self.config.offset_consistency_s) {
+                    continue;
+                }
+                let offset = agreed.get(agreed.len() / 2).copied().unwrap_or(last);
+                // A single sensor's agreement is confirmed by another track, or by a winner
+                // long enough ago that the two searches share little of their buffers.
+                if is_confirming {
+                    let tolerance = ns(self.config.offset_consistency_s);
+                    let is_confirmed = winner.is_some_and(|(key, _)| {
+                        imu.winners.iter().any(|(o, k, at)| {
+                            (*k != key || end - at >= confirm_apart)
+                                && (o - offset).abs() <= tolerance
+                        })
+                    });
+                    if !is_confirmed {
+                        imu.pending_offset = Some(offset);
+                        continue;
+                    }
+                }
+                imu.offset_ns = offset;
+                imu.is_offset_known = true;
+                imu.label_curve.clear();
+                imu.num_label_curves = 0;
+                imu.last_refine_end = end;
+                record_offset(
+                    &mut self.stats,
+                    &imu.device,
+                    offset,
+                    winner.map_or(0.0, |w| w.1),
+                );
+            }
+        }
+        // Every IMU, accepted or not, against every candidate track: the lag curve's best
+        // value over the tracks at every `BEST_TRACK_LAG_STEPS`-th coarse lag, summed over
+        // passes, leaving out the tracks someone else's synchronised IMU explains. The IMU's
+        // own labels do not enter this sum, so a wrong early label cannot confirm the offset it
+        // came from. Once it has `offset_best_track_curves` passes, a peak standing
+        // `offset_best_track_margin` above every lag more than `OFFSET_PEAK_SEPARATION_NS` away
+        // accepts the offset, or moves an accepted one that lies farther than that from it;
+        // `offset_settle_passes` such peaks in a row at the accepted offset settle it.
+        let best_track_every = ns(self.config.offset_best_track_interval_s);
+        if self.config.offset_best_track_curves > 0
+            && !self.config.known_clock_offsets
+            && end.saturating_sub(self.last_best_track_end) >= best_track_every
+        {
+            self.last_best_track_end = end;
+            let mut best = Vec::new();
+            let mut grid = Vec::new();
+            let mut thinned = Vec::new();
+            let best_grid_len = coarse.iter().step_by(BEST_TRACK_LAG_STEPS).count();
+            for i in 0..self.imus.len() {
+                let Some(imu) = self.imus.get(i) else {
+                    continue;
+                };
+                let is_settled = imu.is_offset_known
+                    && imu
+                        .best_track_settled_ns
+                        .is_some_and(|o| (o - imu.offset_ns).abs() <= OFFSET_PEAK_SEPARATION_NS);
+                if is_settled {
+                    continue;
+                }
+                best.clear();
+                best.resize(best_grid_len, f64::NAN);
+                // Always cut at the registry's offset (the prior the grid is centred on),
+                // accepted or not: the signals (the orientation change's reference sample)
+                // depend on where the buffer starts, and every pass of the sum must measure the
+                // same thing.
+                let cut = imu.registry_offset_ns;
+                grid.clear();
+                grid.extend(coarse.iter().step_by(BEST_TRACK_LAG_STEPS).map(|o| o + cut));
+                if let Some(imu_sig) = imu_cache.signals(i, imu, cut, &mut lag_memos, &self.config)
+                {
+                    for key in &candidates {
+                        // A track named after someone else with an accepted offset is
+                        // explained by that person's IMU: a look-alike's track (the same gait
+                        // a fraction of a stride off, the same turns for a while) would
+                        // otherwise give this IMU a second peak in every pass.
+                        let is_explained = self
+                            .tracks
+                            .get(key)
+                            .and_then(|tr| tr.label)
+                            .is_some_and(|l| l != imu.subject && self.is_synced(l));
+                        if is_explained {
+                            continue;
+                        }
+                        let Some(sig) =
+                            skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
+                        else {
+                            continue;
+                        };
+                        // The joint search may have read this curve on the full coarse grid
+                        // already: every other value of it is this pass's curve.
+                        let curve: &[f64] = match scratch.coarse.get(&(i, cut, *key)) {
+                            Some(c) => {
+                                thinned.clear();
+                                thinned.extend(c.iter().step_by(BEST_TRACK_LAG_STEPS));
+                                &thinned
+                            }
+                            None => scratch.curve(imu_sig, sig, &grid, min_samples),
+                        };
+                        for (b, v) in best.iter_mut().zip(curve) {
+                            // `NaN` (nothing yet) loses to any finite value.
+                            if v.is_finite() {
+                                *b = if b.is_nan() { *v } else { b.max(*v) };
+                            }
+                        }
+                    }
+                }
+                let Some(imu) = self.imus.get_mut(i) else {
+                    continue;
+                };
+                if best.iter().all(|v| !v.is_finite()) {
+                    continue;
+                }
+                if imu.best_track_curve.len() != best_grid_len {
+                    imu.best_track_curve = vec![(0.0, 0); best_grid_len];
+                }
+                for (acc, v) in imu.best_track_curve.iter_mut().zip(&best) {
+                    if v.is_finite() {
+                        acc.0 += v;
+                        acc.1 += 1;
+                    }
+                }
+                imu.num_best_track_curves += 1;
+                if imu.num_best_track_curves < self.config.offset_best_track_curves {
+                    continue;
+                }
+                let mean = mean_curve(&imu.best_track_curve);
+                let Some((offset, peak, rival)) = summed_peak(
+                    &grid,
+                    &mean,
+                    cut,
+                    max_off,
+                    LAG_STEP_NS / 2,
+                    OFFSET_PEAK_SEPARATION_NS,
+                ) else {
+                    continue;
+                };
+                let is_near_accepted = imu.is_offset_known
+                    && (offset - imu.offset_ns).abs() <= OFFSET_PEAK_SEPARATION_NS;
+                if peak - rival < self.config.offset_best_track_margin {
+                    imu.num_best_track_agreements = 0;
+                    continue;
+                }
+                if is_near_accepted {
+                    imu.num_best_track_agreements += 1;
+                    let settle = self.config.offset_settle_passes;
+                    if settle > 0 && imu.num_best_track_agreements >= settle {
+                        imu.best_track_settled_ns = Some(imu.offset_ns);
+                        self.stats.num_offsets_settled += 1;
+                    }
+                    continue;
+                }
+                imu.num_best_track_agreements = 0;
+                if imu.is_offset_known {
+                    self.stats.num_offsets_moved += 1;
+                }
+                imu.offset_ns = offset;
+                imu.is_offset_known = true;
+                imu.candidates.clear();
+                imu.winners.clear();
+                imu.pending_offset = None;
+                imu.label_curve.clear();
+                imu.num_label_curves = 0;
+                // Refined at once (below) from the coarse step to the fine one.
+                imu.last_refine_end = end - refine_every;
+                record_offset(&mut self.stats, &imu.device, offset, peak);
+            }
+        }
+        // Unaccepted IMUs whose wearer the decisions put on a track: the coarse lag curve
+        // against that track is summed over searches, so tracks too short for the joint search
+        // above still add up; the sum's peak is accepted once it is clear of every lag more
+        // than `OFFSET_PEAK_SEPARATION_NS` away.
+        let label_min = ns(self.config.offset_label_min_track_s);
+        for i in 0..self.imus.len() {
+            let Some(imu) = self.imus.get(i) else {
+                continue;
+            };
+            // Accepted offsets are checked the same way, at the refinement's pace.
+            let every = if imu.is_offset_known {
+                refine_every
+            } else {
+                search_every
+            };
+            if self.config.offset_label_curves == 0
+                || end.saturating_sub(imu.last_label_search_end) < every
+            {
+                continue;
+            }
+            let (subject, site) = (imu.subject, imu.site);
+            // The coarse grid around the registry's offset, the prior.
+            let prior = imu.registry_offset_ns;
+            let grid: Vec<i64> = coarse.iter().map(|o| o + prior).collect();
+            let mut added: Vec<Vec<f64>> = Vec::new();
+            if let Some(imu_sig) =
+                imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+            {
+                for (key, tr) in self
+                    .tracks
+                    .iter()
+                    .filter(|(_, tr)| tr.label == Some(subject) && !tr.is_superseded)
+                {
+                    if covered_span(tr, lo, hi) < label_min {
+                        continue;
+                    }
+                    let Some(sig) =
+                        skel_cache.signals(&self.tracks, *key, site, lo, hi, &self.config)
+                    else {
+                        continue;
+                    };
+                    let curve = scratch.coarse_curve(
+                        i,
+                        imu.offset_ns,
+                        *key,
+                        imu_sig,
+                        sig,
+                        &grid,
+                        min_samples,
+                    );
+                    added.push(curve.to_vec());
+                }
+            }
+            // Labels of a body-area network none of whose offsets is accepted yet came from
+            // pairs scored at their own best lags; the joint search, which averages over the
+            // network, usually finds its first offset, and this path waits for more curves.
+            let needed =
+                if !imu.is_offset_known && !self.is_synced(subject) && self.is_network(subject) {
+                    self.config
+                        .offset_label_curves
+                        .max(self.config.offset_label_curves_unsynced)
+                } else {
+                    self.config.offset_label_curves
+                };
+            let Some(imu) = self.imus.get_mut(i) else {
+                continue;
+            };
+            imu.last_label_search_end = end;
+            if imu.label_curve.len() != grid.len() {
+                imu.label_curve = vec![(0.0, 0); grid.len()];
+            }
+            for c in &added {
+                for (acc, v) in imu.label_curve.iter_mut().zip(c) {
+                    if v.is_finite() {
+                        acc.0 += v;
+                        acc.1 += 1;
+                    }
+                }
+            }
+            imu.num_label_curves += added.len();
+            if imu.num_label_curves < needed {
+                continue;
+            }
+            let mean = mean_curve(&imu.label_curve);
+            // An accepted offset at which the wearer's tracks hardly correlate, while another
+            // lag does better, was most likely found on someone else's track: it is withdrawn
+            // and searched for again.
+            if imu.is_offset_known
+                && !self.config.known_clock_offsets
+                && is_contradicted(
+                    &grid,
+                    &mean,
+                    imu.offset_ns,
+                    self.config.offset_withdraw_below,
+                    self.config.offset_label_margin,
+                )
+            {
+                imu.is_offset_known = false;
+                imu.candidates.clear();
+                imu.winners.clear();
+                imu.pending_offset = None;
+                imu.pair_offsets.clear();
+                imu.lag_hypotheses.clear();
+                imu.label_curve.clear();
+                imu.num_label_curves = 0;
+                imu.offset_ns = imu.registry_offset_ns;
+                imu.num_best_track_agreements = 0;
+                imu.best_track_settled_ns = None;
+                self.stats.clock_offsets.remove(&imu.device);
+                self.stats.num_offsets_withdrawn += 1;
+                continue;
+            }
+            // The peak must lie inside the searched range (see the joint search).
+            let Some((offset, peak, rival)) = summed_peak(
+                &grid,
+                &mean,
+                prior,
+                max_off,
+                LAG_STEP_NS / 2,
+                OFFSET_PEAK_SEPARATION_NS,
+            ) else {
+                continue;
+            };
+            if peak < self.config.offset_label_min_correlation
+                || peak - rival < self.config.offset_label_margin
+            {
+                continue;
+            }
+            // An offset the joint search agreed on and is confirming is not overruled here.
+            if !imu.is_offset_known
+                && imu
+                    .pending_offset
+                    .is_some_and(|p| (p - offset).abs() > OFFSET_PEAK_SEPARATION_NS)
+            {
+                continue;
+            }
+            // A fresh sum from here on: for an accepted offset, the check of the next curves.
+            imu.label_curve.clear();
+            imu.num_label_curves = 0;
+            if imu.is_offset_known {
+                if (offset - imu.offset_ns).abs() <= OFFSET_PEAK_SEPARATION_NS {
+                    continue;
+                }
+                // The wearer's tracks clearly peak elsewhere: the accepted offset was wrong
+                // (a stride away, or found on someone else's track).
+                self.stats.num_offsets_moved += 1;
+                imu.num_best_track_agreements = 0;
+                imu.best_track_settled_ns = None;
+            }
+            imu.offset_ns = offset;
+            imu.is_offset_known = true;
+            // Refined at once (below) from the coarse step to the fine one.
+            imu.last_refine_end = end - refine_every;
+            record_offset(&mut self.stats, &imu.device, offset, peak);
+        }
+        // Refinement of accepted offsets against the tracks labelled with the wearer.
+        for i in 0..self.imus.len() {
+            let Some(imu) = self.imus.get(i) else {
+                continue;
+            };
+            if !imu.is_offset_known || end.saturating_sub(imu.last_refine_end) < refine_every {
+                continue;
+            }
+            let offsets: Vec<i64> = full
+                .iter()
+                .filter(|o| o.abs() <= refine_range)
+                .map(|o| o + imu.offset_ns)
+                .collect();
+            // The curves against every track labelled with the wearer, weighted by how much of
+            // the buffer each covers: a long track's peak is sharper than a short one's.
+            let mut sum = vec![(0.0, 0.0); offsets.len()];
+            if let Some(imu_sig) =
+                imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+            {
+                for (key, tr) in self
+                    .tracks
+                    .iter()
+                    .filter(|(_, tr)| tr.label == Some(imu.subject))
+                {
+                    let covered = covered_span(tr, lo, hi);
+                    if covered < min_track {
+                        continue;
+                    }
+                    let Some(sig) =
+                        skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
+                    else {
+                        continue;
+                    };
+                    let curve = scratch.curve(imu_sig, sig, &offsets, min_samples);
+                    let w = covered as f64 * 1e-9;
+                    for (acc, v) in sum.iter_mut().zip(curve) {
+                        if v.is_finite() {
+                            acc.0 += w * v;
+                            acc.1 += w;
+                        }
+                    }
+                }
+            }
+            let mean: Vec<f64> = sum
+                .iter()
+                .map(|(s, w)| if *w > 0.0 { s / w } else { f64::NAN })
+                .collect();
+            let best = curve_peak(&offsets, &mean, imu.registry_offset_ns, 0.0);
+            let Some(imu) = self.imus.get_mut(i) else {
+                continue;
+            };
+            imu.last_refine_end = end;
+            if let Some((offset, corr)) = best
+                && corr >= self.config.offset_min_correlation
+            {
+                // Refinement never walks out of the searched range.
+                let prior = imu.registry_offset_ns;
+                imu.offset_ns = offset.clamp(prior - max_off, prior + max_off);
+                record_offset(&mut self.stats, &imu.device, imu.offset_ns, corr);
+            }
+        }
+        for (imu, memo) in self.imus.iter_mut().zip(lag_memos) {
+            imu.lag_memo = memo;
+        }
+    }
+}
+
+/// Scratch buffers of the lag search, reused by every curve of a window.
+#[derive(Default)]
+pub(super) struct LagScratch {
+    weights: Vec<LagWeight>,
+    curve: Vec<f64>,
+    /// Coarse-grid curves of this window per (IMU, offset its buffer was cut at, track): the
+    /// joint search, the best-track pass and the labelled-track sum all read the curve on the
+    /// coarse grid around the registry's offset, and often of the same buffers.
+    coarse: BTreeMap<(usize, i64, TrackKey), Vec<f64>>,
+}
+
+impl LagScratch {
+    /// [`LagScratch::curve`] on the coarse grid `offsets_ns` of IMU `imu_index` cut at
+    /// `cut_ns`, against `track`: computed once per window.
+    #[allow(clippy::too_many_arguments)]
+    fn coarse_curve(
+        &mut self,
+        imu_index: usize,
+        cut_ns: i64,
+        track: TrackKey,
+        imu: &LagSignals,
+        track_signals: &LagSignals,
+        offsets_ns: &[i64],
+        min_samples: usize,
+    ) -> &[f64] {
+        let Self {
+            weights,
+            curve,
+            coarse,
+        } = self;
+        coarse.entry((imu_index, cut_ns, track)).or_insert_with(|| {
+            lag_curve(
+                imu,
+                track_signals,
+                offsets_ns,
+                MAX_IMU_GAP_NS,
+                min_samples,
+                weights,
+                curve,
+            );
+            curve.clone()
+        })
+    }
+
+    /// The lag curve of `imu` against `track` at `offsets_ns` ([`lag_curve`], across IMU gaps
+    /// up to [`MAX_IMU_GAP_NS`]).
+    fn curve(
+        &mut self,
+        imu: &LagSignals,
+        track: &LagSignals,
+        offsets_ns: &[i64],
+        min_samples: usize,
+    ) -> &[f64] {
+        lag_curve(
+            imu,
+            track,
+            offsets_ns,
+            MAX_IMU_GAP_NS,
+            min_samples,
+            &mut self.weights,
+            &mut self.curve,
+        );
+        &self.curve
+    }
+}
+
+/// Reports an accepted or updated clock offset of `device` in the run's statistics.
+pub(super) fn record_offset(
+    stats: &mut EngineStats,
+    device: &DeviceId,
+    offset_ns: i64,
+    correlation: f64,
+) {
+    let entry = stats.clock_offsets.entry(device.clone()).or_default();
+    entry.offset_ns = offset_ns;
+    entry.correlation = correlation;
+    entry.num_updates += 1;
+}
+
+/// De Marchi's magnitude config for the lag search: no moving average (its causal delay would
+/// differ between the IMU's rate and the camera's); the zero-phase low-pass does the smoothing.
+pub(super) fn lag_geometric(config: &EngineConfig) -> GeometricConfig {
+    GeometricConfig {
+        moving_average_len: 1,
+        ..config.geometric
+    }
+}
+
+/// An IMU's acceleration and orientation-change magnitudes (and the other lag models) at its
+/// own sample times (device clock) in `[lo − cut_offset_ns, hi − cut_offset_ns)`, for the lag
+/// search, and never past `settled_until_ns` (the samples the window waited for, whatever else
+/// has arrived); the values earlier searches computed come from `memo` ([`ImuLagMemo`]).
+///
+/// Acceleration gives a sharp peak but repeats every step; the orientation change over the long
+/// buffer follows the turns of the walk, which do not repeat, and picks the right step. (The
+/// velocity model, a leaky integral over 12 s, correlated worse than either on the simulated
+/// scenes.) The orientation's reference is the buffer's first sample on each side: at a
+/// candidate lag `o` the IMU's lies `max offset + cut − o` before the track's, up to a second
+/// apart, which matters for a limb that swings (see the best-track curve in
+/// [`Engine::update_offsets`]). A reference per lag (the IMU's orientation at the track's
+/// reference time, lag by lag) removes that bias, but changed nothing on the simulated scenes
+/// (78.3 against 78.2 % over the ten imu-table scenes, seeds 1–9), so it is not done.
+pub(super) fn imu_lag_signals(
+    imu: &ImuState,
+    memo: &mut ImuLagMemo,
+    cut_offset_ns: i64,
+    lo: i64,
+    hi: i64,
+    config: &EngineConfig,
+) -> Option<LagSignals> {
+    // Device times (the lag curve shifts them by each candidate offset itself), thinned like
+    // the track's: interpolation walks every IMU sample once per candidate offset.
+    imu_lag_signals_from(
+        memo,
+        &imu.series(),
+        imu.num_forgotten,
+        IMU_LAG_DECIMATION,
+        lo - cut_offset_ns,
+        (hi - cut_offset_ns).min(imu.settled_until_ns),
+        &lag_geometric(config),
+        &config.kinematic,
+    )
+}
+
+/// The lag search's IMU side for one window: each IMU's signals over `[lo, hi)` (device clock
+/// shifted by the offset the buffer is cut at), per (IMU, that offset).
+pub(super) struct ImuLagCache {
+    lo: i64,
+    hi: i64,
+    signals: BTreeMap<(usize, i64), Option<LagSignals>>,
+}
+
+impl ImuLagCache {
+    /// [`imu_lag_signals`] of IMU `index` (`imu`, its memo in `memos`) cut at `cut_ns`; `None`
+    /// if too short.
+    fn signals<'a>(
+        &'a mut self,
+        index: usize,
+        imu: &ImuState,
+        cut_ns: i64,
+        memos: &mut [ImuLagMemo],
+        config: &EngineConfig,
+    ) -> Option<&'a LagSignals> {
+        let (lo, hi) = (self.lo, self.hi);
+        self.signals
+            .entry((index, cut_ns))
+            .or_insert_with(|| {
+                let memo = memos.get_mut(index)?;
+                imu_lag_signals(imu, memo, cut_ns, lo, hi, config)
+            })
+            .as_ref()
+    }
+}
+
+/// A track's buffer for the lag search: its times (session ns), its joints, and its body's
+/// turn rate (the fifth lag model, the same for every site) thinned like the other models.
+pub(super) type TrackLagWindow = (Vec<i64>, SkeletonWindow, Vec<f64>);
+
+/// The lag search's track side for one window: each track's buffer, copied once, and its
+/// signals per site.
+#[derive(Default)]
+pub(super) struct TrackLagCache {
+    /// A track's buffer in `[lo, hi)`; `None` if too short.
+    windows: BTreeMap<TrackKey, Option<TrackLagWindow>>,
+    signals: BTreeMap<(TrackKey, Joint), Option<LagSignals>>,
+}
+
+impl TrackLagCache {
+    /// The acceleration and carrying-segment orientation-change magnitudes (and the other lag
+    /// models) of track `key` at `site` on its own times in `[lo, hi)`; `None` for an unknown
+    /// or too short track.
+    fn signals(
+        &mut self,
+        tracks: &BTreeMap<TrackKey, TrackState>,
+        key: TrackKey,
+        site: Joint,
+        lo: i64,
+        hi: i64,
+        config: &EngineConfig,
+    ) -> Option<&LagSignals> {
+        let Self { windows, signals } = self;
+        signals
+            .entry((key, site))
+            .or_insert_with(|| {
+                let window = windows.entry(key).or_insert_with(|| {
+                    let tr = tracks.get(&key)?;
+                    let (a, b) = sample_range(tr, lo, hi);
+                    if b < a + 16 {
+                        return None;
+                    }
+                    let t_ns: Vec<i64> = tr.samples.range(a..b).map(|s| s.t).collect();
+                    let skel = SkeletonWindow {
+                        camera: None,
+                        track: None,
+                        t_s: t_ns.iter().map(|&t| t as f64 * 1e-9).collect(),
+                        joints_world_m: tr.samples.range(a..b).map(|s| s.joints.clone()).collect(),
+                    };
+                    let turn: Vec<f64> = body_turn_rate_signal(&skel, &config.kinematic)
+                        .into_iter()
+                        .step_by(LAG_DECIMATION)
+                        .collect();
+                    Some((t_ns, skel, turn))
+                });
+                window.as_ref().map(|(t_ns, skel, turn)| {
+                    // The signals are built at the camera's rate, then every `LAG_DECIMATION`-th
+                    // sample is correlated: the models are low-passed well below the decimated
+                    // Nyquist rate. The models are `segment_lag_models`', the turn rate shared.
+                    let [acc, ori, vertical, swing] = segment_site_lag_models(
+                        skel,
+                        site,
+                        &lag_geometric(config),
+                        &config.kinematic,
+                        LAG_DECIMATION,
+                    );
+                    let models = vec![acc, ori, vertical, swing, turn.clone()];
+                    LagSignals::thinned(t_ns, models, LAG_DECIMATION)
+                })
+            })
+            .as_ref()
+    }
+}

@@ -1,0 +1,550 @@
+//! A window's evidence: every (track, subject) pair's motion correlations, Belmonte's costs,
+//! location-tag and RSSI scores, accumulated per track (see the crate docs, step 2).
+
+use super::*;
+
+impl Engine {
+    /// Scores this window: per camera, a [`ScoreTensor`] of De Marchi's correlations of every
+    /// (active track, subject, site), fused by [`EngineConfig::fusion`] into one score per
+    /// (track, subject) and accumulated. An IMU without an accepted offset is compared with a
+    /// track at that pair's lag-curve peak (the max over the lag range, found on the long buffer).
+    pub(super) fn score_window(&mut self, end: i64) {
+        let start = end - self.window_ns;
+        let min_span = (self.config.min_window_coverage * self.window_ns as f64) as i64;
+        let mut sites: Vec<Joint> = self.imus.iter().map(|m| m.site).collect();
+        sites.sort_unstable();
+        sites.dedup();
+        // An IMU's window and features per (IMU, offset, grid): cameras that share frame times
+        // (hardware-synchronised rigs) share them too.
+        let mut grids: Vec<Vec<i64>> = Vec::new();
+        let mut imu_cache: ImuFeatureCache = BTreeMap::new();
+        // Subjects wearing IMUs none of which has a settled sample in this window, with the
+        // session time of their IMUs' newest settled sample: their motion evidence on a track
+        // seen since then is dropped (see `SILENT_WEARER_SLACK_NS`).
+        let silent: Vec<(usize, i64)> = (0..self.subjects.len())
+            .filter_map(|b| {
+                let imus = self.subject_imus.get(b)?;
+                let mut newest = i64::MIN;
+                for &i in imus {
+                    let imu = self.imus.get(i)?;
+                    let k = imu.t.partition_point(|&t| t < imu.settled_until_ns);
+                    if let Some(&t) = k.checked_sub(1).and_then(|k| imu.t.get(k)) {
+                        newest = newest.max(t + imu.offset_ns);
+                    }
+                }
+                (!imus.is_empty() && newest > i64::MIN && newest < start).then_some((b, newest))
+            })
+            .collect();
+        let wants_belmonte = self.config.motion_score == MotionScore::Belmonte
+            || (self.config.motion_score == MotionScore::Nomen
+                && self.config.model_weights.belmonte > 0.0);
+        let wants_heading = self.config.motion_score == MotionScore::Nomen
+            && self.config.model_weights.heading > 0.0;
+        // Each IMU's heading where its estimate is coherent enough (the phase of its cross
+        // sums, as a unit complex number), and this window's normalised cross sums against the
+        // tracks labelled with its wearer, added after every camera is scored.
+        let headings: Vec<Option<[f64; 2]>> =
+            self.imus.iter().map(|m| m.heading(&self.config)).collect();
+        let mut heading_updates: Vec<(usize, [f64; 2])> = Vec::new();
+        for c in 0..self.cameras.len() {
+            // Tracks with a few samples in the window; the IMU models need more (below).
+            let keys: Vec<(usize, TrackId)> = self
+                .tracks
+                .iter()
+                .filter(|(k, tr)| {
+                    k.0 == c && !tr.is_superseded && {
+                        let (a, b) = sample_range(tr, start, end);
+                        b >= a + 3
+                    }
+                })
+                .map(|(k, _)| *k)
+                .collect();
+            if keys.is_empty() {
+                continue;
+            }
+            // Every frame time of the camera in the window (any of its tracks).
+            let mut frame_times: Vec<i64> = keys
+                .iter()
+                .filter_map(|k| self.tracks.get(k))
+                .flat_map(|tr| {
+                    let (a, b) = sample_range(tr, start, end);
+                    tr.samples.range(a..b).map(|s| s.t)
+                })
+                .collect();
+            frame_times.sort_unstable();
+            frame_times.dedup();
+            let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &sites);
+            let mut device_scores: Vec<((usize, TrackId), usize, f64)> = Vec::new();
+            // (row, subject) → (sum, count) of every correlation ([`MotionScore::Nomen`]).
+            let mut nomen_sums: BTreeMap<(usize, usize), (f64, f64)> = BTreeMap::new();
+            for (row, key) in keys.iter().enumerate() {
+                let Some(tr) = self.tracks.get(key) else {
+                    continue;
+                };
+                let (a, b) = sample_range(tr, start, end);
+                if b < a + 8 || covered_span(tr, start, end) < min_span {
+                    continue;
+                }
+                // The camera's frame times from the track's first sample in the window on; a
+                // frame the track missed is a gap (no joints). Tracks seen since before the
+                // window share one grid, so an IMU's window and features are built once per
+                // (grid, offset), and a track's once per site.
+                let first = tr.samples.get(a).map_or(start, |s| s.t);
+                let grid: Vec<i64> = frame_times
+                    .get(frame_times.partition_point(|&t| t < first)..)
+                    .unwrap_or(&[])
+                    .to_vec();
+                let mut samples = tr.samples.range(a..b).peekable();
+                let joints_world_m = grid
+                    .iter()
+                    .map(|&t| match samples.next_if(|s| s.t == t) {
+                        Some(s) => s.joints.clone(),
+                        None => Joints::new(),
+                    })
+                    .collect();
+                let skel = SkeletonWindow {
+                    camera: None,
+                    track: Some(key.1),
+                    t_s: grid.iter().map(|&t| t as f64 * 1e-9).collect(),
+                    joints_world_m,
+                };
+                let grid_index = match grids.iter().position(|g| *g == grid) {
+                    Some(g) => g,
+                    None => {
+                        grids.push(grid.clone());
+                        grids.len() - 1
+                    }
+                };
+                let mut segments: Vec<(Joint, SegmentFeatures)> = Vec::new();
+                // The body's turn rate, the same for every site: computed once per track.
+                let mut turn_rate: Option<Vec<f64>> = None;
+                // The skeleton side of Belmonte's costs, per band side.
+                let mut arms: Vec<(Side, ForearmSignals)> = Vec::new();
+                for (i, imu) in self.imus.iter().enumerate() {
+                    // The IMU's window and features at `offset` on this grid.
+                    let build = |offset: i64| {
+                        let mut win = ImuWindow::default();
+                        // Settled samples only: device times before `end` on the current clock
+                        // estimate.
+                        imu_window_on_grid(
+                            &imu.series(),
+                            offset,
+                            &grid,
+                            MAX_IMU_GAP_NS,
+                            (end - imu.offset_ns).min(imu.settled_until_ns),
+                            &mut win,
+                        );
+                        win.device = Some(imu.device.clone());
+                        let features =
+                            ImuFeatures::new(&win, &self.config.geometric, &self.config.kinematic);
+                        let band = (wants_belmonte && band_side(imu.site).is_some())
+                            .then(|| BandSignals::new(&win, &self.config.belmonte));
+                        (win, features, band)
+                    };
+                    let hypotheses: &[i64] = if imu.is_offset_known {
+                        &[]
+                    } else {
+                        &imu.lag_hypotheses
+                    };
+                    let pair_offset = imu.pair_offsets.get(key).copied();
+                    if !imu.is_offset_known && pair_offset.is_none() && hypotheses.is_empty() {
+                        continue;
+                    }
+                    let segment = match segments.iter().position(|(j, _)| *j == imu.site) {
+                        Some(k) => k,
+                        None => {
+                            let turn = turn_rate
+                                .get_or_insert_with(|| {
+                                    body_turn_rate_signal(&skel, &self.config.kinematic)
+                                })
+                                .clone();
+                            segments.push((
+                                imu.site,
+                                SegmentFeatures::with_turn_rate(
+                                    &skel,
+                                    imu.site,
+                                    &self.config.geometric,
+                                    &self.config.kinematic,
+                                    turn,
+                                ),
+                            ));
+                            segments.len() - 1
+                        }
+                    };
+                    let Some((_, seg_features)) = segments.get(segment) else {
+                        continue;
+                    };
+                    // The scores at the chosen hypothesis, already computed.
+                    let mut chosen: Option<PairScores> = None;
+                    let offset = match (imu.is_offset_known, pair_offset) {
+                        (true, _) => imu.offset_ns,
+                        (false, Some(o)) => o,
+                        // A track too short for the search: the lag hypothesis that fits it best.
+                        (false, None) => {
+                            let mut best: Option<(f64, i64, PairScores)> = None;
+                            for &o in hypotheses {
+                                let (_, features_o, _) = imu_cache
+                                    .entry((i, o, grid_index))
+                                    .or_insert_with(|| build(o));
+                                let (scores, k) = compare_features(
+                                    features_o,
+                                    seg_features,
+                                    &self.config.geometric,
+                                );
+                                if let Some(fit) =
+                                    weighted_fit(&scores, &k, &self.config.model_weights)
+                                    && best.as_ref().is_none_or(|(b, _, _)| fit > *b)
+                                {
+                                    best = Some((fit, o, (scores, k)));
+                                }
+                            }
+                            match best {
+                                Some((_, o, pair)) => {
+                                    chosen = Some(pair);
+                                    o
+                                }
+                                None => continue,
+                            }
+                        }
+                    };
+                    let cached = imu_cache
+                        .entry((i, offset, grid_index))
+                        .or_insert_with(|| build(offset));
+                    let (imu_win, imu_features) = (&cached.0, &cached.1);
+                    let (mut scores, k) = match chosen {
+                        Some(pair) => pair,
+                        None => {
+                            compare_features(imu_features, seg_features, &self.config.geometric)
+                        }
+                    };
+                    // The heading model: only at a known offset, where the window's cross sum
+                    // is that of the IMU's own clock (a pair scored at its own best lag would
+                    // mix a lag error into the heading).
+                    let cross = (wants_heading && imu.is_offset_known)
+                        .then(|| {
+                            horizontal_cross(
+                                imu_features,
+                                seg_features,
+                                self.config.geometric.min_samples,
+                            )
+                        })
+                        .flatten()
+                        .filter(|c| c.norm() > 0.0);
+                    let heading_score = cross.and_then(|c| {
+                        let [re, im] = headings.get(i).copied().flatten()?;
+                        c.aligned_correlation(re, im)
+                    });
+                    if let Some(c) = cross
+                        && tr.label == Some(imu.subject)
+                    {
+                        heading_updates.push((i, [c.re / c.norm(), c.im / c.norm()]));
+                    }
+                    if let Some(scorer) = &self.pair_scorer {
+                        scores.dl = scorer.score(imu_win, &skel, imu.site);
+                    }
+                    if let (Some(band), Some(side)) = (&cached.2, band_side(imu.site)) {
+                        let arm = match arms.iter().position(|(s, _)| *s == side) {
+                            Some(k) => k,
+                            None => {
+                                arms.push((
+                                    side,
+                                    ForearmSignals::new(&skel, side, &self.config.belmonte),
+                                ));
+                                arms.len() - 1
+                            }
+                        };
+                        let Some((_, arm)) = arms.get(arm) else {
+                            continue;
+                        };
+                        let costs = belmonte_costs_from(band, arm, side, &self.config.belmonte);
+                        if let (Some(p), Some(y)) = (costs.pitch_mse, costs.yaw_rate_mse) {
+                            let sp = self.config.belmonte_pitch_sigma_rad;
+                            let sy = self.config.belmonte_yaw_rate_sigma_radps;
+                            let similarity = (-0.5 * (p / (sp * sp) + y / (sy * sy))).exp();
+                            let w = match self.config.motion_score {
+                                MotionScore::Belmonte => 1.0,
+                                _ => self.config.model_weights.belmonte,
+                            };
+                            let cell = nomen_sums.entry((row, imu.subject)).or_insert((0.0, 0.0));
+                            cell.0 += w * similarity;
+                            cell.1 += w;
+                        }
+                    }
+                    if self.config.motion_score == MotionScore::Nomen {
+                        let cell = nomen_sums.entry((row, imu.subject)).or_insert((0.0, 0.0));
+                        let w = &self.config.model_weights;
+                        let weighted = motion_terms(&scores, &k, w)
+                            .into_iter()
+                            .chain([(scores.dl, w.dl), (heading_score, w.heading)]);
+                        for (v, w) in weighted {
+                            if let Some(v) = v {
+                                cell.0 += w * v;
+                                cell.1 += w;
+                            }
+                        }
+                    }
+                    let models = [scores.acc, scores.vel, scores.ori];
+                    let (sum, n) = models
+                        .iter()
+                        .flatten()
+                        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+                    if n > 0 {
+                        device_scores.push((*key, i, sum / n as f64));
+                    }
+                    // The indices are in range by construction; a failure only drops a score.
+                    let _ = tensor.set(row, imu.subject, imu.site, scores);
+                }
+            }
+            let decay = self.decay_per_hop;
+            let tag_decay = self.tag_decay_per_hop;
+            let rssi_decay = self.rssi_decay_per_hop;
+            let matrix = match self.config.motion_score {
+                MotionScore::DeMarchi => Some(fuse(
+                    &tensor,
+                    self.config.fusion,
+                    &self.config.fusion_config,
+                )),
+                MotionScore::Nomen | MotionScore::Belmonte => None,
+            };
+            let rssi_matrix = match self.rssi.as_mut() {
+                Some(rssi) => {
+                    let tracks: Vec<Option<&TrackState>> =
+                        keys.iter().map(|k| self.tracks.get(k)).collect();
+                    rssi.camera_scores(&tracks, end, &self.rssi_tags, self.subjects.len())
+                }
+                None => Vec::new(),
+            };
+            for (row, key) in keys.iter().enumerate() {
+                let Some(tr) = self.tracks.get_mut(key) else {
+                    continue;
+                };
+                // The track's newest settled observation in the window.
+                let (_, seen_to) = sample_range(tr, start, end);
+                let seen = seen_to
+                    .checked_sub(1)
+                    .and_then(|k| tr.samples.get(k))
+                    .map(|s| s.t);
+                for (b, newest) in &silent {
+                    if seen.is_some_and(|t| t > newest + SILENT_WEARER_SLACK_NS) {
+                        tr.evidence.remove(b);
+                    }
+                }
+                let tag_scores = tag_window_scores(
+                    &self.tags,
+                    tr,
+                    end - self.tag_window_ns,
+                    end,
+                    self.config.joint_noise_std_m,
+                    self.subjects.len(),
+                );
+                let no_rssi = Vec::new();
+                let rssi_scores = rssi_matrix.get(row).unwrap_or(&no_rssi);
+                for (b, tag_score) in tag_scores.iter().enumerate() {
+                    let imu_score = match &matrix {
+                        Some(m) => m.get(row, b),
+                        None => nomen_sums
+                            .get(&(row, b))
+                            .filter(|(_, w)| *w > 0.0)
+                            .map(|(sum, w)| sum / w),
+                    };
+                    if let Some(v) = imu_score {
+                        accumulate(tr.evidence.entry(b).or_default(), v, decay);
+                    }
+                    if let Some(v) = tag_score {
+                        accumulate(tr.tag_evidence.entry(b).or_default(), *v, tag_decay);
+                    }
+                    if let Some(v) = rssi_scores.get(b).copied().flatten() {
+                        accumulate(tr.rssi_evidence.entry(b).or_default(), v, rssi_decay);
+                    }
+                }
+            }
+            for (key, i, v) in device_scores {
+                if let Some(tr) = self.tracks.get_mut(&key) {
+                    accumulate(tr.device_evidence.entry(i).or_default(), v, decay);
+                }
+            }
+        }
+        if wants_heading {
+            self.update_headings(heading_updates);
+        }
+    }
+
+    /// Decays every IMU's heading sums by one hop, adds this window's normalised cross sums
+    /// `(IMU, (re, im))`, and reports the headings that are coherent.
+    pub(super) fn update_headings(&mut self, updates: Vec<(usize, [f64; 2])>) {
+        let heading_decay = 0.5f64.powf(self.config.hop_s / self.config.heading_half_life_s);
+        for imu in &mut self.imus {
+            imu.heading_sum = imu.heading_sum.map(|v| v * heading_decay);
+            imu.heading_magnitude *= heading_decay;
+            imu.heading_windows *= heading_decay;
+        }
+        for (i, [re, im]) in updates {
+            if let Some(imu) = self.imus.get_mut(i) {
+                imu.heading_sum[0] += re;
+                imu.heading_sum[1] += im;
+                imu.heading_magnitude += re.hypot(im);
+                imu.heading_windows += 1.0;
+            }
+        }
+        for imu in &self.imus {
+            if let Some([re, im]) = imu.heading(&self.config) {
+                let magnitude = imu.heading_sum[0].hypot(imu.heading_sum[1]);
+                self.stats.imu_headings.insert(
+                    imu.device.clone(),
+                    HeadingEstimate {
+                        // The cross sums' phase turns room vectors into the IMU's frame.
+                        room_from_imu_yaw_rad: (-im).atan2(re),
+                        coherence: magnitude / imu.heading_magnitude,
+                    },
+                );
+            }
+        }
+    }
+}
+
+/// Per subject, the mean over their tags of the tag-versus-track window score (see [`crate::tags`]);
+/// `None` for a subject without a tag or without enough paired fixes in the window.
+pub(super) fn tag_window_scores(
+    tags: &[TagState],
+    tr: &TrackState,
+    start: i64,
+    end: i64,
+    joint_sigma_m: f64,
+    num_subjects: usize,
+) -> Vec<Option<f64>> {
+    let mut sums = vec![(0.0, 0usize); num_subjects];
+    for tag in tags {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for fix in tag.fixes_in(start, end) {
+            if let Some((joint, extra_m)) = key_joint_or_ancestor(tr, tag.site, fix.t) {
+                let sigma = joint_sigma_m.hypot(extra_m);
+                sum += fix_similarity(fix, &joint, sigma);
+                n += 1;
+            }
+        }
+        if n >= MIN_TAG_PAIRS
+            && let Some(cell) = sums.get_mut(tag.subject)
+        {
+            cell.0 += sum / n as f64;
+            cell.1 += 1;
+        }
+    }
+    sums.into_iter()
+        .map(|(sum, n)| (n > 0).then(|| sum / n as f64))
+        .collect()
+}
+
+/// Fewest fixes paired with a track in a window for a tag score (0.3 s of fixes at 10 Hz).
+pub(super) const MIN_TAG_PAIRS: usize = 3;
+
+/// The track's `joint` at the sample nearest to `t`, if within [`MAX_PAIR_DT_NS`].
+pub(super) fn key_joint_near(tr: &TrackState, joint: Joint, t: i64) -> Option<Point3<f64>> {
+    let i = tr.samples.partition_point(|s| s.t < t);
+    let after = tr.samples.get(i);
+    let before = i.checked_sub(1).and_then(|k| tr.samples.get(k));
+    let nearest = match (before, after) {
+        (Some(b), Some(a)) => {
+            if t - b.t <= a.t - t {
+                b
+            } else {
+                a
+            }
+        }
+        (Some(b), None) => b,
+        (None, Some(a)) => a,
+        (None, None) => return None,
+    };
+    if (nearest.t - t).abs() > MAX_PAIR_DT_NS {
+        return None;
+    }
+    nearest.joints.get(joint).copied()
+}
+
+/// The key joint at the track sample nearest to `t`, or, when the camera lost it, its nearest
+/// observed ancestor (wrist → elbow → shoulder → chest → pelvis) with the extra uncertainty of
+/// [`TAG_CHAIN_SIGMA_M`] per step: a hidden wrist still places the person.
+pub(super) fn key_joint_or_ancestor(
+    tr: &TrackState,
+    joint: Joint,
+    t: i64,
+) -> Option<(Point3<f64>, f64)> {
+    let mut j = Some(joint);
+    let mut extra_m = 0.0;
+    while let Some(cur) = j {
+        if let Some(p) = key_joint_near(tr, cur, t) {
+            return Some((p, extra_m));
+        }
+        extra_m += TAG_CHAIN_SIGMA_M;
+        j = cur.parent();
+    }
+    None
+}
+
+/// Extra standard deviation per step up the kinematic chain when a tag's key joint is hidden
+/// and an ancestor stands in for it, m (about a forearm's length).
+pub(super) const TAG_CHAIN_SIGMA_M: f64 = 0.25;
+
+/// Distance between `a` and `b` across the line of sight from `eye`: the angle between the two
+/// rays times the nearer one's range, m.
+pub(super) fn lateral_distance_m(eye: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
+    let (ra, rb) = (a - eye, b - eye);
+    let range = ra.norm().min(rb.norm());
+    if range <= 0.0 || !range.is_finite() {
+        return (a - b).norm();
+    }
+    ra.angle(&rb) * range
+}
+
+/// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
+/// per (IMU, offset, grid index).
+pub(super) type ImuFeatureCache =
+    BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures, Option<BandSignals>)>;
+
+/// De Marchi's and nomen's correlations of one pair in one window.
+pub(super) type PairScores = (nomen_evidence::ModelScores, nomen_evidence::KinematicScores);
+
+/// A pair's motion correlations with their [`crate::ModelWeights`]: De Marchi's three and
+/// nomen's five (not the learned scorer's, the heading or Belmonte's similarity).
+pub(super) fn motion_terms(
+    scores: &nomen_evidence::ModelScores,
+    k: &nomen_evidence::KinematicScores,
+    w: &crate::ModelWeights,
+) -> [(Option<f64>, f64); 8] {
+    [
+        (scores.acc, w.acc),
+        (scores.vel, w.vel),
+        (scores.ori, w.ori),
+        (k.swing, w.swing),
+        (k.vertical_accel, w.vertical_accel),
+        (k.vertical_vel, w.vertical_vel),
+        (k.inclination, w.inclination),
+        (k.turn, w.turn),
+    ]
+}
+
+/// The weighted mean of [`motion_terms`], or `None` when none could be computed: how well a
+/// lag fits a pair, to choose among lag hypotheses.
+pub(super) fn weighted_fit(
+    scores: &nomen_evidence::ModelScores,
+    k: &nomen_evidence::KinematicScores,
+    w: &crate::ModelWeights,
+) -> Option<f64> {
+    let (sum, weight) = motion_terms(scores, k, w)
+        .into_iter()
+        .filter_map(|(v, w)| Some((w * v?, w)))
+        .fold((0.0, 0.0), |(sum, weight), (v, w)| (sum + v, weight + w));
+    (weight > 0.0).then(|| sum / weight)
+}
+
+/// Which forearm a band at `site` is on, for Belmonte-Hernández's costs; `None` off the
+/// forearm. A band at the elbow or hand may be on either.
+pub(super) fn band_side(site: Joint) -> Option<Side> {
+    match site {
+        Joint::LeftWrist => Some(Side::Left),
+        Joint::RightWrist => Some(Side::Right),
+        Joint::LeftElbow | Joint::RightElbow | Joint::LeftHand | Joint::RightHand => {
+            Some(Side::Unknown)
+        }
+        _ => None,
+    }
+}

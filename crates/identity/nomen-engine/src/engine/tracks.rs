@@ -1,0 +1,463 @@
+//! Camera re-labelling: settling a camera's observations in time order while undoing id swaps,
+//! and stitching a new track to the ended track it continues.
+
+use super::*;
+
+impl Engine {
+    /// Stitching, once a window's observations are all settled: each track first seen before
+    /// `end` and not yet considered (in order of first observation) may continue an ended track
+    /// of its camera, whose person the SDK re-labelled after an occlusion or on re-entry; it
+    /// then takes over that track's label and evidence, the motion evidence at
+    /// `stitch_evidence_weight`. See [`Engine::predecessor`] for the choice.
+    pub(super) fn stitch_new_tracks(&mut self, end: i64) {
+        let mut new: Vec<(i64, TrackKey)> = self
+            .tracks
+            .iter()
+            .filter(|(_, tr)| tr.is_stitch_pending)
+            .filter_map(|(k, tr)| Some((tr.samples.front()?.t, *k)))
+            .filter(|(t, _)| *t < end)
+            .collect();
+        new.sort_unstable();
+        for (_, key) in new {
+            let prev = self.predecessor(key, end);
+            if let Some(tr) = self.tracks.get_mut(&key) {
+                tr.is_stitch_pending = false;
+            }
+            let Some(old) = prev.and_then(|p| self.tracks.get_mut(&p)) else {
+                continue;
+            };
+            old.is_superseded = true;
+            let mut evidence = old.evidence.clone();
+            // Continued, but at a discount: the stitch may have picked the wrong person.
+            for acc in evidence.values_mut() {
+                acc.weight *= self.config.stitch_evidence_weight;
+            }
+            let tag_evidence = old.tag_evidence.clone();
+            let rssi_evidence = old.rssi_evidence.clone();
+            let device_evidence = old.device_evidence.clone();
+            let (label, held_back, subject_scores) =
+                (old.label, old.held_back, old.subject_scores.clone());
+            if let Some(tr) = self.tracks.get_mut(&key) {
+                tr.evidence = evidence;
+                tr.tag_evidence = tag_evidence;
+                tr.rssi_evidence = rssi_evidence;
+                tr.device_evidence = device_evidence;
+                tr.label = label;
+                tr.held_back = held_back;
+                tr.subject_scores = subject_scores;
+            }
+            self.stats.num_stitched += 1;
+        }
+    }
+
+    /// The ended track of its camera that the new track `key` continues, from the observations
+    /// before `end`. Another camera decides first: when one of its tracks follows the new
+    /// track's person ([`Engine::view_from_other_camera`]), the predecessor is the ended track
+    /// that this view followed when it ended, and there is none if the view followed no ended
+    /// track (the person was not seen by this camera just before). Without such a view, the
+    /// predecessor is the ended track within walking reach ([`Engine::stitch_candidate`]). On
+    /// the simulated 8-person scenes, where people hide each other from one camera while the
+    /// other still sees them, walking reach alone chose the wrong person in 4 stitches of 10.
+    pub(super) fn predecessor(&self, key: TrackKey, end: i64) -> Option<TrackKey> {
+        if self.config.stitch_max_gap_s <= 0.0 {
+            return None;
+        }
+        let tr = self.tracks.get(&key)?;
+        let first = tr.samples.front()?;
+        if self.config.stitch_across_cameras
+            && let Some(view) = self.view_from_other_camera(key, first.t, end)
+        {
+            return self.ended_track_followed_by(key, view, first.t, end);
+        }
+        self.stitch_candidate(key.0, first.t, &joint_centroid(&first.joints)?, end)
+    }
+
+    /// The track of another camera that shows the person of the new track `key` (first seen at
+    /// `t0`): settled torso positions ([`anchor_path`]) from `t0` to `end` at most
+    /// [`EngineConfig::camera_pair_distance_m`] apart on average over at least
+    /// `STITCH_VIEW_MIN_FRAMES` common frame times, and every other track at least twice as far.
+    pub(super) fn view_from_other_camera(
+        &self,
+        key: TrackKey,
+        t0: i64,
+        end: i64,
+    ) -> Option<TrackKey> {
+        let limit = self.config.camera_pair_distance_m;
+        if limit <= 0.0 || self.cameras.len() < 2 {
+            return None;
+        }
+        let mine = anchor_path(self.tracks.get(&key)?, t0, end);
+        let distances = self
+            .tracks
+            .iter()
+            .filter(|(k, _)| k.0 != key.0)
+            .filter_map(|(k, tr)| {
+                let theirs = anchor_path(tr, t0, end);
+                Some((
+                    *k,
+                    mean_common_distance(&mine, &theirs, STITCH_VIEW_MIN_FRAMES)?,
+                ))
+            });
+        unique_nearest(distances, limit)
+    }
+
+    /// The ended track of `key`'s camera (see [`Engine::ended_before`]) that `view`, a track of
+    /// another camera, followed over its last `STITCH_VIEW_LOOKBACK_NS`: the torso paths at
+    /// most [`EngineConfig::camera_pair_distance_m`] apart on average, every other ended track
+    /// at least twice as far.
+    pub(super) fn ended_track_followed_by(
+        &self,
+        key: TrackKey,
+        view: TrackKey,
+        t0: i64,
+        end: i64,
+    ) -> Option<TrackKey> {
+        let view = self.tracks.get(&view)?;
+        let distances = self
+            .ended_before(key.0, t0, end)
+            .filter_map(|(k, tr, last)| {
+                let lo = last.t - STITCH_VIEW_LOOKBACK_NS;
+                let theirs = anchor_path(tr, lo, last.t + 1);
+                let mine = anchor_path(view, lo, last.t + 1);
+                Some((
+                    k,
+                    mean_common_distance(&mine, &theirs, STITCH_VIEW_MIN_FRAMES)?,
+                ))
+            });
+        unique_nearest(distances, self.config.camera_pair_distance_m)
+    }
+
+    /// The tracks of camera `c` that a track first seen at `t0` may continue, as the
+    /// observations before `end` tell: not continued already, last seen at least
+    /// `STITCH_MIN_GAP_NS` and at most `stitch_max_gap_s` before `t0`; with that last sample.
+    pub(super) fn ended_before(
+        &self,
+        c: usize,
+        t0: i64,
+        end: i64,
+    ) -> impl Iterator<Item = (TrackKey, &TrackState, &TrackSample)> {
+        let max_gap = ns(self.config.stitch_max_gap_s);
+        self.tracks
+            .range((c, TrackId(0))..)
+            .take_while(move |(k, _)| k.0 == c)
+            .filter(|(_, tr)| !tr.is_superseded)
+            .filter_map(move |(k, tr)| {
+                let (_, b) = sample_range(tr, i64::MIN, end);
+                let last = tr.samples.get(b.checked_sub(1)?)?;
+                let gap = t0 - last.t;
+                (STITCH_MIN_GAP_NS..=max_gap)
+                    .contains(&gap)
+                    .then_some((*k, tr, last))
+            })
+    }
+
+    /// The ended track of camera `c` (see [`Engine::ended_before`]) that a new track first
+    /// seen at `t` at `anchor` continues by walking reach: its last position within
+    /// `stitch_radius_m + stitch_max_speed_mps · gap`. When two are within reach, the nearer
+    /// (relative to its reach) must be at most half as far as the other; otherwise nothing is
+    /// stitched and evidence starts afresh.
+    pub(super) fn stitch_candidate(
+        &self,
+        c: usize,
+        t: i64,
+        anchor: &Point3<f64>,
+        end: i64,
+    ) -> Option<TrackKey> {
+        let relative = self.ended_before(c, t, end).filter_map(|(k, _, last)| {
+            let gap = t - last.t;
+            let reach =
+                self.config.stitch_radius_m + self.config.stitch_max_speed_mps * gap as f64 * 1e-9;
+            let relative = (anchor - joint_centroid(&last.joints)?).norm() / reach;
+            // Out of reach is no rival either.
+            (relative <= 1.0).then_some((k, relative))
+        });
+        unique_nearest(relative, 1.0)
+    }
+
+    /// The track of camera `c` whose person the SDK most likely gave to `track` at `t`: the
+    /// observation at `x` (joint centroid) lies farther from `track`'s last settled one than a
+    /// person moves in the time between (`SWAP_NOISE_M` + `SWAP_SPEED_MPS` × elapsed), and
+    /// within half that jump of another track's last settled observation (which also fits that
+    /// track's elapsed time). Both must be at most `SWAP_MAX_GAP_NS` old.
+    ///
+    /// Failing that, two returns from occlusion: another track came back from a gap
+    /// (`SWAP_RETURN_GAP_NS`) at most `SWAP_RETURN_WINDOW_NS` ago, while `track` was still
+    /// unseen, where `track` was last seen, and `x` lies where that track was before its gap.
+    /// Each move is measured against how far a person gets in its time; the exchanged moves
+    /// must both be within reach and together under half the moves the ids say. That track's
+    /// returning observation is returned with it (its time, the anchor before its gap and that
+    /// anchor's time): it showed `track`'s person and goes with them.
+    pub(super) fn swapped_with(
+        &self,
+        c: usize,
+        track: TrackId,
+        t: i64,
+        x: &Point3<f64>,
+    ) -> Option<(TrackKey, Option<GapReturn>)> {
+        let reach_over = |elapsed: i64| SWAP_NOISE_M + SWAP_SPEED_MPS * elapsed as f64 * 1e-9;
+        let reach = |tr: &TrackState| {
+            let elapsed = t - tr.settled_t;
+            (elapsed > 0 && elapsed <= SWAP_MAX_GAP_NS).then_some(reach_over(elapsed))
+        };
+        let me = self.tracks.get(&(c, track))?;
+        let mine = me.settled_anchor_world_m?;
+        let jump = (x - mine).norm();
+        if jump <= reach(me)? {
+            return None;
+        }
+        let others = || {
+            self.tracks
+                .range((c, TrackId(0))..)
+                .take_while(|(k, _)| k.0 == c)
+                .filter(|(k, tr)| k.1 != track && !tr.is_superseded)
+        };
+        let onto_last = others()
+            .filter_map(|(k, tr)| {
+                let d = (x - tr.settled_anchor_world_m?).norm();
+                (d <= reach(tr)? && d < 0.5 * jump).then_some((*k, d))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _)| (k, None));
+        if onto_last.is_some() {
+            return onto_last;
+        }
+        // Both people unseen for a while and back under each other's ids: the other track
+        // came back just before, where this one was, and this observation lies where the
+        // other one was before its gap.
+        others()
+            .filter_map(|(k, tr)| {
+                let (ret_t, before, before_t) = tr.return_from_gap?;
+                let since_return = t - ret_t;
+                // This track must still have been unseen when the other came back.
+                if !(0..=SWAP_RETURN_WINDOW_NS).contains(&since_return)
+                    || t - before_t > SWAP_MAX_GAP_NS
+                    || me.settled_t >= ret_t
+                {
+                    return None;
+                }
+                let returned_at = tr.settled_anchor_world_m?;
+                // Each move relative to how far a person gets in its time: as the ids say
+                // (this track's jump is already out of reach) and exchanged.
+                let kept = jump / reach_over(t - me.settled_t)
+                    + (returned_at - before).norm() / reach_over(ret_t - before_t);
+                let to_before = (x - before).norm() / reach_over(t - before_t);
+                let to_me = (returned_at - mine).norm() / reach_over((ret_t - me.settled_t).max(0));
+                let ok = to_before <= 1.0 && to_me <= 1.0 && to_before + to_me < 0.5 * kept;
+                ok.then_some((*k, to_before + to_me, (ret_t, before, before_t)))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _, returned)| (k, Some(returned)))
+    }
+
+    /// Settles camera `c`'s observations before `frontier` in time order across its tracks (the
+    /// same order whatever order they arrived in), undoing id swaps on the way: before an
+    /// observation joins its track, [`Engine::swapped_with`] checks whether it shows the person
+    /// of another track, and if so the two tracks exchange their people.
+    pub(super) fn settle_camera(&mut self, c: usize, frontier: i64) {
+        let noise = self.config.joint_noise_std_m;
+        loop {
+            let next = self
+                .tracks
+                .range((c, TrackId(0))..)
+                .take_while(|(k, _)| k.0 == c)
+                .filter_map(|(k, tr)| {
+                    let (&t, joints) = tr.pending.first_key_value()?;
+                    (t < frontier).then(|| (t, k.1, joint_centroid(joints)))
+                })
+                .min_by_key(|(t, id, _)| (*t, *id));
+            let Some((t, id, anchor)) = next else {
+                break;
+            };
+            if let Some(x) = anchor
+                && let Some((other, returned)) = self.swapped_with(c, id, t, &x)
+                && let Some(mut mine) = self.tracks.remove(&(c, id))
+            {
+                if let Some(theirs) = self.tracks.get_mut(&other) {
+                    exchange_people(&mut mine, theirs);
+                    // The other track came back from a gap with this track's person: that one
+                    // observation goes with the person, and each track's newest settled
+                    // observation is its person's.
+                    let mut swapped_at = t;
+                    if let Some((ret_t, before, before_t)) = returned {
+                        if mine.samples.back().is_some_and(|s| s.t == ret_t)
+                            && let Some(sample) = mine.samples.pop_back()
+                        {
+                            theirs.samples.push_back(sample);
+                        }
+                        theirs.settled_t = mine.settled_t;
+                        theirs.settled_anchor_world_m = mine.settled_anchor_world_m;
+                        mine.settled_t = before_t;
+                        mine.settled_anchor_world_m = Some(before);
+                        swapped_at = ret_t;
+                    }
+                    mine.return_from_gap = None;
+                    theirs.return_from_gap = None;
+                    // Lags found against a track's history go with that history.
+                    for imu in &mut self.imus {
+                        let a = imu.pair_offsets.remove(&(c, id));
+                        let b = imu.pair_offsets.remove(&other);
+                        if let Some(o) = a {
+                            imu.pair_offsets.insert(other, o);
+                        }
+                        if let Some(o) = b {
+                            imu.pair_offsets.insert((c, id), o);
+                        }
+                    }
+                    // Both at one time, or the walk in `person_track` would bounce back. This
+                    // track had no frame between the other's return and now.
+                    self.swaps
+                        .entry((c, id))
+                        .or_default()
+                        .push((swapped_at, other.1));
+                    self.swaps.entry(other).or_default().push((swapped_at, id));
+                    self.stats.num_swaps += 1;
+                }
+                self.tracks.insert((c, id), mine);
+            }
+            if let Some(tr) = self.tracks.get_mut(&(c, id)) {
+                settle_track(tr, t + 1, &self.config, noise);
+                if let Some(x) = anchor {
+                    tr.return_from_gap = match tr.settled_anchor_world_m {
+                        Some(before) if t - tr.settled_t >= SWAP_RETURN_GAP_NS => {
+                            Some((t, before, tr.settled_t))
+                        }
+                        _ => tr.return_from_gap,
+                    };
+                    tr.settled_t = t;
+                    tr.settled_anchor_world_m = Some(x);
+                }
+            }
+        }
+    }
+
+    /// The track that now follows the person camera `c` showed as `track` at `t`: undone swaps
+    /// after `t` moved that person's state to another track, perhaps more than once.
+    pub(super) fn person_track(&self, c: usize, track: TrackId, t: i64) -> TrackId {
+        let (mut track, mut since) = (track, t);
+        // Each step moves strictly later in time, so the walk ends.
+        while let Some(&(at, other)) = self
+            .swaps
+            .get(&(c, track))
+            .and_then(|events| events.iter().find(|(at, _)| *at > since))
+        {
+            (track, since) = (other, at);
+        }
+        track
+    }
+
+    /// Close encounters. SDKs swap the ids of two people who pass close across the line of
+    /// sight, so after such an encounter the engine no longer knows which track is which: when
+    /// two tracks of a camera that were within `encounter_distance_m` of each other (measured
+    /// across the line of sight, at the nearer one's depth) separate again, both get the
+    /// average of their motion evidence, and new windows decide who is who. Location-tag
+    /// evidence is not pooled: its short window and half-life re-decide within a second.
+    pub(super) fn note_encounters(
+        &mut self,
+        c: usize,
+        track: TrackId,
+        t: i64,
+        anchor: &Point3<f64>,
+    ) {
+        let near_m = self.config.encounter_distance_m;
+        if near_m <= 0.0 {
+            return;
+        }
+        let Some(eye) = self
+            .cameras
+            .get(c)
+            .map(|cam| Point3::from(cam.world_from_camera.translation.vector))
+        else {
+            return;
+        };
+        let mut separated = Vec::new();
+        for (key, tr) in self.tracks.range((c, TrackId(0))..) {
+            if key.0 != c || key.1 == track || tr.is_superseded {
+                continue;
+            }
+            let pair = (c, key.1.min(track), key.1.max(track));
+            let is_close_now = self.close_pairs.contains(&pair);
+            // Only simultaneous observations (within two frames at 30 Hz) are compared.
+            let Some(other) = tr
+                .last_anchor_world_m
+                .filter(|_| (t - tr.last_t).abs() <= 70_000_000)
+            else {
+                continue;
+            };
+            let d = lateral_distance_m(&eye, anchor, &other);
+            if d < near_m && !is_close_now {
+                self.close_pairs.insert(pair);
+            } else if d > 1.5 * near_m && is_close_now {
+                self.close_pairs.remove(&pair);
+                separated.push(*key);
+            }
+        }
+        for other in separated {
+            self.stats.num_encounters += 1;
+            let (Some(a), Some(b)) = (
+                self.tracks
+                    .get(&(c, track))
+                    .map(|tr| (tr.evidence.clone(), tr.device_evidence.clone())),
+                self.tracks
+                    .get(&other)
+                    .map(|tr| (tr.evidence.clone(), tr.device_evidence.clone())),
+            ) else {
+                continue;
+            };
+            let evidence = average_evidence(&a.0, &b.0);
+            let device = average_evidence(&a.1, &b.1);
+
+            for key in [(c, track), other] {
+                if let Some(tr) = self.tracks.get_mut(&key) {
+                    tr.evidence = evidence.clone();
+                    tr.device_evidence = device.clone();
+                }
+            }
+        }
+        // Pairs whose tracks are gone are forgotten.
+        let tracks = &self.tracks;
+        self.close_pairs
+            .retain(|(c, a, b)| tracks.contains_key(&(*c, *a)) && tracks.contains_key(&(*c, *b)));
+    }
+}
+
+/// Exchanges the people two tracks follow after an id swap: everything that describes the
+/// person (settled joint history and filters, evidence, label, newest settled observation,
+/// whether it is new to the camera and may still continue an ended track) moves, while what
+/// belongs to the id stays (observations not settled yet, arrival times, whether a later track
+/// continued it).
+pub(super) fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
+    std::mem::swap(&mut a.samples, &mut b.samples);
+    std::mem::swap(&mut a.kalman, &mut b.kalman);
+    std::mem::swap(&mut a.evidence, &mut b.evidence);
+    std::mem::swap(&mut a.tag_evidence, &mut b.tag_evidence);
+    std::mem::swap(&mut a.rssi_evidence, &mut b.rssi_evidence);
+    std::mem::swap(&mut a.device_evidence, &mut b.device_evidence);
+    std::mem::swap(&mut a.label, &mut b.label);
+    std::mem::swap(&mut a.subject_scores, &mut b.subject_scores);
+    std::mem::swap(&mut a.settled_t, &mut b.settled_t);
+    std::mem::swap(&mut a.settled_anchor_world_m, &mut b.settled_anchor_world_m);
+    std::mem::swap(&mut a.is_stitch_pending, &mut b.is_stitch_pending);
+}
+
+/// The key with the smallest value when that value is at most `limit` and every other value is
+/// at least twice it.
+pub(super) fn unique_nearest(
+    values: impl Iterator<Item = (TrackKey, f64)>,
+    limit: f64,
+) -> Option<TrackKey> {
+    let mut best: Option<(TrackKey, f64)> = None;
+    let mut second = f64::INFINITY;
+    for (key, v) in values {
+        match best {
+            Some((_, b)) if v >= b => second = second.min(v),
+            _ => {
+                if let Some((_, b)) = best {
+                    second = second.min(b);
+                }
+                best = Some((key, v));
+            }
+        }
+    }
+    let (key, v) = best?;
+    (v <= limit && second >= 2.0 * v).then_some(key)
+}
