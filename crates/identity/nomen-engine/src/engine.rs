@@ -5,29 +5,21 @@ mod offsets;
 mod scoring;
 mod tracks;
 
-use crate::config::{EngineConfig, MotionScore, OFFSET_CONFIRM_HISTORY, ns};
+use crate::config::{EngineConfig, ns};
 use crate::error::{EngineError, Result};
-use crate::lag_memo::{ImuLagMemo, imu_lag_signals as imu_lag_signals_from};
-use crate::signal::{
-    ImuSeries, LagSignals, LagWeight, PEAK_DROP, curve_peak, falls_on_both_sides,
-    imu_window_on_grid, is_contradicted, lag_curve, mean_curve, rival_value, summed_peak,
-};
-use crate::stats::{EngineStats, HeadingEstimate};
-use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m, fix_similarity};
-use decide::*;
+use crate::lag_memo::ImuLagMemo;
+use crate::signal::ImuSeries;
+use crate::stats::EngineStats;
+use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m};
+use decide::pooled_mean;
 use nalgebra::{Isometry3, Matrix3, Point3, UnitQuaternion, Vector3};
-use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
 use nomen_core::skeleton::{JointState, Joints};
 use nomen_core::{
     AntennaId, CameraId, DeviceId, DeviceKind, Evidence, IdentifiedSkeleton, Identity, ImuSample,
     Joint, Message, Registry, RssiRead, RtlsFix, SessionTime, SkeletonObservation, SubjectId,
     TagCorrection, TrackId,
 };
-use nomen_evidence::{
-    BandSignals, ForearmSignals, GeometricConfig, ImuFeatures, ImuWindow, PairScorer, ScoreTensor,
-    SegmentFeatures, Side, SkeletonWindow, belmonte_costs_from, body_turn_rate_signal,
-    compare_features, fuse, horizontal_cross, segment_site_lag_models,
-};
+use nomen_evidence::PairScorer;
 use nomen_filters::kalman::JointKalman;
 use nomen_filters::median;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
@@ -35,7 +27,7 @@ use nomen_rssi::{
     FilterBank, LikelihoodConfig, RssiKalmanConfig, RssiModel, RssiUnit, TagPlacement,
     background_log_likelihood, log_likelihood, pair_score,
 };
-use scoring::*;
+use scoring::key_joint_near;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 /// Step of the clock-offset search, ns (one IMU sample at 100 Hz).

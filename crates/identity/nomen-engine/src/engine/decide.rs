@@ -2,7 +2,14 @@
 //! evidence of other cameras' views pooled, and the rules around it (successive tracks, held-back
 //! switches, exclusions).
 
-use super::*;
+use super::{
+    ALIVE_AT_END_NS, Accumulator, AnchorPath, AnchorSample, CAMERA_PAIR_LOOKBACK_WINDOWS,
+    CAMERA_PAIR_MAX_DT_NS, CAMERA_PAIR_MIN_FRAMES, Engine, TORSO_ANCHORS, TrackKey, TrackState,
+    sample_range, spans_overlap,
+};
+use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
+use nomen_core::TrackId;
+use std::collections::BTreeMap;
 
 impl Engine {
     /// The tracks of other cameras that show the same person as each of `active` (see

@@ -2,7 +2,23 @@
 //! window before scoring (see the crate docs, step 1), and the per-window caches of its signals
 //! and curves.
 
-use super::*;
+use super::{
+    BEST_TRACK_LAG_STEPS, COARSE_LAG_STEPS, Engine, IMU_LAG_DECIMATION, ImuState, LAG_DECIMATION,
+    LAG_STEP_NS, MAX_IMU_GAP_NS, OFFSET_PEAK_SEPARATION_NS, TrackKey, TrackState, covered_span,
+    sample_range,
+};
+use crate::config::{EngineConfig, OFFSET_CONFIRM_HISTORY, ns};
+use crate::lag_memo::{ImuLagMemo, imu_lag_signals as imu_lag_signals_from};
+use crate::signal::{
+    LagSignals, LagWeight, PEAK_DROP, curve_peak, falls_on_both_sides, is_contradicted, lag_curve,
+    mean_curve, rival_value, summed_peak,
+};
+use crate::stats::EngineStats;
+use nomen_core::{DeviceId, Joint, TrackId};
+use nomen_evidence::{
+    GeometricConfig, SkeletonWindow, body_turn_rate_signal, segment_site_lag_models,
+};
+use std::collections::BTreeMap;
 
 impl Engine {
     /// Clock offsets. A device without an accepted offset is searched every

@@ -1,7 +1,23 @@
 //! A window's evidence: every (track, subject) pair's motion correlations, Belmonte's costs,
 //! location-tag and RSSI scores, accumulated per track (see the crate docs, step 2).
 
-use super::*;
+use super::{
+    Engine, MAX_IMU_GAP_NS, SILENT_WEARER_SLACK_NS, TrackState, accumulate, covered_span,
+    sample_range,
+};
+use crate::config::MotionScore;
+use crate::signal::imu_window_on_grid;
+use crate::stats::HeadingEstimate;
+use crate::tags::{MAX_PAIR_DT_NS, TagState, fix_similarity};
+use nalgebra::Point3;
+use nomen_core::skeleton::Joints;
+use nomen_core::{Joint, TrackId};
+use nomen_evidence::{
+    BandSignals, ForearmSignals, ImuFeatures, ImuWindow, ScoreTensor, SegmentFeatures, Side,
+    SkeletonWindow, belmonte_costs_from, body_turn_rate_signal, compare_features, fuse,
+    horizontal_cross,
+};
+use std::collections::BTreeMap;
 
 impl Engine {
     /// Scores this window: per camera, a [`ScoreTensor`] of De Marchi's correlations of every

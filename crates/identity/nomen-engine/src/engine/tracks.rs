@@ -1,7 +1,17 @@
 //! Camera re-labelling: settling a camera's observations in time order while undoing id swaps,
 //! and stitching a new track to the ended track it continues.
 
-use super::*;
+use super::decide::{anchor_path, mean_common_distance};
+use super::scoring::lateral_distance_m;
+use super::{
+    Engine, GapReturn, STITCH_MIN_GAP_NS, STITCH_VIEW_LOOKBACK_NS, STITCH_VIEW_MIN_FRAMES,
+    SWAP_MAX_GAP_NS, SWAP_NOISE_M, SWAP_RETURN_GAP_NS, SWAP_RETURN_WINDOW_NS, SWAP_SPEED_MPS,
+    TrackKey, TrackSample, TrackState, average_evidence, joint_centroid, sample_range,
+    settle_track,
+};
+use crate::config::ns;
+use nalgebra::Point3;
+use nomen_core::TrackId;
 
 impl Engine {
     /// Stitching, once a window's observations are all settled: each track first seen before
