@@ -13,11 +13,12 @@ use std::collections::BTreeMap;
 
 impl Engine {
     /// The tracks of other cameras that show the same person as each of `active` (see
-    /// [`EngineConfig::camera_pair_distance_m`]): settled torso positions ([`anchor_path`])
-    /// over the last `CAMERA_PAIR_LOOKBACK_WINDOWS` evidence windows, compared at common frame
-    /// times (within `CAMERA_PAIR_MAX_DT_NS`). A pair needs `CAMERA_PAIR_MIN_FRAMES` of them
-    /// and a mean distance within the limit, and every track seen at the same time as either
-    /// of the two in its camera must be at least twice as far from the other one.
+    /// [`EngineConfig::camera_pair_distance_m`](crate::EngineConfig::camera_pair_distance_m)):
+    /// settled torso positions ([`anchor_path`]) over the last `CAMERA_PAIR_LOOKBACK_WINDOWS`
+    /// evidence windows, compared at common frame times (within `CAMERA_PAIR_MAX_DT_NS`). A pair
+    /// needs `CAMERA_PAIR_MIN_FRAMES` of them and a mean distance within the limit, and every track
+    /// seen at the same time as either of the two in its camera must be at least twice as far from
+    /// the other one.
     pub(super) fn camera_partners(
         &self,
         active: &[TrackKey],
@@ -211,7 +212,8 @@ impl Engine {
 
     /// After a camera's decision: every track that took part alongside the holder of a subject
     /// (their `spans` overlap: two people at once) remembers the holder's score for it
-    /// ([`EngineConfig::exclusion_margin`]); a track holding the subject forgets it.
+    /// ([`EngineConfig::exclusion_margin`](crate::EngineConfig::exclusion_margin)); a track holding
+    /// the subject forgets it.
     pub(super) fn note_exclusions(
         &mut self,
         keys: &[TrackKey],
@@ -303,9 +305,10 @@ impl Engine {
 
     /// A subject none of whose IMUs has an accepted offset, about to move from the track
     /// holding it to another track of the camera that coexists with it, goes to neither unless
-    /// the newcomer's score beats the holder's by [`EngineConfig::unsynced_switch_margin`]:
-    /// each pair is scored at its own best lag until then, so two people walking alike are
-    /// hard to tell apart, and an early name is better withheld than moved on a narrow margin.
+    /// the newcomer's score beats the holder's by
+    /// [`EngineConfig::unsynced_switch_margin`](crate::EngineConfig::unsynced_switch_margin): each
+    /// pair is scored at its own best lag until then, so two people walking alike are hard to tell
+    /// apart, and an early name is better withheld than moved on a narrow margin.
     pub(super) fn hold_back_unsynced_switches(
         &self,
         keys: &[TrackKey],

@@ -21,9 +21,10 @@ use std::collections::BTreeMap;
 
 impl Engine {
     /// Scores this window: per camera, a [`ScoreTensor`] of De Marchi's correlations of every
-    /// (active track, subject, site), fused by [`EngineConfig::fusion`] into one score per
-    /// (track, subject) and accumulated. An IMU without an accepted offset is compared with a
-    /// track at that pair's lag-curve peak (the max over the lag range, found on the long buffer).
+    /// (active track, subject, site), fused by
+    /// [`EngineConfig::fusion`](crate::EngineConfig::fusion) into one score per (track, subject)
+    /// and accumulated. An IMU without an accepted offset is compared with a track at that pair's
+    /// lag-curve peak (the max over the lag range, found on the long buffer).
     pub(super) fn score_window(&mut self, end: i64) {
         let start = end - self.window_ns;
         let min_span = (self.config.min_window_coverage * self.window_ns as f64) as i64;
@@ -418,8 +419,9 @@ impl Engine {
     }
 }
 
-/// Per subject, the mean over their tags of the tag-versus-track window score (see [`crate::tags`]);
-/// `None` for a subject without a tag or without enough paired fixes in the window.
+/// Per subject, the mean over their tags of the tag-versus-track window score (see
+/// [`crate::tags`]); `None` for a subject without a tag or without enough paired fixes in the
+/// window.
 pub(super) fn tag_window_scores(
     tags: &[TagState],
     tr: &TrackState,

@@ -84,8 +84,9 @@ impl Engine {
 
     /// The track of another camera that shows the person of the new track `key` (first seen at
     /// `t0`): settled torso positions ([`anchor_path`]) from `t0` to `end` at most
-    /// [`EngineConfig::camera_pair_distance_m`] apart on average over at least
-    /// `STITCH_VIEW_MIN_FRAMES` common frame times, and every other track at least twice as far.
+    /// [`EngineConfig::camera_pair_distance_m`](crate::EngineConfig::camera_pair_distance_m) apart
+    /// on average over at least `STITCH_VIEW_MIN_FRAMES` common frame times, and every other track
+    /// at least twice as far.
     pub(super) fn view_from_other_camera(
         &self,
         key: TrackKey,
@@ -113,8 +114,8 @@ impl Engine {
 
     /// The ended track of `key`'s camera (see [`Engine::ended_before`]) that `view`, a track of
     /// another camera, followed over its last `STITCH_VIEW_LOOKBACK_NS`: the torso paths at
-    /// most [`EngineConfig::camera_pair_distance_m`] apart on average, every other ended track
-    /// at least twice as far.
+    /// most [`EngineConfig::camera_pair_distance_m`](crate::EngineConfig::camera_pair_distance_m)
+    /// apart on average, every other ended track at least twice as far.
     pub(super) fn ended_track_followed_by(
         &self,
         key: TrackKey,
