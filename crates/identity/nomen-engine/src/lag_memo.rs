@@ -43,7 +43,7 @@ const MARGIN_NS: i64 = 1_000_000_000;
 const KEEP_NS: i64 = 2_000_000_000;
 
 /// Fewest samples of a buffer (shorter ones have no signals).
-pub(crate) const MIN_SAMPLES: usize = 16;
+const MIN_SAMPLES: usize = 16;
 
 /// Values of a stream's kept samples (every `step`-th, counted from the stream's first) that
 /// earlier requests computed far enough from both ends of their samples.
