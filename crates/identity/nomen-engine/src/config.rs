@@ -279,6 +279,8 @@ pub struct EngineConfig {
     pub max_clock_offset_s: f64,
     /// Length of the buffer over which a device's clock offset is estimated, s. Default 12 s
     /// (several gait cycles *and* several turns, so the true lag beats the lags one stride off).
+    /// Longer is not better: at 16 s the ten imu-table scenes (seeds 1–9) gave 92.66 % against
+    /// 93.04 % (one wrist IMU, 5 people, 80.52 → 77.88 %).
     pub offset_estimation_window_s: f64,
     /// Shortest stretch of a track (first to last sample in the buffer) for it to be a candidate
     /// in the offset search, s. Default 2.5 s: the median simulated track lasts about 2.5 s, so
