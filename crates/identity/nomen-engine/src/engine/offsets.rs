@@ -460,14 +460,53 @@ impl Engine {
                 );
             }
         }
-        // Every IMU, accepted or not, against every candidate track: the lag curve's best
-        // value over the tracks at every `BEST_TRACK_LAG_STEPS`-th coarse lag, summed over
-        // passes, leaving out the tracks someone else's synchronised IMU explains. The IMU's
-        // own labels do not enter this sum, so a wrong early label cannot confirm the offset it
-        // came from. Once it has `offset_best_track_curves` passes, a peak standing
-        // `offset_best_track_margin` above every lag more than `OFFSET_PEAK_SEPARATION_NS` away
-        // accepts the offset, or moves an accepted one that lies farther than that from it;
-        // `offset_settle_passes` such peaks in a row at the accepted offset settle it.
+        let mut search = LagSearch {
+            end,
+            lo,
+            hi,
+            max_off,
+            min_samples,
+            min_track,
+            refine_every,
+            refine_range,
+            search_every,
+            coarse,
+            full,
+            candidates,
+            imu_cache,
+            skel_cache,
+            scratch,
+            lag_memos,
+        };
+        self.best_track_pass(&mut search);
+        self.sum_labelled_curves(&mut search);
+        self.refine_offsets(&mut search);
+        for (imu, memo) in self.imus.iter_mut().zip(search.lag_memos) {
+            imu.lag_memo = memo;
+        }
+    }
+
+    /// Every IMU, accepted or not, against every candidate track: the lag curve's best
+    /// value over the tracks at every `BEST_TRACK_LAG_STEPS`-th coarse lag, summed over
+    /// passes, leaving out the tracks someone else's synchronised IMU explains. The IMU's
+    /// own labels do not enter this sum, so a wrong early label cannot confirm the offset it
+    /// came from. Once it has `offset_best_track_curves` passes, a peak standing
+    /// `offset_best_track_margin` above every lag more than `OFFSET_PEAK_SEPARATION_NS` away
+    /// accepts the offset, or moves an accepted one that lies farther than that from it;
+    /// `offset_settle_passes` such peaks in a row at the accepted offset settle it.
+    fn best_track_pass(&mut self, search: &mut LagSearch) {
+        let end = search.end;
+        let lo = search.lo;
+        let hi = search.hi;
+        let max_off = search.max_off;
+        let min_samples = search.min_samples;
+        let refine_every = search.refine_every;
+        let coarse = &search.coarse;
+        let candidates = &search.candidates;
+        let imu_cache = &mut search.imu_cache;
+        let skel_cache = &mut search.skel_cache;
+        let scratch = &mut search.scratch;
+        let lag_memos = &mut search.lag_memos;
         let best_track_every = ns(self.config.offset_best_track_interval_s);
         if self.config.offset_best_track_curves > 0
             && !self.config.known_clock_offsets
@@ -498,9 +537,8 @@ impl Engine {
                 let cut = imu.registry_offset_ns;
                 grid.clear();
                 grid.extend(coarse.iter().step_by(BEST_TRACK_LAG_STEPS).map(|o| o + cut));
-                if let Some(imu_sig) = imu_cache.signals(i, imu, cut, &mut lag_memos, &self.config)
-                {
-                    for key in &candidates {
+                if let Some(imu_sig) = imu_cache.signals(i, imu, cut, lag_memos, &self.config) {
+                    for key in candidates.iter() {
                         // A track named after someone else with an accepted offset is
                         // explained by that person's IMU: a look-alike's track (the same gait
                         // a fraction of a stride off, the same turns for a while) would
@@ -597,10 +635,25 @@ impl Engine {
                 record_offset(&mut self.stats, &imu.device, offset, peak);
             }
         }
-        // Unaccepted IMUs whose wearer the decisions put on a track: the coarse lag curve
-        // against that track is summed over searches, so tracks too short for the joint search
-        // above still add up; the sum's peak is accepted once it is clear of every lag more
-        // than `OFFSET_PEAK_SEPARATION_NS` away.
+    }
+
+    /// Unaccepted IMUs whose wearer the decisions put on a track: the coarse lag curve
+    /// against that track is summed over searches, so tracks too short for the joint search
+    /// ([`Engine::update_offsets`]) still add up; the sum's peak is accepted once it is clear
+    /// of every lag more than `OFFSET_PEAK_SEPARATION_NS` away.
+    fn sum_labelled_curves(&mut self, search: &mut LagSearch) {
+        let end = search.end;
+        let lo = search.lo;
+        let hi = search.hi;
+        let max_off = search.max_off;
+        let min_samples = search.min_samples;
+        let refine_every = search.refine_every;
+        let search_every = search.search_every;
+        let coarse = &search.coarse;
+        let imu_cache = &mut search.imu_cache;
+        let skel_cache = &mut search.skel_cache;
+        let scratch = &mut search.scratch;
+        let lag_memos = &mut search.lag_memos;
         let label_min = ns(self.config.offset_label_min_track_s);
         for i in 0..self.imus.len() {
             let Some(imu) = self.imus.get(i) else {
@@ -622,8 +675,7 @@ impl Engine {
             let prior = imu.registry_offset_ns;
             let grid: Vec<i64> = coarse.iter().map(|o| o + prior).collect();
             let mut added: Vec<Vec<f64>> = Vec::new();
-            if let Some(imu_sig) =
-                imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+            if let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, lag_memos, &self.config)
             {
                 for (key, tr) in self
                     .tracks
@@ -752,7 +804,23 @@ impl Engine {
             imu.last_refine_end = end - refine_every;
             record_offset(&mut self.stats, &imu.device, offset, peak);
         }
-        // Refinement of accepted offsets against the tracks labelled with the wearer.
+    }
+
+    /// Refinement of accepted offsets against the tracks labelled with the wearer.
+    fn refine_offsets(&mut self, search: &mut LagSearch) {
+        let end = search.end;
+        let lo = search.lo;
+        let hi = search.hi;
+        let max_off = search.max_off;
+        let min_samples = search.min_samples;
+        let min_track = search.min_track;
+        let refine_every = search.refine_every;
+        let refine_range = search.refine_range;
+        let full = &search.full;
+        let imu_cache = &mut search.imu_cache;
+        let skel_cache = &mut search.skel_cache;
+        let scratch = &mut search.scratch;
+        let lag_memos = &mut search.lag_memos;
         for i in 0..self.imus.len() {
             let Some(imu) = self.imus.get(i) else {
                 continue;
@@ -768,8 +836,7 @@ impl Engine {
             // The curves against every track labelled with the wearer, weighted by how much of
             // the buffer each covers: a long track's peak is sharper than a short one's.
             let mut sum = vec![(0.0, 0.0); offsets.len()];
-            if let Some(imu_sig) =
-                imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+            if let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, lag_memos, &self.config)
             {
                 for (key, tr) in self
                     .tracks
@@ -813,10 +880,28 @@ impl Engine {
                 record_offset(&mut self.stats, &imu.device, imu.offset_ns, corr);
             }
         }
-        for (imu, memo) in self.imus.iter_mut().zip(lag_memos) {
-            imu.lag_memo = memo;
-        }
     }
+}
+
+/// One window's lag search after the joint search: the buffer's bounds, the lag grids, the
+/// tracks long enough to be candidates and the caches, shared by the passes that follow it.
+pub(super) struct LagSearch {
+    end: i64,
+    lo: i64,
+    hi: i64,
+    max_off: i64,
+    min_samples: usize,
+    min_track: i64,
+    refine_every: i64,
+    refine_range: i64,
+    search_every: i64,
+    coarse: Vec<i64>,
+    full: Vec<i64>,
+    candidates: Vec<TrackKey>,
+    imu_cache: ImuLagCache,
+    skel_cache: TrackLagCache,
+    scratch: LagScratch,
+    lag_memos: Vec<ImuLagMemo>,
 }
 
 /// Scratch buffers of the lag search, reused by every curve of a window.
