@@ -52,23 +52,23 @@ impl Engine {
         let refine_range = ns(self.config.offset_refine_range_s);
         let confirm_apart = ns(self.config.offset_confirm_apart_s);
         let same_offset = ns(self.config.offset_consistency_s);
-        let mut skel_cache = TrackLagCache::default();
+        let skel_cache = TrackLagCache::default();
         // Each IMU's lag signals kept from the last window's search, put back at the end.
-        let mut lag_memos: Vec<ImuLagMemo> = self
+        let lag_memos: Vec<ImuLagMemo> = self
             .imus
             .iter_mut()
             .map(|m| std::mem::take(&mut m.lag_memo))
             .collect();
         // An IMU's buffer, per (IMU, offset it was cut with), for the three uses below.
-        let mut imu_cache = ImuLagCache {
+        let imu_cache = ImuLagCache {
             lo: lo - max_off,
             hi: hi + max_off,
             signals: BTreeMap::new(),
         };
         // Interpolation weights and curve, reused by every lag curve.
-        let mut scratch = LagScratch::default();
+        let scratch = LagScratch::default();
         let min_samples = self.config.geometric.min_samples;
-        let mut fine = Vec::new();
+        let fine = Vec::new();
         // Every subject's mean peak per track; the accepted offsets of a subject are read at
         // themselves only. Subjects with nothing to search still score the tracks a searching
         // subject would win, so a track that clearly belongs to someone else is no candidate
@@ -117,18 +117,18 @@ impl Engine {
         } else {
             Vec::new()
         };
-        let mut short_skel_cache = TrackLagCache::default();
-        let mut short_imu_cache = ImuLagCache {
+        let short_skel_cache = TrackLagCache::default();
+        let short_imu_cache = ImuLagCache {
             lo: lo - max_off,
             hi: short_hi + max_off,
             signals: BTreeMap::new(),
         };
         // Per subject: mean peak per track.
-        let mut subject_scores: Vec<BTreeMap<(usize, TrackId), f64>> =
+        let subject_scores: Vec<BTreeMap<(usize, TrackId), f64>> =
             vec![BTreeMap::new(); self.subjects.len()];
         // Per (unaccepted IMU, track): the peak lag, and whether the peak is clear (a short
         // track's is marked unclear: it only scores).
-        let mut peaks: BTreeMap<(usize, (usize, TrackId)), (i64, bool)> = BTreeMap::new();
+        let peaks: BTreeMap<(usize, (usize, TrackId)), (i64, bool)> = BTreeMap::new();
         // Whether each subject has an IMU still unaccepted: only those search. The others'
         // scores only matter on the tracks a searching subject would win (below).
         let is_searching: Vec<bool> = (0..num_scored)
@@ -139,6 +139,69 @@ impl Engine {
                 })
             })
             .collect();
+        let mut search = LagSearch {
+            end,
+            lo,
+            hi,
+            max_off,
+            min_samples,
+            min_track,
+            refine_every,
+            refine_range,
+            search_every,
+            coarse,
+            full,
+            candidates,
+            imu_cache,
+            skel_cache,
+            scratch,
+            lag_memos,
+            num_scored,
+            is_searching,
+            subject_scores,
+            peaks,
+            short,
+            short_hi,
+            short_skel_cache,
+            short_imu_cache,
+            fine,
+            confirm_apart,
+            same_offset,
+        };
+        self.score_subjects(&mut search);
+        self.score_contested(&mut search);
+        self.accept_joint_winners(&mut search);
+        self.best_track_pass(&mut search);
+        self.sum_labelled_curves(&mut search);
+        self.refine_offsets(&mut search);
+        for (imu, memo) in self.imus.iter_mut().zip(search.lag_memos) {
+            imu.lag_memo = memo;
+        }
+    }
+
+    /// The joint search's first step: every searching subject's lag curves against every
+    /// candidate (and, while there is none, every short) track, giving the subject's mean
+    /// peak per track and each unaccepted IMU's peak lag per track.
+    fn score_subjects(&mut self, search: &mut LagSearch) {
+        let lo = search.lo;
+        let hi = search.hi;
+        let max_off = search.max_off;
+        let min_samples = search.min_samples;
+        let num_scored = search.num_scored;
+        let short_hi = search.short_hi;
+        let coarse = &search.coarse;
+        let candidates = &search.candidates;
+        let is_searching = &search.is_searching;
+        let short = &search.short;
+        let imu_cache = &mut search.imu_cache;
+        let skel_cache = &mut search.skel_cache;
+        let scratch = &mut search.scratch;
+        let lag_memos = &mut search.lag_memos;
+        let subject_scores = &mut search.subject_scores;
+        let peaks = &mut search.peaks;
+        let short_skel_cache = &mut search.short_skel_cache;
+        let short_imu_cache = &mut search.short_imu_cache;
+        let fine = &mut search.fine;
         for b in 0..num_scored {
             let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
@@ -152,14 +215,14 @@ impl Engine {
                     continue;
                 };
                 let Some(imu_sig) =
-                    imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+                    imu_cache.signals(i, imu, imu.offset_ns, lag_memos, &self.config)
                 else {
                     continue;
                 };
                 let short_imu_sig = if short.is_empty() || imu.is_offset_known {
                     None
                 } else {
-                    short_imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+                    short_imu_cache.signals(i, imu, imu.offset_ns, lag_memos, &self.config)
                 };
                 // Unknown offsets: a coarse grid over the whole range, then the fine grid
                 // around the coarse peak (a quarter of the work of the fine grid throughout).
@@ -172,7 +235,7 @@ impl Engine {
                     coarse.iter().map(|o| o + prior).collect()
                 };
                 let is_coarse = !imu.is_offset_known;
-                let shorts: &[(usize, TrackId)] = if is_coarse { &short } else { &[] };
+                let shorts: &[(usize, TrackId)] = if is_coarse { short } else { &[] };
                 for (key, is_short) in candidates
                     .iter()
                     .map(|k| (k, false))
@@ -246,8 +309,8 @@ impl Engine {
                                     (o - prior).abs() <= max_off && (o - offset).abs() <= reach
                                 }),
                         );
-                        let curve = scratch.curve(imu_sig, sig, &fine, min_samples);
-                        if let Some(found) = curve_peak(&fine, curve, prior, 0.0) {
+                        let curve = scratch.curve(imu_sig, sig, fine, min_samples);
+                        if let Some(found) = curve_peak(fine, curve, prior, 0.0) {
                             (offset, value) = found;
                         }
                     }
@@ -277,9 +340,23 @@ impl Engine {
                     .collect();
             }
         }
-        // A subject whose offsets are all accepted is read at them only, and its score on a
-        // track only counts against a searching subject that would win that track: it is
-        // computed there alone (the mean of its IMUs' correlations at their offsets).
+    }
+
+    /// The joint search's second step. A subject whose offsets are all accepted is read at
+    /// them only, and its score on a track only counts against a searching subject that would
+    /// win that track: it is computed there alone (the mean of its IMUs' correlations at their
+    /// offsets).
+    fn score_contested(&mut self, search: &mut LagSearch) {
+        let lo = search.lo;
+        let hi = search.hi;
+        let min_samples = search.min_samples;
+        let num_scored = search.num_scored;
+        let is_searching = &search.is_searching;
+        let imu_cache = &mut search.imu_cache;
+        let skel_cache = &mut search.skel_cache;
+        let scratch = &mut search.scratch;
+        let lag_memos = &mut search.lag_memos;
+        let subject_scores = &mut search.subject_scores;
         let mut contested: Vec<(usize, TrackId)> = (0..num_scored)
             .filter(|&b| is_searching.get(b).copied().unwrap_or(false))
             .filter_map(|b| {
@@ -306,7 +383,7 @@ impl Engine {
                         continue;
                     };
                     let Some(imu_sig) =
-                        imu_cache.signals(i, imu, imu.offset_ns, &mut lag_memos, &self.config)
+                        imu_cache.signals(i, imu, imu.offset_ns, lag_memos, &self.config)
                     else {
                         continue;
                     };
@@ -334,6 +411,18 @@ impl Engine {
                 }
             }
         }
+    }
+
+    /// The joint search's last step: each searching subject's winning track, and the offset
+    /// candidates of its unaccepted IMUs on it.
+    fn accept_joint_winners(&mut self, search: &mut LagSearch) {
+        let end = search.end;
+        let num_scored = search.num_scored;
+        let confirm_apart = search.confirm_apart;
+        let same_offset = search.same_offset;
+        let is_searching = &search.is_searching;
+        let subject_scores = &mut search.subject_scores;
+        let peaks = &mut search.peaks;
         for b in 0..num_scored {
             let Some(mine) = self.subject_imus.get(b).cloned() else {
                 continue;
@@ -459,30 +548,6 @@ impl Engine {
                     winner.map_or(0.0, |w| w.1),
                 );
             }
-        }
-        let mut search = LagSearch {
-            end,
-            lo,
-            hi,
-            max_off,
-            min_samples,
-            min_track,
-            refine_every,
-            refine_range,
-            search_every,
-            coarse,
-            full,
-            candidates,
-            imu_cache,
-            skel_cache,
-            scratch,
-            lag_memos,
-        };
-        self.best_track_pass(&mut search);
-        self.sum_labelled_curves(&mut search);
-        self.refine_offsets(&mut search);
-        for (imu, memo) in self.imus.iter_mut().zip(search.lag_memos) {
-            imu.lag_memo = memo;
         }
     }
 
@@ -883,8 +948,9 @@ impl Engine {
     }
 }
 
-/// One window's lag search after the joint search: the buffer's bounds, the lag grids, the
-/// tracks long enough to be candidates and the caches, shared by the passes that follow it.
+/// One window's lag search: the buffer's bounds, the lag grids, the tracks it reads, the caches,
+/// and what the joint search's steps pass on to each other; shared by every step of
+/// [`Engine::update_offsets`].
 pub(super) struct LagSearch {
     end: i64,
     lo: i64,
@@ -902,6 +968,23 @@ pub(super) struct LagSearch {
     skel_cache: TrackLagCache,
     scratch: LagScratch,
     lag_memos: Vec<ImuLagMemo>,
+    /// Subjects taking part in the joint search (0 when no search is due).
+    num_scored: usize,
+    /// Per subject: whether it has an IMU still unaccepted.
+    is_searching: Vec<bool>,
+    /// Per subject: its mean peak per track.
+    subject_scores: Vec<BTreeMap<TrackKey, f64>>,
+    /// Per (unaccepted IMU, track): the peak lag, and whether the peak is clear.
+    peaks: BTreeMap<(usize, TrackKey), (i64, bool)>,
+    /// Tracks too short to be candidates, scored while there is no candidate.
+    short: Vec<TrackKey>,
+    /// Where the short tracks' buffers end (the window's end).
+    short_hi: i64,
+    short_skel_cache: TrackLagCache,
+    short_imu_cache: ImuLagCache,
+    fine: Vec<i64>,
+    confirm_apart: i64,
+    same_offset: i64,
 }
 
 /// Scratch buffers of the lag search, reused by every curve of a window.
