@@ -2,7 +2,7 @@
 //! location-tag and RSSI scores, accumulated per track (see the crate docs, step 2).
 
 use super::{
-    Engine, MAX_IMU_GAP_NS, SILENT_WEARER_SLACK_NS, TrackState, accumulate, covered_span,
+    Engine, MAX_IMU_GAP_NS, SILENT_WEARER_SLACK_NS, TrackKey, TrackState, accumulate, covered_span,
     sample_range,
 };
 use crate::config::MotionScore;
@@ -31,10 +31,6 @@ impl Engine {
         let mut sites: Vec<Joint> = self.imus.iter().map(|m| m.site).collect();
         sites.sort_unstable();
         sites.dedup();
-        // An IMU's window and features per (IMU, offset, grid): cameras that share frame times
-        // (hardware-synchronised rigs) share them too.
-        let mut grids: Vec<Vec<i64>> = Vec::new();
-        let mut imu_cache: ImuFeatureCache = BTreeMap::new();
         // Subjects wearing IMUs none of which has a settled sample in this window, with the
         // session time of their IMUs' newest settled sample: their motion evidence on a track
         // seen since then is dropped (see `SILENT_WEARER_SLACK_NS`).
@@ -62,7 +58,18 @@ impl Engine {
         // tracks labelled with its wearer, added after every camera is scored.
         let headings: Vec<Option<[f64; 2]>> =
             self.imus.iter().map(|m| m.heading(&self.config)).collect();
-        let mut heading_updates: Vec<(usize, [f64; 2])> = Vec::new();
+        let mut window = WindowScoring {
+            start,
+            end,
+            min_span,
+            sites,
+            wants_belmonte,
+            wants_heading,
+            headings,
+            grids: Vec::new(),
+            imu_cache: BTreeMap::new(),
+            heading_updates: Vec::new(),
+        };
         for c in 0..self.cameras.len() {
             // Tracks with a few samples in the window; the IMU models need more (below).
             let keys: Vec<(usize, TrackId)> = self
@@ -90,228 +97,11 @@ impl Engine {
                 .collect();
             frame_times.sort_unstable();
             frame_times.dedup();
-            let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &sites);
-            let mut device_scores: Vec<((usize, TrackId), usize, f64)> = Vec::new();
-            // (row, subject) → (sum, count) of every correlation ([`MotionScore::Nomen`]).
-            let mut nomen_sums: BTreeMap<(usize, usize), (f64, f64)> = BTreeMap::new();
-            for (row, key) in keys.iter().enumerate() {
-                let Some(tr) = self.tracks.get(key) else {
-                    continue;
-                };
-                let (a, b) = sample_range(tr, start, end);
-                if b < a + 8 || covered_span(tr, start, end) < min_span {
-                    continue;
-                }
-                // The camera's frame times from the track's first sample in the window on; a
-                // frame the track missed is a gap (no joints). Tracks seen since before the
-                // window share one grid, so an IMU's window and features are built once per
-                // (grid, offset), and a track's once per site.
-                let first = tr.samples.get(a).map_or(start, |s| s.t);
-                let grid: Vec<i64> = frame_times
-                    .get(frame_times.partition_point(|&t| t < first)..)
-                    .unwrap_or(&[])
-                    .to_vec();
-                let mut samples = tr.samples.range(a..b).peekable();
-                let joints_world_m = grid
-                    .iter()
-                    .map(|&t| match samples.next_if(|s| s.t == t) {
-                        Some(s) => s.joints.clone(),
-                        None => Joints::new(),
-                    })
-                    .collect();
-                let skel = SkeletonWindow {
-                    camera: None,
-                    track: Some(key.1),
-                    t_s: grid.iter().map(|&t| t as f64 * 1e-9).collect(),
-                    joints_world_m,
-                };
-                let grid_index = match grids.iter().position(|g| *g == grid) {
-                    Some(g) => g,
-                    None => {
-                        grids.push(grid.clone());
-                        grids.len() - 1
-                    }
-                };
-                let mut segments: Vec<(Joint, SegmentFeatures)> = Vec::new();
-                // The body's turn rate, the same for every site: computed once per track.
-                let mut turn_rate: Option<Vec<f64>> = None;
-                // The skeleton side of Belmonte's costs, per band side.
-                let mut arms: Vec<(Side, ForearmSignals)> = Vec::new();
-                for (i, imu) in self.imus.iter().enumerate() {
-                    // The IMU's window and features at `offset` on this grid.
-                    let build = |offset: i64| {
-                        let mut win = ImuWindow::default();
-                        // Settled samples only: device times before `end` on the current clock
-                        // estimate.
-                        imu_window_on_grid(
-                            &imu.series(),
-                            offset,
-                            &grid,
-                            MAX_IMU_GAP_NS,
-                            (end - imu.offset_ns).min(imu.settled_until_ns),
-                            &mut win,
-                        );
-                        win.device = Some(imu.device.clone());
-                        let features =
-                            ImuFeatures::new(&win, &self.config.geometric, &self.config.kinematic);
-                        let band = (wants_belmonte && band_side(imu.site).is_some())
-                            .then(|| BandSignals::new(&win, &self.config.belmonte));
-                        (win, features, band)
-                    };
-                    let hypotheses: &[i64] = if imu.is_offset_known {
-                        &[]
-                    } else {
-                        &imu.lag_hypotheses
-                    };
-                    let pair_offset = imu.pair_offsets.get(key).copied();
-                    if !imu.is_offset_known && pair_offset.is_none() && hypotheses.is_empty() {
-                        continue;
-                    }
-                    let segment = match segments.iter().position(|(j, _)| *j == imu.site) {
-                        Some(k) => k,
-                        None => {
-                            let turn = turn_rate
-                                .get_or_insert_with(|| {
-                                    body_turn_rate_signal(&skel, &self.config.kinematic)
-                                })
-                                .clone();
-                            segments.push((
-                                imu.site,
-                                SegmentFeatures::with_turn_rate(
-                                    &skel,
-                                    imu.site,
-                                    &self.config.geometric,
-                                    &self.config.kinematic,
-                                    turn,
-                                ),
-                            ));
-                            segments.len() - 1
-                        }
-                    };
-                    let Some((_, seg_features)) = segments.get(segment) else {
-                        continue;
-                    };
-                    // The scores at the chosen hypothesis, already computed.
-                    let mut chosen: Option<PairScores> = None;
-                    let offset = match (imu.is_offset_known, pair_offset) {
-                        (true, _) => imu.offset_ns,
-                        (false, Some(o)) => o,
-                        // A track too short for the search: the lag hypothesis that fits it best.
-                        (false, None) => {
-                            let mut best: Option<(f64, i64, PairScores)> = None;
-                            for &o in hypotheses {
-                                let (_, features_o, _) = imu_cache
-                                    .entry((i, o, grid_index))
-                                    .or_insert_with(|| build(o));
-                                let (scores, k) = compare_features(
-                                    features_o,
-                                    seg_features,
-                                    &self.config.geometric,
-                                );
-                                if let Some(fit) =
-                                    weighted_fit(&scores, &k, &self.config.model_weights)
-                                    && best.as_ref().is_none_or(|(b, _, _)| fit > *b)
-                                {
-                                    best = Some((fit, o, (scores, k)));
-                                }
-                            }
-                            match best {
-                                Some((_, o, pair)) => {
-                                    chosen = Some(pair);
-                                    o
-                                }
-                                None => continue,
-                            }
-                        }
-                    };
-                    let cached = imu_cache
-                        .entry((i, offset, grid_index))
-                        .or_insert_with(|| build(offset));
-                    let (imu_win, imu_features) = (&cached.0, &cached.1);
-                    let (mut scores, k) = match chosen {
-                        Some(pair) => pair,
-                        None => {
-                            compare_features(imu_features, seg_features, &self.config.geometric)
-                        }
-                    };
-                    // The heading model: only at a known offset, where the window's cross sum
-                    // is that of the IMU's own clock (a pair scored at its own best lag would
-                    // mix a lag error into the heading).
-                    let cross = (wants_heading && imu.is_offset_known)
-                        .then(|| {
-                            horizontal_cross(
-                                imu_features,
-                                seg_features,
-                                self.config.geometric.min_samples,
-                            )
-                        })
-                        .flatten()
-                        .filter(|c| c.norm() > 0.0);
-                    let heading_score = cross.and_then(|c| {
-                        let [re, im] = headings.get(i).copied().flatten()?;
-                        c.aligned_correlation(re, im)
-                    });
-                    if let Some(c) = cross
-                        && tr.label == Some(imu.subject)
-                    {
-                        heading_updates.push((i, [c.re / c.norm(), c.im / c.norm()]));
-                    }
-                    if let Some(scorer) = &self.pair_scorer {
-                        scores.dl = scorer.score(imu_win, &skel, imu.site);
-                    }
-                    if let (Some(band), Some(side)) = (&cached.2, band_side(imu.site)) {
-                        let arm = match arms.iter().position(|(s, _)| *s == side) {
-                            Some(k) => k,
-                            None => {
-                                arms.push((
-                                    side,
-                                    ForearmSignals::new(&skel, side, &self.config.belmonte),
-                                ));
-                                arms.len() - 1
-                            }
-                        };
-                        let Some((_, arm)) = arms.get(arm) else {
-                            continue;
-                        };
-                        let costs = belmonte_costs_from(band, arm, side, &self.config.belmonte);
-                        if let (Some(p), Some(y)) = (costs.pitch_mse, costs.yaw_rate_mse) {
-                            let sp = self.config.belmonte_pitch_sigma_rad;
-                            let sy = self.config.belmonte_yaw_rate_sigma_radps;
-                            let similarity = (-0.5 * (p / (sp * sp) + y / (sy * sy))).exp();
-                            let w = match self.config.motion_score {
-                                MotionScore::Belmonte => 1.0,
-                                _ => self.config.model_weights.belmonte,
-                            };
-                            let cell = nomen_sums.entry((row, imu.subject)).or_insert((0.0, 0.0));
-                            cell.0 += w * similarity;
-                            cell.1 += w;
-                        }
-                    }
-                    if self.config.motion_score == MotionScore::Nomen {
-                        let cell = nomen_sums.entry((row, imu.subject)).or_insert((0.0, 0.0));
-                        let w = &self.config.model_weights;
-                        let weighted = motion_terms(&scores, &k, w)
-                            .into_iter()
-                            .chain([(scores.dl, w.dl), (heading_score, w.heading)]);
-                        for (v, w) in weighted {
-                            if let Some(v) = v {
-                                cell.0 += w * v;
-                                cell.1 += w;
-                            }
-                        }
-                    }
-                    let models = [scores.acc, scores.vel, scores.ori];
-                    let (sum, n) = models
-                        .iter()
-                        .flatten()
-                        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
-                    if n > 0 {
-                        device_scores.push((*key, i, sum / n as f64));
-                    }
-                    // The indices are in range by construction; a failure only drops a score.
-                    let _ = tensor.set(row, imu.subject, imu.site, scores);
-                }
-            }
+            let CameraScores {
+                tensor,
+                device_scores,
+                nomen_sums,
+            } = self.score_camera_pairs(&mut window, &keys, &frame_times);
             let decay = self.decay_per_hop;
             let tag_decay = self.tag_decay_per_hop;
             let rssi_decay = self.rssi_decay_per_hop;
@@ -382,7 +172,250 @@ impl Engine {
             }
         }
         if wants_heading {
-            self.update_headings(heading_updates);
+            self.update_headings(window.heading_updates);
+        }
+    }
+
+    /// Every (track, IMU) pair of one camera in this window (`keys`, the camera's frame times
+    /// `frame_times`): each track on its grid, each IMU's features built once per (grid,
+    /// offset), De Marchi's correlations into the tensor, nomen's weighted correlations and
+    /// Belmonte's similarity into the per-(row, subject) sums, and the heading's cross sums of
+    /// tracks labelled with the IMU's wearer.
+    fn score_camera_pairs(
+        &self,
+        window: &mut WindowScoring,
+        keys: &[TrackKey],
+        frame_times: &[i64],
+    ) -> CameraScores {
+        let start = window.start;
+        let end = window.end;
+        let min_span = window.min_span;
+        let wants_belmonte = window.wants_belmonte;
+        let wants_heading = window.wants_heading;
+        let headings = &window.headings;
+        let grids = &mut window.grids;
+        let imu_cache = &mut window.imu_cache;
+        let heading_updates = &mut window.heading_updates;
+        let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &window.sites);
+        let mut device_scores: Vec<((usize, TrackId), usize, f64)> = Vec::new();
+        // (row, subject) → (sum, count) of every correlation ([`MotionScore::Nomen`]).
+        let mut nomen_sums: BTreeMap<(usize, usize), (f64, f64)> = BTreeMap::new();
+        for (row, key) in keys.iter().enumerate() {
+            let Some(tr) = self.tracks.get(key) else {
+                continue;
+            };
+            let (a, b) = sample_range(tr, start, end);
+            if b < a + 8 || covered_span(tr, start, end) < min_span {
+                continue;
+            }
+            // The camera's frame times from the track's first sample in the window on; a
+            // frame the track missed is a gap (no joints). Tracks seen since before the
+            // window share one grid, so an IMU's window and features are built once per
+            // (grid, offset), and a track's once per site.
+            let first = tr.samples.get(a).map_or(start, |s| s.t);
+            let grid: Vec<i64> = frame_times
+                .get(frame_times.partition_point(|&t| t < first)..)
+                .unwrap_or(&[])
+                .to_vec();
+            let mut samples = tr.samples.range(a..b).peekable();
+            let joints_world_m = grid
+                .iter()
+                .map(|&t| match samples.next_if(|s| s.t == t) {
+                    Some(s) => s.joints.clone(),
+                    None => Joints::new(),
+                })
+                .collect();
+            let skel = SkeletonWindow {
+                camera: None,
+                track: Some(key.1),
+                t_s: grid.iter().map(|&t| t as f64 * 1e-9).collect(),
+                joints_world_m,
+            };
+            let grid_index = match grids.iter().position(|g| *g == grid) {
+                Some(g) => g,
+                None => {
+                    grids.push(grid.clone());
+                    grids.len() - 1
+                }
+            };
+            let mut segments: Vec<(Joint, SegmentFeatures)> = Vec::new();
+            // The body's turn rate, the same for every site: computed once per track.
+            let mut turn_rate: Option<Vec<f64>> = None;
+            // The skeleton side of Belmonte's costs, per band side.
+            let mut arms: Vec<(Side, ForearmSignals)> = Vec::new();
+            for (i, imu) in self.imus.iter().enumerate() {
+                // The IMU's window and features at `offset` on this grid.
+                let build = |offset: i64| {
+                    let mut win = ImuWindow::default();
+                    // Settled samples only: device times before `end` on the current clock
+                    // estimate.
+                    imu_window_on_grid(
+                        &imu.series(),
+                        offset,
+                        &grid,
+                        MAX_IMU_GAP_NS,
+                        (end - imu.offset_ns).min(imu.settled_until_ns),
+                        &mut win,
+                    );
+                    win.device = Some(imu.device.clone());
+                    let features =
+                        ImuFeatures::new(&win, &self.config.geometric, &self.config.kinematic);
+                    let band = (wants_belmonte && band_side(imu.site).is_some())
+                        .then(|| BandSignals::new(&win, &self.config.belmonte));
+                    (win, features, band)
+                };
+                let hypotheses: &[i64] = if imu.is_offset_known {
+                    &[]
+                } else {
+                    &imu.lag_hypotheses
+                };
+                let pair_offset = imu.pair_offsets.get(key).copied();
+                if !imu.is_offset_known && pair_offset.is_none() && hypotheses.is_empty() {
+                    continue;
+                }
+                let segment = match segments.iter().position(|(j, _)| *j == imu.site) {
+                    Some(k) => k,
+                    None => {
+                        let turn = turn_rate
+                            .get_or_insert_with(|| {
+                                body_turn_rate_signal(&skel, &self.config.kinematic)
+                            })
+                            .clone();
+                        segments.push((
+                            imu.site,
+                            SegmentFeatures::with_turn_rate(
+                                &skel,
+                                imu.site,
+                                &self.config.geometric,
+                                &self.config.kinematic,
+                                turn,
+                            ),
+                        ));
+                        segments.len() - 1
+                    }
+                };
+                let Some((_, seg_features)) = segments.get(segment) else {
+                    continue;
+                };
+                // The scores at the chosen hypothesis, already computed.
+                let mut chosen: Option<PairScores> = None;
+                let offset = match (imu.is_offset_known, pair_offset) {
+                    (true, _) => imu.offset_ns,
+                    (false, Some(o)) => o,
+                    // A track too short for the search: the lag hypothesis that fits it best.
+                    (false, None) => {
+                        let mut best: Option<(f64, i64, PairScores)> = None;
+                        for &o in hypotheses {
+                            let (_, features_o, _) = imu_cache
+                                .entry((i, o, grid_index))
+                                .or_insert_with(|| build(o));
+                            let (scores, k) =
+                                compare_features(features_o, seg_features, &self.config.geometric);
+                            if let Some(fit) = weighted_fit(&scores, &k, &self.config.model_weights)
+                                && best.as_ref().is_none_or(|(b, _, _)| fit > *b)
+                            {
+                                best = Some((fit, o, (scores, k)));
+                            }
+                        }
+                        match best {
+                            Some((_, o, pair)) => {
+                                chosen = Some(pair);
+                                o
+                            }
+                            None => continue,
+                        }
+                    }
+                };
+                let cached = imu_cache
+                    .entry((i, offset, grid_index))
+                    .or_insert_with(|| build(offset));
+                let (imu_win, imu_features) = (&cached.0, &cached.1);
+                let (mut scores, k) = match chosen {
+                    Some(pair) => pair,
+                    None => compare_features(imu_features, seg_features, &self.config.geometric),
+                };
+                // The heading model: only at a known offset, where the window's cross sum
+                // is that of the IMU's own clock (a pair scored at its own best lag would
+                // mix a lag error into the heading).
+                let cross = (wants_heading && imu.is_offset_known)
+                    .then(|| {
+                        horizontal_cross(
+                            imu_features,
+                            seg_features,
+                            self.config.geometric.min_samples,
+                        )
+                    })
+                    .flatten()
+                    .filter(|c| c.norm() > 0.0);
+                let heading_score = cross.and_then(|c| {
+                    let [re, im] = headings.get(i).copied().flatten()?;
+                    c.aligned_correlation(re, im)
+                });
+                if let Some(c) = cross
+                    && tr.label == Some(imu.subject)
+                {
+                    heading_updates.push((i, [c.re / c.norm(), c.im / c.norm()]));
+                }
+                if let Some(scorer) = &self.pair_scorer {
+                    scores.dl = scorer.score(imu_win, &skel, imu.site);
+                }
+                if let (Some(band), Some(side)) = (&cached.2, band_side(imu.site)) {
+                    let arm = match arms.iter().position(|(s, _)| *s == side) {
+                        Some(k) => k,
+                        None => {
+                            arms.push((
+                                side,
+                                ForearmSignals::new(&skel, side, &self.config.belmonte),
+                            ));
+                            arms.len() - 1
+                        }
+                    };
+                    let Some((_, arm)) = arms.get(arm) else {
+                        continue;
+                    };
+                    let costs = belmonte_costs_from(band, arm, side, &self.config.belmonte);
+                    if let (Some(p), Some(y)) = (costs.pitch_mse, costs.yaw_rate_mse) {
+                        let sp = self.config.belmonte_pitch_sigma_rad;
+                        let sy = self.config.belmonte_yaw_rate_sigma_radps;
+                        let similarity = (-0.5 * (p / (sp * sp) + y / (sy * sy))).exp();
+                        let w = match self.config.motion_score {
+                            MotionScore::Belmonte => 1.0,
+                            _ => self.config.model_weights.belmonte,
+                        };
+                        let cell = nomen_sums.entry((row, imu.subject)).or_insert((0.0, 0.0));
+                        cell.0 += w * similarity;
+                        cell.1 += w;
+                    }
+                }
+                if self.config.motion_score == MotionScore::Nomen {
+                    let cell = nomen_sums.entry((row, imu.subject)).or_insert((0.0, 0.0));
+                    let w = &self.config.model_weights;
+                    let weighted = motion_terms(&scores, &k, w)
+                        .into_iter()
+                        .chain([(scores.dl, w.dl), (heading_score, w.heading)]);
+                    for (v, w) in weighted {
+                        if let Some(v) = v {
+                            cell.0 += w * v;
+                            cell.1 += w;
+                        }
+                    }
+                }
+                let models = [scores.acc, scores.vel, scores.ori];
+                let (sum, n) = models
+                    .iter()
+                    .flatten()
+                    .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+                if n > 0 {
+                    device_scores.push((*key, i, sum / n as f64));
+                }
+                // The indices are in range by construction; a failure only drops a score.
+                let _ = tensor.set(row, imu.subject, imu.site, scores);
+            }
+        }
+        CameraScores {
+            tensor,
+            device_scores,
+            nomen_sums,
         }
     }
 
@@ -417,6 +450,38 @@ impl Engine {
             }
         }
     }
+}
+
+/// What [`Engine::score_window`] shares between its cameras: the window, the IMU features built
+/// so far per (IMU, offset, grid), and the heading updates collected.
+struct WindowScoring {
+    start: i64,
+    end: i64,
+    /// Shortest span of the window a track must cover to be scored.
+    min_span: i64,
+    /// The IMUs' sites, sorted, once each: the tensor's columns per subject.
+    sites: Vec<Joint>,
+    wants_belmonte: bool,
+    wants_heading: bool,
+    /// Each IMU's heading where its estimate is coherent enough.
+    headings: Vec<Option<[f64; 2]>>,
+    /// Camera grids seen so far in this window (an index into it keys `imu_cache`).
+    grids: Vec<Vec<i64>>,
+    /// An IMU's window and features per (IMU, offset, grid): cameras that share frame times
+    /// (hardware-synchronised rigs) share them too.
+    imu_cache: ImuFeatureCache,
+    /// This window's normalised cross sums `(IMU, (re, im))` against the tracks labelled with
+    /// the IMU's wearer.
+    heading_updates: Vec<(usize, [f64; 2])>,
+}
+
+/// One camera's pair scores in a window ([`Engine::score_camera_pairs`]).
+struct CameraScores {
+    tensor: ScoreTensor,
+    /// `(track, IMU, mean of De Marchi's three correlations)`.
+    device_scores: Vec<(TrackKey, usize, f64)>,
+    /// (row, subject) → (sum, count) of every correlation ([`MotionScore::Nomen`]).
+    nomen_sums: BTreeMap<(usize, usize), (f64, f64)>,
 }
 
 /// Per subject, the mean over their tags of the tag-versus-track window score (see
