@@ -8,7 +8,7 @@ use super::{
     sample_range,
 };
 use crate::config::{EngineConfig, OFFSET_CONFIRM_HISTORY, ns};
-use crate::lag_memo::{ImuLagMemo, imu_lag_signals as imu_lag_signals_from};
+use crate::lag_memo::{self, ImuLagMemo};
 use crate::signal::{
     LagSignals, LagWeight, PEAK_DROP, curve_peak, falls_on_both_sides, is_contradicted, lag_curve,
     mean_curve, rival_value, summed_peak,
@@ -1099,7 +1099,7 @@ pub(super) fn imu_lag_signals(
 ) -> Option<LagSignals> {
     // Device times (the lag curve shifts them by each candidate offset itself), thinned like
     // the track's: interpolation walks every IMU sample once per candidate offset.
-    imu_lag_signals_from(
+    lag_memo::imu_lag_signals(
         memo,
         &imu.series(),
         imu.num_forgotten,
