@@ -90,6 +90,18 @@ impl SensorAxis {
         }
     }
 
+    /// Which sensor axis (0 for x, 1 for y, 2 for z) and whether it points the positive way.
+    pub fn index_and_sign(self) -> (usize, bool) {
+        match self {
+            SensorAxis::PosX => (0, true),
+            SensorAxis::NegX => (0, false),
+            SensorAxis::PosY => (1, true),
+            SensorAxis::NegY => (1, false),
+            SensorAxis::PosZ => (2, true),
+            SensorAxis::NegZ => (2, false),
+        }
+    }
+
     /// The axis pointing the other way.
     pub fn opposite(self) -> SensorAxis {
         match self {
@@ -190,22 +202,33 @@ pub struct BandSignals {
 impl BandSignals {
     /// The band's signals over its window.
     pub fn new(imu: &ImuWindow, cfg: &BelmonteConfig) -> Self {
+        let pitches: Vec<[f64; 3]> = imu.world_from_sensor.iter().map(axis_pitches_rad).collect();
+        Self::with_axis_pitches(imu, &pitches, cfg)
+    }
+
+    /// [`BandSignals::new`] with each grid sample's [`axis_pitches_rad`] given (one per
+    /// orientation of `imu`, in order): a caller resampling the same IMU samples onto many grids
+    /// computes them once per sample.
+    pub fn with_axis_pitches(imu: &ImuWindow, pitches: &[[f64; 3]], cfg: &BelmonteConfig) -> Self {
         let axes: &[SensorAxis] = match &cfg.forearm_axis {
             Some(axis) => std::slice::from_ref(axis),
             None => &SensorAxis::ALL,
         };
-        let mut axis_pitch_rad: Vec<(SensorAxis, Vec<f64>)> = Vec::with_capacity(axes.len());
-        for &axis in axes {
-            // An axis's pitch is its opposite's negated: the rotation, the horizontal length,
-            // `atan2` and the average are odd in the axis, and IEEE rounding is symmetric, so
-            // the negation is exact and the arctangents are computed for three axes, not six.
-            let opposite = axis_pitch_rad
-                .iter()
-                .find(|(a, _)| *a == axis.opposite())
-                .map(|(_, pitch)| pitch.iter().map(|v| -v).collect());
-            let pitch = opposite.unwrap_or_else(|| band_axis_pitch_rad(imu, axis, cfg));
-            axis_pitch_rad.push((axis, pitch));
-        }
+        // A −axis's pitch is the +axis's negated, exactly (see [`axis_pitches_rad`]): the
+        // arctangents are computed for three axes, not six, and once per sample.
+        let axis_pitch_rad = axes
+            .iter()
+            .map(|&axis| {
+                let (k, is_positive) = axis.index_and_sign();
+                let mut out: Vec<f64> = pitches
+                    .iter()
+                    .map(|p| if is_positive { p[k] } else { -p[k] })
+                    .collect();
+                out.resize(imu.t_s.len(), f64::NAN);
+                moving_average(&mut out, cfg.moving_average_len);
+                (axis, out)
+            })
+            .collect();
         BandSignals {
             axis_pitch_rad,
             yaw_rate_radps: band_yaw_rate_radps(imu, cfg),
@@ -291,6 +314,13 @@ pub fn forearm_pitch_rad(skel: &SkeletonWindow, wrist: Joint, cfg: &BelmonteConf
     out.resize(skel.t_s.len(), f64::NAN);
     moving_average(&mut out, cfg.moving_average_len);
     out
+}
+
+/// Unsmoothed world elevation of the sensor's +x, +y and +z axes for one orientation, rad
+/// (`NaN` where not finite): a −axis's is the +axis's negated, exactly (the rotation, the
+/// horizontal length and `atan2` are odd in the axis, and IEEE rounding is symmetric).
+pub fn axis_pitches_rad(q: &UnitQuaternion<f64>) -> [f64; 3] {
+    [Vector3::x(), Vector3::y(), Vector3::z()].map(|e| elevation_rad(&(q * e)))
 }
 
 /// World elevation of the sensor axis `axis`, rad, smoothed (NaN where missing).

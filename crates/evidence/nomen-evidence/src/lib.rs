@@ -31,12 +31,12 @@ pub mod signal;
 pub mod window;
 
 pub use belmonte::{
-    BandSignals, BelmonteConfig, BelmonteCosts, ForearmSignals, SensorAxis, Side, belmonte_costs,
-    belmonte_costs_from,
+    BandSignals, BelmonteConfig, BelmonteCosts, ForearmSignals, SensorAxis, Side, axis_pitches_rad,
+    belmonte_costs, belmonte_costs_from,
 };
 pub use features::{
-    HorizontalCross, ImuFeatures, SegmentFeatures, compare_features, horizontal_cross,
-    imu_lag_models, segment_lag_models, segment_site_lag_models,
+    HorizontalCross, ImuFeatures, SegmentFeatures, axis_elevations_rad, compare_features,
+    horizontal_cross, imu_lag_models, segment_lag_models, segment_site_lag_models,
 };
 pub use fusion::{Fusion, FusionConfig, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{

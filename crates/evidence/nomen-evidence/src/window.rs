@@ -19,6 +19,22 @@ pub struct ImuWindow {
     pub world_from_sensor: Vec<UnitQuaternion<f64>>,
 }
 
+impl ImuWindow {
+    /// The window from grid point `from` on (empty past the end).
+    pub fn tail(&self, from: usize) -> ImuWindow {
+        fn tail<T: Clone>(v: &[T], from: usize) -> Vec<T> {
+            v.get(from..).unwrap_or(&[]).to_vec()
+        }
+        ImuWindow {
+            device: self.device.clone(),
+            t_s: tail(&self.t_s, from),
+            accel_mps2: tail(&self.accel_mps2, from),
+            gyro_radps: tail(&self.gyro_radps, from),
+            world_from_sensor: tail(&self.world_from_sensor, from),
+        }
+    }
+}
+
 /// One camera track over one window, on the same grid as the [`ImuWindow`] it is compared with.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct SkeletonWindow {

@@ -286,7 +286,7 @@ fn belmonte_costs_are_lower_for_the_wearer() {
 }
 
 #[test]
-fn a_bands_six_axis_pitches_are_three_computed_and_three_negated_exactly() {
+fn a_bands_six_axis_pitches_from_three_per_sample_equal_each_axis_computed_alone() {
     let t_s = grid(200);
     let cfg = BelmonteConfig::default();
     let imu = imu_window(&ALICE, &t_s, 0.0);

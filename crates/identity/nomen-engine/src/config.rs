@@ -770,6 +770,13 @@ impl EngineConfig {
         Ok(())
     }
 
+    /// Whether windows score Belmonte-Hernández's band costs: alone
+    /// ([`MotionScore::Belmonte`]) or weighted into nomen's score.
+    pub fn wants_belmonte(&self) -> bool {
+        self.motion_score == MotionScore::Belmonte
+            || (self.motion_score == MotionScore::Nomen && self.model_weights.belmonte > 0.0)
+    }
+
     /// Worst-case latency from an observation's time to its output, s, while every source keeps
     /// sending: `decision_delay_s + hop_s + reorder_window_s`. A silent source adds at most
     /// `silence_timeout_s`.

@@ -20,6 +20,8 @@ use nomen_core::{
     TagCorrection, TrackId,
 };
 use nomen_evidence::PairScorer;
+use nomen_evidence::belmonte::axis_pitches_rad;
+use nomen_evidence::features::axis_elevations_rad;
 use nomen_filters::kalman::JointKalman;
 use nomen_filters::median;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
@@ -144,6 +146,16 @@ struct ImuState {
     gyro: VecDeque<Vector3<f64>>,
     /// Madgwick's `world_from_sensor` after each sample.
     world_from_sensor: VecDeque<UnitQuaternion<f64>>,
+    /// Per sample, the elevation of the sensor's axes
+    /// ([`nomen_evidence::features::axis_elevations_rad`] of `world_from_sensor`), which every
+    /// window grid that takes the sample's orientation reads.
+    axis_elevation_rad: VecDeque<[f64; 3]>,
+    /// Whether windows build Belmonte-Hernández's band signals for this IMU (a forearm site,
+    /// and [`EngineConfig::wants_belmonte`]).
+    wants_band_pitch: bool,
+    /// Per sample when `wants_band_pitch` (empty otherwise), the band pitches of the sensor's
+    /// +axes ([`nomen_evidence::belmonte::axis_pitches_rad`]).
+    axis_pitch_rad: VecDeque<[f64; 3]>,
     /// Settled samples forgotten so far: the stream index of `t[0]`.
     num_forgotten: usize,
     /// The lag search's signals kept from one window to the next.
@@ -232,6 +244,8 @@ impl ImuState {
         self.accel.make_contiguous();
         self.gyro.make_contiguous();
         self.world_from_sensor.make_contiguous();
+        self.axis_elevation_rad.make_contiguous();
+        self.axis_pitch_rad.make_contiguous();
     }
 
     fn pop_front(&mut self) {
@@ -241,6 +255,8 @@ impl ImuState {
         self.accel.pop_front();
         self.gyro.pop_front();
         self.world_from_sensor.pop_front();
+        self.axis_elevation_rad.pop_front();
+        self.axis_pitch_rad.pop_front();
     }
 
     fn newest_session(&self) -> Option<i64> {
@@ -390,6 +406,10 @@ impl Engine {
                     accel: VecDeque::new(),
                     gyro: VecDeque::new(),
                     world_from_sensor: VecDeque::new(),
+                    axis_elevation_rad: VecDeque::new(),
+                    wants_band_pitch: config.wants_belmonte()
+                        && scoring::band_side(w.site).is_some(),
+                    axis_pitch_rad: VecDeque::new(),
                     num_forgotten: 0,
                     lag_memo: ImuLagMemo::default(),
                     newest: None,
@@ -1071,6 +1091,10 @@ fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
         imu.accel.push_back(accel);
         imu.gyro.push_back(gyro);
         imu.world_from_sensor.push_back(q);
+        imu.axis_elevation_rad.push_back(axis_elevations_rad(&q));
+        if imu.wants_band_pitch {
+            imu.axis_pitch_rad.push_back(axis_pitches_rad(&q));
+        }
     }
 }
 

@@ -23,7 +23,8 @@ pub(crate) fn nan_quaternion() -> UnitQuaternion<f64> {
 /// accelerations and rates interpolated linearly, the orientation of the nearer sample. Only
 /// samples before device time `until_ns` are used (the settled ones, so the result does not
 /// depend on arrival order). A grid point whose neighbouring samples are more than `max_gap_ns`
-/// apart (a dropout) or outside the samples used is missing (`NaN`).
+/// apart (a dropout) or outside the samples used is missing (`NaN`). `orientation_from` gets,
+/// per grid point, the index of the sample whose orientation it took (`None` where missing).
 pub(crate) fn imu_window_on_grid(
     imu: &ImuSeries<'_>,
     offset_ns: i64,
@@ -31,7 +32,10 @@ pub(crate) fn imu_window_on_grid(
     max_gap_ns: i64,
     until_ns: i64,
     out: &mut ImuWindow,
+    orientation_from: &mut Vec<Option<usize>>,
 ) {
+    orientation_from.clear();
+    orientation_from.reserve(grid_ns.len());
     out.t_s.clear();
     out.accel_mps2.clear();
     out.gyro_radps.clear();
@@ -45,7 +49,15 @@ pub(crate) fn imu_window_on_grid(
         .min(imu.world_from_sensor.len());
     let n = n.min(imu.t_ns.partition_point(|&t| t < until_ns));
     let t = imu.t_ns.get(..n).unwrap_or(&[]);
-    let mut k = 0usize;
+    out.t_s.reserve(grid_ns.len());
+    out.accel_mps2.reserve(grid_ns.len());
+    out.gyro_radps.reserve(grid_ns.len());
+    out.world_from_sensor.reserve(grid_ns.len());
+    // Start the walk at the first grid time's place: the settled samples reach back over the
+    // whole offset buffer (about 16 s), the grid over one window.
+    let mut k = grid_ns
+        .first()
+        .map_or(0, |&g| t.partition_point(|&s| s < g - offset_ns));
     for &g in grid_ns {
         out.t_s.push(g as f64 * 1e-9);
         let d = g - offset_ns;
@@ -66,13 +78,12 @@ pub(crate) fn imu_window_on_grid(
                     .push(imu.accel_mps2[a] * (1.0 - f) + imu.accel_mps2[b] * f);
                 out.gyro_radps
                     .push(imu.gyro_radps[a] * (1.0 - f) + imu.gyro_radps[b] * f);
-                out.world_from_sensor.push(if f < 0.5 {
-                    imu.world_from_sensor[a]
-                } else {
-                    imu.world_from_sensor[b]
-                });
+                let nearer = if f < 0.5 { a } else { b };
+                out.world_from_sensor.push(imu.world_from_sensor[nearer]);
+                orientation_from.push(Some(nearer));
             }
             None => {
+                orientation_from.push(None);
                 out.accel_mps2.push(nan);
                 out.gyro_radps.push(nan);
                 out.world_from_sensor.push(nan_quaternion());
@@ -403,6 +414,69 @@ mod tests {
         // A shift of +10 reads the sample 10 earlier.
         interpolate(&t, &v, 10, &[20], 20, &mut out);
         assert!((out[0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_grid_takes_the_nearer_samples_orientation_and_reports_which() {
+        // 100 Hz for 20 s with a 0.3 s dropout at 15 s; each sample's orientation is a turn by
+        // its index, so the one a grid point took is recognisable.
+        let t_ns: Vec<i64> = (0..2000i64)
+            .map(|k| k * 10_000_000)
+            .filter(|t| !(15_000_000_000..15_300_000_000).contains(t))
+            .collect();
+        let accel: Vec<Vector3<f64>> = (0..t_ns.len()).map(|k| Vector3::repeat(k as f64)).collect();
+        let q: Vec<UnitQuaternion<f64>> = (0..t_ns.len())
+            .map(|k| UnitQuaternion::from_euler_angles(0.0, 0.0, k as f64 * 1e-3))
+            .collect();
+        let series = ImuSeries {
+            t_ns: &t_ns,
+            accel_mps2: &accel,
+            gyro_radps: &accel,
+            world_from_sensor: &q,
+        };
+        // A 30 Hz grid over 14–16 s of session time, the device 2 ms behind.
+        let offset_ns = 2_000_000;
+        let grid: Vec<i64> = (0..60).map(|k| 14_000_000_000 + k * 33_333_333).collect();
+        let (mut win, mut from) = (ImuWindow::default(), Vec::new());
+        imu_window_on_grid(
+            &series,
+            offset_ns,
+            &grid,
+            50_000_000,
+            i64::MAX,
+            &mut win,
+            &mut from,
+        );
+        assert_eq!((win.t_s.len(), from.len()), (grid.len(), grid.len()));
+        let mut num_missing = 0;
+        for ((&g, k), q_grid) in grid.iter().zip(&from).zip(&win.world_from_sensor) {
+            let d = g - offset_ns;
+            match k {
+                Some(k) => {
+                    // The sample nearest to the device time, and its very orientation.
+                    let nearest = (0..t_ns.len())
+                        .min_by_key(|&i| (t_ns[i] - d).abs())
+                        .unwrap();
+                    assert_eq!(*k, nearest, "grid time {g}");
+                    assert_eq!(q_grid, &q[*k]);
+                }
+                None => {
+                    // Only inside the dropout, between samples 0.31 s apart.
+                    assert!(d > 14_990_000_000 && d < 15_300_000_000, "grid time {g}");
+                    assert!(q_grid.coords.iter().all(|c| c.is_nan()));
+                    num_missing += 1;
+                }
+            }
+        }
+        assert!(num_missing >= 8, "{num_missing} grid points in the dropout");
+        // The settled limit cuts the samples used, wherever the walk starts.
+        let until = 14_500_000_000;
+        imu_window_on_grid(
+            &series, offset_ns, &grid, 50_000_000, until, &mut win, &mut from,
+        );
+        let used = grid.iter().zip(&from).filter(|(_, k)| k.is_some());
+        assert!(used.clone().all(|(&g, _)| g - offset_ns < until));
+        assert!(used.count() >= 14);
     }
 
     #[test]

@@ -280,7 +280,7 @@ fn parse_leading_type(text: &[u8], scratch: &mut Vec<u8>) -> Option<Message> {
     };
     let rest = text.get(prefix.len()..)?;
     // A second `type` key: the generic path decides what that means.
-    if rest.windows(6).any(|w| w == br#""type""#) {
+    if memchr::memmem::find(rest, br#""type""#).is_some() {
         return None;
     }
     scratch.clear();

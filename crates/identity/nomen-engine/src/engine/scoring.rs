@@ -17,7 +17,7 @@ use nomen_evidence::{
     SkeletonWindow, belmonte_costs_from, body_turn_rate_signal, compare_features, fuse,
     horizontal_cross,
 };
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 
 impl Engine {
     /// Scores this window: per camera, a [`ScoreTensor`] of De Marchi's correlations of every
@@ -48,9 +48,6 @@ impl Engine {
                 (!imus.is_empty() && newest > i64::MIN && newest < start).then_some((b, newest))
             })
             .collect();
-        let wants_belmonte = self.config.motion_score == MotionScore::Belmonte
-            || (self.config.motion_score == MotionScore::Nomen
-                && self.config.model_weights.belmonte > 0.0);
         let wants_heading = self.config.motion_score == MotionScore::Nomen
             && self.config.model_weights.heading > 0.0;
         // Each IMU's heading where its estimate is coherent enough (the phase of its cross
@@ -63,11 +60,11 @@ impl Engine {
             end,
             min_span,
             sites,
-            wants_belmonte,
             wants_heading,
             headings,
             grids: Vec::new(),
             imu_cache: BTreeMap::new(),
+            imu_bases: BTreeMap::new(),
             heading_updates: Vec::new(),
         };
         for c in 0..self.cameras.len() {
@@ -190,11 +187,11 @@ impl Engine {
         let start = window.start;
         let end = window.end;
         let min_span = window.min_span;
-        let wants_belmonte = window.wants_belmonte;
         let wants_heading = window.wants_heading;
         let headings = &window.headings;
         let grids = &mut window.grids;
         let imu_cache = &mut window.imu_cache;
+        let imu_bases = &mut window.imu_bases;
         let heading_updates = &mut window.heading_updates;
         let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &window.sites);
         let mut device_scores: Vec<((usize, TrackId), usize, f64)> = Vec::new();
@@ -213,10 +210,8 @@ impl Engine {
             // window share one grid, so an IMU's window and features are built once per
             // (grid, offset), and a track's once per site.
             let first = tr.samples.get(a).map_or(start, |s| s.t);
-            let grid: Vec<i64> = frame_times
-                .get(frame_times.partition_point(|&t| t < first)..)
-                .unwrap_or(&[])
-                .to_vec();
+            let grid_from = frame_times.partition_point(|&t| t < first);
+            let grid: Vec<i64> = frame_times.get(grid_from..).unwrap_or(&[]).to_vec();
             let mut samples = tr.samples.range(a..b).peekable();
             let joints_world_m = grid
                 .iter()
@@ -231,13 +226,15 @@ impl Engine {
                 t_s: grid.iter().map(|&t| t as f64 * 1e-9).collect(),
                 joints_world_m,
             };
-            let grid_index = match grids.iter().position(|g| *g == grid) {
+            let mut index_of = |grid: &[i64]| match grids.iter().position(|g| g == grid) {
                 Some(g) => g,
                 None => {
-                    grids.push(grid.clone());
+                    grids.push(grid.to_vec());
                     grids.len() - 1
                 }
             };
+            let grid_index = index_of(&grid);
+            let camera_grid_index = index_of(frame_times);
             let mut segments: Vec<(Joint, SegmentFeatures)> = Vec::new();
             // The body's turn rate, the same for every site: computed once per track.
             let mut turn_rate: Option<Vec<f64>> = None;
@@ -245,23 +242,55 @@ impl Engine {
             let mut arms: Vec<(Side, ForearmSignals)> = Vec::new();
             for (i, imu) in self.imus.iter().enumerate() {
                 // The IMU's window and features at `offset` on this grid.
-                let build = |offset: i64| {
-                    let mut win = ImuWindow::default();
-                    // Settled samples only: device times before `end` on the current clock
-                    // estimate.
-                    imu_window_on_grid(
-                        &imu.series(),
-                        offset,
-                        &grid,
-                        MAX_IMU_GAP_NS,
-                        (end - imu.offset_ns).min(imu.settled_until_ns),
-                        &mut win,
+                // The IMU's window and features at `offset` on this grid, a suffix of the
+                // camera's: the resampled samples are sliced from the camera grid's.
+                let mut build = |offset: i64| {
+                    let base = imu_bases
+                        .entry((i, offset, camera_grid_index))
+                        .or_insert_with(|| {
+                            let mut window = ImuWindow::default();
+                            let mut orientation_from = Vec::new();
+                            // Settled samples only: device times before `end` on the current
+                            // clock estimate.
+                            imu_window_on_grid(
+                                &imu.series(),
+                                offset,
+                                frame_times,
+                                MAX_IMU_GAP_NS,
+                                (end - imu.offset_ns).min(imu.settled_until_ns),
+                                &mut window,
+                                &mut orientation_from,
+                            );
+                            window.device = Some(imu.device.clone());
+                            ImuBase {
+                                window,
+                                orientation_from,
+                            }
+                        });
+                    let win = base.window.tail(grid_from);
+                    let orientation_from = base.orientation_from.get(grid_from..).unwrap_or(&[]);
+                    // The orientation's per-sample terms, computed when the samples settled.
+                    let terms = |of: &VecDeque<[f64; 3]>| -> Vec<[f64; 3]> {
+                        let of = of.as_slices().0;
+                        orientation_from
+                            .iter()
+                            .map(|k| k.and_then(|k| of.get(k)).copied())
+                            .map(|v| v.unwrap_or([f64::NAN; 3]))
+                            .collect()
+                    };
+                    let features = ImuFeatures::with_axis_elevations(
+                        &win,
+                        &terms(&imu.axis_elevation_rad),
+                        &self.config.geometric,
+                        &self.config.kinematic,
                     );
-                    win.device = Some(imu.device.clone());
-                    let features =
-                        ImuFeatures::new(&win, &self.config.geometric, &self.config.kinematic);
-                    let band = (wants_belmonte && band_side(imu.site).is_some())
-                        .then(|| BandSignals::new(&win, &self.config.belmonte));
+                    let band = imu.wants_band_pitch.then(|| {
+                        BandSignals::with_axis_pitches(
+                            &win,
+                            &terms(&imu.axis_pitch_rad),
+                            &self.config.belmonte,
+                        )
+                    });
                     (win, features, band)
                 };
                 let hypotheses: &[i64] = if imu.is_offset_known {
@@ -461,7 +490,6 @@ struct WindowScoring {
     min_span: i64,
     /// The IMUs' sites, sorted, once each: the tensor's columns per subject.
     sites: Vec<Joint>,
-    wants_belmonte: bool,
     wants_heading: bool,
     /// Each IMU's heading where its estimate is coherent enough.
     headings: Vec<Option<[f64; 2]>>,
@@ -470,9 +498,20 @@ struct WindowScoring {
     /// An IMU's window and features per (IMU, offset, grid): cameras that share frame times
     /// (hardware-synchronised rigs) share them too.
     imu_cache: ImuFeatureCache,
+    /// An IMU resampled onto a camera's whole grid per (IMU, offset, grid index), which the
+    /// grids of tracks first seen inside the window (suffixes of it) slice.
+    imu_bases: BTreeMap<(usize, i64, usize), ImuBase>,
     /// This window's normalised cross sums `(IMU, (re, im))` against the tracks labelled with
     /// the IMU's wearer.
     heading_updates: Vec<(usize, [f64; 2])>,
+}
+
+/// An IMU resampled onto a camera's grid of one window at one offset
+/// ([`imu_window_on_grid`]).
+struct ImuBase {
+    window: ImuWindow,
+    /// Per grid point, the IMU sample whose orientation it took.
+    orientation_from: Vec<Option<usize>>,
 }
 
 /// One camera's pair scores in a window ([`Engine::score_camera_pairs`]).
