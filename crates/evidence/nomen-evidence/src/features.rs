@@ -19,9 +19,9 @@ use crate::kinematic::{
     imu_swing_every, imu_turn_rate_signal, imu_vertical_velocity, joint_vertical_velocity,
     lag_samples, segment_swing,
 };
-use crate::signal::{Derivative, moving_average, pearson};
+use crate::signal::{Derivative, finite_runs, moving_average, pearson};
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
-use nalgebra::UnitQuaternion;
+use nalgebra::{UnitQuaternion, Vector3};
 use nomen_core::skeleton::Joint;
 
 /// The IMU side of every model, on its window's grid (`NaN` where missing).
@@ -56,19 +56,28 @@ impl ImuFeatures {
             .iter()
             .map(axis_elevations_rad)
             .collect();
-        Self::with_axis_elevations(imu, &elevations, geo, kin)
+        Self::from_parts(
+            imu,
+            &imu_linear_accel_world(imu, geo),
+            &elevations,
+            geo,
+            kin,
+        )
     }
 
-    /// [`ImuFeatures::new`] with each orientation's [`axis_elevations_rad`] given (in order): a
-    /// caller resampling the same IMU samples onto many grids computes them once per sample.
+    /// [`ImuFeatures::new`] from two parts built beforehand, for a caller that resamples the
+    /// same IMU samples onto many grids: `lin_world_mps2`, the world linear acceleration on
+    /// this window's grid, low-passed ([`imu_linear_accel_world`] of this window, or of a
+    /// longer one that this window ends, sliced), and each orientation's
+    /// [`axis_elevations_rad`], in order (computed once per IMU sample). A linear acceleration
+    /// whose length is not the window's counts as missing.
     ///
-    /// The linear acceleration is still low-passed here, over this window: the skeleton side is
-    /// filtered over the same span, and the two must start alike. Slicing it from a longer
-    /// window filtered once instead (a track first seen inside the window, sliced from the
-    /// camera's whole grid) cost 0.70 ± 0.35 points of accuracy per run over the 138 runs of
-    /// the engine README.
-    pub fn with_axis_elevations(
+    /// A sliced acceleration is filtered from before the window's start, where the skeleton's
+    /// is not (its low-pass starts with the track): compare it with a skeleton whose run
+    /// edges are dropped ([`SegmentFeatures::drop_run_edges`]).
+    pub fn from_parts(
         imu: &ImuWindow,
+        lin_world_mps2: &[Vector3<f64>],
         elevations: &[[f64; 3]],
         geo: &GeometricConfig,
         kin: &KinematicConfig,
@@ -77,19 +86,26 @@ impl ImuFeatures {
             moving_average(&mut v, geo.moving_average_len);
             v
         };
-        let lin = imu_linear_accel_world(imu, geo);
+        let n = imu.t_s.len();
+        let missing;
+        let lin = if lin_world_mps2.len() == n {
+            lin_world_mps2
+        } else {
+            missing = vec![Vector3::repeat(f64::NAN); n];
+            &missing
+        };
         let mut axis_elevation: [Vec<f64>; 3] = Default::default();
         for (k, axis) in axis_elevation.iter_mut().enumerate() {
             axis.extend(elevations.iter().map(|e| e[k]));
         }
         let [ex, ey, ez] = axis_elevation;
         ImuFeatures {
-            accel_magnitude: smoothed_norms(&lin, geo),
-            velocity_magnitude: imu_velocity_magnitude_from(imu, &lin, geo),
+            accel_magnitude: smoothed_norms(lin, geo),
+            velocity_magnitude: imu_velocity_magnitude_from(imu, lin, geo),
             orientation_magnitude: imu_orientation_magnitude(imu, geo),
             swing: smooth(imu_swing(imu, lag_samples(&imu.t_s, kin))),
             vertical_accel: smooth(lin.iter().map(|a| a.z).collect()),
-            vertical_velocity: smooth(imu_vertical_velocity(imu, &lin, geo)),
+            vertical_velocity: smooth(imu_vertical_velocity(imu, lin, geo)),
             axis_elevation: [smooth(ex), smooth(ey), smooth(ez)],
             turn_rate: imu_turn_rate_signal(imu, kin),
             horizontal_accel: [
@@ -207,6 +223,45 @@ impl SegmentFeatures {
             elevation: smooth(elevation),
             turn_rate,
             horizontal_accel: [accel_axis(0), accel_axis(1)],
+        }
+    }
+
+    /// Drops (sets to `NaN`) the signals the low-pass shapes (acceleration, velocity and their
+    /// vertical and horizontal parts) within `samples` of where a run of present samples starts
+    /// or ends inside the grid: there the filter starts from the skeleton's first sample or
+    /// stops at its last, while an IMU filtered over a longer span (see
+    /// [`ImuFeatures::from_parts`]) has settled. A run starting at the grid's first sample
+    /// keeps its start when `keep_grid_start` (the IMU's filter starts there too); every run
+    /// keeps its end at the grid's last sample.
+    pub fn drop_run_edges(&mut self, samples: usize, keep_grid_start: bool) {
+        if samples == 0 {
+            return;
+        }
+        let [hx, hy] = &mut self.horizontal_accel;
+        for v in [
+            &mut self.accel_magnitude,
+            &mut self.velocity_magnitude,
+            &mut self.vertical_accel,
+            &mut self.vertical_velocity,
+            hx,
+            hy,
+        ] {
+            let n = v.len();
+            for run in finite_runs(n, |i| v[i].is_finite()) {
+                let (a, b) = (run.start, run.end);
+                let head = if a == 0 && keep_grid_start {
+                    a
+                } else {
+                    (a + samples).min(b)
+                };
+                let tail = if b == n {
+                    b
+                } else {
+                    b.saturating_sub(samples).max(head)
+                };
+                v[a..head].fill(f64::NAN);
+                v[tail..b].fill(f64::NAN);
+            }
         }
     }
 
@@ -498,6 +553,109 @@ mod tests {
             joints_world_m: joints,
         };
         (imu, skel)
+    }
+
+    #[test]
+    fn features_from_a_windows_sliced_acceleration_differ_from_its_own_only_near_its_start() {
+        let (imu, _) = windows();
+        let geo = GeometricConfig::default();
+        let kin = KinematicConfig::default();
+        let elevations: Vec<[f64; 3]> = imu
+            .world_from_sensor
+            .iter()
+            .map(axis_elevations_rad)
+            .collect();
+        // A window's own parts give `new`'s features.
+        let own = ImuFeatures::from_parts(
+            &imu,
+            &imu_linear_accel_world(&imu, &geo),
+            &elevations,
+            &geo,
+            &kin,
+        );
+        assert_eq!(
+            own.accel_magnitude,
+            ImuFeatures::new(&imu, &geo, &kin).accel_magnitude
+        );
+        // The last 60 samples with the acceleration sliced from the whole window: the
+        // horizontal acceleration (no reference) is the whole window's there, exactly, and
+        // differs from the tail filtered on its own near the tail's start only.
+        let tail = imu.tail(60);
+        let sliced_lin = &imu_linear_accel_world(&imu, &geo)[60..];
+        let sliced = ImuFeatures::from_parts(&tail, sliced_lin, &elevations[60..], &geo, &kin);
+        let alone = ImuFeatures::new(&tail, &geo, &kin);
+        let ma = geo.moving_average_len;
+        assert_eq!(
+            sliced.horizontal_accel[0][ma..],
+            own.horizontal_accel[0][60 + ma..]
+        );
+        let gap = |k: usize| (sliced.horizontal_accel[0][k] - alone.horizontal_accel[0][k]).abs();
+        assert!(
+            gap(ma) > 1e-4,
+            "the tail's own filter starts there: {}",
+            gap(ma)
+        );
+        assert!(gap(45) < 0.1 * gap(ma), "{} vs {}", gap(45), gap(ma));
+        // An acceleration of another length counts as missing.
+        let short = ImuFeatures::from_parts(&imu, &sliced_lin[..10], &elevations, &geo, &kin);
+        assert!(short.accel_magnitude.iter().all(|v| v.is_nan()));
+        assert_eq!(short.orientation_magnitude, own.orientation_magnitude);
+    }
+
+    #[test]
+    fn a_skeletons_run_edges_inside_the_grid_are_dropped_from_the_low_passed_signals() {
+        // Ten samples: a run 0..4, a gap at 4, a run 5..10 (reaching the grid's end).
+        let signal: Vec<f64> = (0..10)
+            .map(|k| if k == 4 { f64::NAN } else { k as f64 })
+            .collect();
+        let fresh = || SegmentFeatures {
+            accel_magnitude: signal.clone(),
+            velocity_magnitude: signal.clone(),
+            orientation_magnitude: signal.clone(),
+            swing: signal.clone(),
+            vertical_accel: signal.clone(),
+            vertical_velocity: signal.clone(),
+            elevation: signal.clone(),
+            turn_rate: signal.clone(),
+            horizontal_accel: [signal.clone(), signal.clone()],
+        };
+        let present =
+            |v: &[f64]| -> Vec<usize> { (0..v.len()).filter(|&k| v[k].is_finite()).collect() };
+        // The grid's start kept: the first run loses its last two samples (before the gap),
+        // the second its first two; the grid's end is kept.
+        let mut seg = fresh();
+        seg.drop_run_edges(2, true);
+        for v in [
+            &seg.accel_magnitude,
+            &seg.velocity_magnitude,
+            &seg.vertical_accel,
+            &seg.vertical_velocity,
+            &seg.horizontal_accel[0],
+            &seg.horizontal_accel[1],
+        ] {
+            assert_eq!(present(v), vec![0, 1, 7, 8, 9]);
+        }
+        // Signals the low-pass does not shape are untouched.
+        for v in [
+            &seg.orientation_magnitude,
+            &seg.swing,
+            &seg.elevation,
+            &seg.turn_rate,
+        ] {
+            assert_eq!(present(v), present(&signal));
+        }
+        // A track first seen inside the window: its start goes too; a run shorter than the
+        // edges goes entirely.
+        let mut seg = fresh();
+        seg.drop_run_edges(2, false);
+        assert_eq!(present(&seg.accel_magnitude), vec![7, 8, 9]);
+        let mut seg = fresh();
+        seg.drop_run_edges(3, false);
+        assert_eq!(present(&seg.vertical_accel), vec![8, 9]);
+        // Nothing dropped at zero samples.
+        let mut seg = fresh();
+        seg.drop_run_edges(0, false);
+        assert_eq!(present(&seg.vertical_velocity), present(&signal));
     }
 
     #[test]

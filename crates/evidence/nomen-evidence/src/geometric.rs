@@ -126,8 +126,10 @@ fn is_imu_consistent(imu: &ImuWindow) -> bool {
     imu.accel_mps2.len() == n && imu.world_from_sensor.len() == n
 }
 
-/// Linear acceleration in the world frame, low-passed (NaN where missing).
-pub(crate) fn imu_linear_accel_world(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<Vector3<f64>> {
+/// Linear acceleration in the world frame on the window's grid, m/s²: gravity removed with
+/// `world_from_sensor`, each world axis zero-phase low-passed (De Marchi's 3 Hz). `NaN` where
+/// missing; all `NaN` if the window is inconsistent or too short to filter.
+pub fn imu_linear_accel_world(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<Vector3<f64>> {
     let n = imu.t_s.len();
     let (Some(rate), true) = (grid_rate_hz(&imu.t_s), is_imu_consistent(imu)) else {
         return vec![nan3(); n];

@@ -41,8 +41,8 @@ pub use features::{
 pub use fusion::{Fusion, FusionConfig, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{
     GeometricConfig, carrying_segment, geometric_scores, imu_accel_magnitude,
-    imu_orientation_magnitude, imu_velocity_magnitude, joint_accel_magnitude,
-    joint_velocity_magnitude, segment_orientation_magnitude,
+    imu_linear_accel_world, imu_orientation_magnitude, imu_velocity_magnitude,
+    joint_accel_magnitude, joint_velocity_magnitude, segment_orientation_magnitude,
 };
 pub use kinematic::{
     KinematicConfig, KinematicScores, body_turn_rate_signal, imu_swing_signal,

@@ -9,13 +9,14 @@ use crate::config::MotionScore;
 use crate::signal::imu_window_on_grid;
 use crate::stats::HeadingEstimate;
 use crate::tags::{MAX_PAIR_DT_NS, TagState, fix_similarity};
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 use nomen_core::skeleton::Joints;
 use nomen_core::{Joint, TrackId};
+use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
     BandSignals, ForearmSignals, ImuFeatures, ImuWindow, ScoreTensor, SegmentFeatures, Side,
     SkeletonWindow, belmonte_costs_from, body_turn_rate_signal, compare_features, fuse,
-    horizontal_cross,
+    horizontal_cross, imu_linear_accel_world,
 };
 use std::collections::{BTreeMap, VecDeque};
 
@@ -235,6 +236,9 @@ impl Engine {
             };
             let grid_index = index_of(&grid);
             let camera_grid_index = index_of(frame_times);
+            // The skeleton's samples next to a run edge that the IMU's filter does not share.
+            let run_edge_samples =
+                grid_rate_hz(&skel.t_s).map_or(0, |rate| (RUN_EDGE_S * rate).round() as usize);
             let mut segments: Vec<(Joint, SegmentFeatures)> = Vec::new();
             // The body's turn rate, the same for every site: computed once per track.
             let mut turn_rate: Option<Vec<f64>> = None;
@@ -243,7 +247,9 @@ impl Engine {
             for (i, imu) in self.imus.iter().enumerate() {
                 // The IMU's window and features at `offset` on this grid.
                 // The IMU's window and features at `offset` on this grid, a suffix of the
-                // camera's: the resampled samples are sliced from the camera grid's.
+                // camera's: the resampled samples and the low-passed linear acceleration are
+                // sliced from the camera grid's (filtered from the window's start, so the
+                // skeleton's run edges are dropped below).
                 let mut build = |offset: i64| {
                     let base = imu_bases
                         .entry((i, offset, camera_grid_index))
@@ -262,9 +268,12 @@ impl Engine {
                                 &mut orientation_from,
                             );
                             window.device = Some(imu.device.clone());
+                            let lin_world_mps2 =
+                                imu_linear_accel_world(&window, &self.config.geometric);
                             ImuBase {
                                 window,
                                 orientation_from,
+                                lin_world_mps2,
                             }
                         });
                     let win = base.window.tail(grid_from);
@@ -278,8 +287,9 @@ impl Engine {
                             .map(|v| v.unwrap_or([f64::NAN; 3]))
                             .collect()
                     };
-                    let features = ImuFeatures::with_axis_elevations(
+                    let features = ImuFeatures::from_parts(
                         &win,
+                        base.lin_world_mps2.get(grid_from..).unwrap_or(&[]),
                         &terms(&imu.axis_elevation_rad),
                         &self.config.geometric,
                         &self.config.kinematic,
@@ -310,16 +320,15 @@ impl Engine {
                                 body_turn_rate_signal(&skel, &self.config.kinematic)
                             })
                             .clone();
-                        segments.push((
+                        let mut features = SegmentFeatures::with_turn_rate(
+                            &skel,
                             imu.site,
-                            SegmentFeatures::with_turn_rate(
-                                &skel,
-                                imu.site,
-                                &self.config.geometric,
-                                &self.config.kinematic,
-                                turn,
-                            ),
-                        ));
+                            &self.config.geometric,
+                            &self.config.kinematic,
+                            turn,
+                        );
+                        features.drop_run_edges(run_edge_samples, grid_from == 0);
+                        segments.push((imu.site, features));
                         segments.len() - 1
                     }
                 };
@@ -507,12 +516,23 @@ struct WindowScoring {
 }
 
 /// An IMU resampled onto a camera's grid of one window at one offset
-/// ([`imu_window_on_grid`]).
+/// ([`imu_window_on_grid`]), with its low-passed world linear acceleration.
 struct ImuBase {
     window: ImuWindow,
     /// Per grid point, the IMU sample whose orientation it took.
     orientation_from: Vec<Option<usize>>,
+    lin_world_mps2: Vec<Vector3<f64>>,
 }
+
+/// How much of a skeleton run's low-passed signals is dropped next to its edges inside the
+/// window, s ([`SegmentFeatures::drop_run_edges`]): a track first seen inside the window is
+/// compared with the IMU's linear acceleration sliced from the camera's whole grid, which the
+/// filter has settled on there while the skeleton's starts, and a track hidden for a while
+/// restarts its filter after the gap. The zero-phase 3 Hz low-pass settles within about
+/// 0.2 s. Over the 138 runs of the README, dropping them with the IMU filtered per grid moved
+/// accuracy by +0.32 ± 0.34 points per run; slicing then cost nothing more (−0.02 ± 0.04),
+/// while slicing without dropping cost 0.70 ± 0.35.
+const RUN_EDGE_S: f64 = 0.2;
 
 /// One camera's pair scores in a window ([`Engine::score_camera_pairs`]).
 struct CameraScores {
