@@ -91,7 +91,10 @@
 //!    [`EngineConfig::offset_hypotheses`] best tracks of its subject; while no track is long
 //!    enough for the search, as at a session's start, a track of at least
 //!    [`EngineConfig::offset_short_track_s`] at its own peak when clear, read up to the
-//!    window's end rather than where the search's buffer stops) and scored as
+//!    window's end rather than where the search's buffer stops; a track first seen inside the
+//!    window takes the IMU resampled onto the camera's whole grid and low-passed there, sliced,
+//!    and its own low-passed signals drop 0.2 s next to run edges inside the window, where its
+//!    filter starts or stops and the IMU's does not) and scored as
 //!    [`EngineConfig::motion_score`] says: De Marchi's correlations fused by
 //!    [`EngineConfig::fusion`], Belmonte-Hernández's costs, or (default) the weighted mean of
 //!    De Marchi's and nomen's correlations (`nomen_evidence::kinematic`) and, for forearm bands,
