@@ -245,7 +245,6 @@ impl Engine {
             // The skeleton side of Belmonte's costs, per band side.
             let mut arms: Vec<(Side, ForearmSignals)> = Vec::new();
             for (i, imu) in self.imus.iter().enumerate() {
-                // The IMU's window and features at `offset` on this grid.
                 // The IMU's window and features at `offset` on this grid, a suffix of the
                 // camera's: the resampled samples and the low-passed linear acceleration are
                 // sliced from the camera grid's (filtered from the window's start, so the
