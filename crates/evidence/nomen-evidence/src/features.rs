@@ -19,7 +19,7 @@ use crate::kinematic::{
     imu_swing_every, imu_turn_rate_signal, imu_vertical_velocity, joint_vertical_velocity,
     lag_samples, segment_swing,
 };
-use crate::signal::{Derivative, finite_runs, moving_average, pearson};
+use crate::signal::{Derivative, UnitSignal, finite_runs, moving_average, pearson_prepared};
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
 use nalgebra::{UnitQuaternion, Vector3};
 use nomen_core::skeleton::Joint;
@@ -381,29 +381,156 @@ pub fn compare_features(
     seg: &SegmentFeatures,
     geo: &GeometricConfig,
 ) -> (ModelScores, KinematicScores) {
+    compare_by(imu, None, seg, None, geo)
+}
+
+/// [`compare_features`] with each side's signals prepared once ([`ImuFeatures::units`],
+/// [`SegmentFeatures::units`]): the same scores to rounding, each correlation a dot product
+/// where both signals are complete (every value finite) and [`crate::pearson`] elsewhere.
+pub fn compare_prepared(
+    imu: &ImuFeatures,
+    imu_units: &ImuUnits,
+    seg: &SegmentFeatures,
+    seg_units: &SegmentUnits,
+    geo: &GeometricConfig,
+) -> (ModelScores, KinematicScores) {
+    compare_by(imu, Some(imu_units), seg, Some(seg_units), geo)
+}
+
+/// Each correlated signal of an [`ImuFeatures`] prepared for many correlations
+/// ([`UnitSignal`]; `None` where it is incomplete or constant).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ImuUnits {
+    accel_magnitude: Option<UnitSignal>,
+    velocity_magnitude: Option<UnitSignal>,
+    orientation_magnitude: Option<UnitSignal>,
+    swing: Option<UnitSignal>,
+    vertical_accel: Option<UnitSignal>,
+    vertical_velocity: Option<UnitSignal>,
+    axis_elevation: [Option<UnitSignal>; 3],
+    turn_rate: Option<UnitSignal>,
+}
+
+/// Each correlated signal of a [`SegmentFeatures`] prepared for many correlations
+/// ([`UnitSignal`]; `None` where it is incomplete or constant).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SegmentUnits {
+    accel_magnitude: Option<UnitSignal>,
+    velocity_magnitude: Option<UnitSignal>,
+    orientation_magnitude: Option<UnitSignal>,
+    swing: Option<UnitSignal>,
+    vertical_accel: Option<UnitSignal>,
+    vertical_velocity: Option<UnitSignal>,
+    elevation: Option<UnitSignal>,
+    turn_rate: Option<UnitSignal>,
+}
+
+impl ImuFeatures {
+    /// The correlated signals prepared once, for [`compare_prepared`].
+    pub fn units(&self) -> ImuUnits {
+        let [ex, ey, ez] = &self.axis_elevation;
+        ImuUnits {
+            accel_magnitude: UnitSignal::new(&self.accel_magnitude),
+            velocity_magnitude: UnitSignal::new(&self.velocity_magnitude),
+            orientation_magnitude: UnitSignal::new(&self.orientation_magnitude),
+            swing: UnitSignal::new(&self.swing),
+            vertical_accel: UnitSignal::new(&self.vertical_accel),
+            vertical_velocity: UnitSignal::new(&self.vertical_velocity),
+            axis_elevation: [ex, ey, ez].map(|e| UnitSignal::new(e)),
+            turn_rate: UnitSignal::new(&self.turn_rate),
+        }
+    }
+}
+
+impl SegmentFeatures {
+    /// The correlated signals prepared once, for [`compare_prepared`].
+    pub fn units(&self) -> SegmentUnits {
+        SegmentUnits {
+            accel_magnitude: UnitSignal::new(&self.accel_magnitude),
+            velocity_magnitude: UnitSignal::new(&self.velocity_magnitude),
+            orientation_magnitude: UnitSignal::new(&self.orientation_magnitude),
+            swing: UnitSignal::new(&self.swing),
+            vertical_accel: UnitSignal::new(&self.vertical_accel),
+            vertical_velocity: UnitSignal::new(&self.vertical_velocity),
+            elevation: UnitSignal::new(&self.elevation),
+            turn_rate: UnitSignal::new(&self.turn_rate),
+        }
+    }
+}
+
+/// The body of [`compare_features`] and [`compare_prepared`]: without units, every correlation
+/// is [`crate::pearson`]'s.
+fn compare_by(
+    imu: &ImuFeatures,
+    imu_units: Option<&ImuUnits>,
+    seg: &SegmentFeatures,
+    seg_units: Option<&SegmentUnits>,
+    geo: &GeometricConfig,
+) -> (ModelScores, KinematicScores) {
     if imu.len() != seg.len() || imu.is_empty() {
         return (ModelScores::default(), KinematicScores::default());
     }
-    let corr = |a: &[f64], b: &[f64]| pearson(a, b, geo.min_samples);
+    let corr = |a: &[f64], ua: Option<&UnitSignal>, b: &[f64], ub: Option<&UnitSignal>| {
+        pearson_prepared(a, ua, b, ub, geo.min_samples)
+    };
+    let iu = |f: fn(&ImuUnits) -> &Option<UnitSignal>| imu_units.and_then(|u| f(u).as_ref());
+    let su = |f: fn(&SegmentUnits) -> &Option<UnitSignal>| seg_units.and_then(|u| f(u).as_ref());
     let geometric = ModelScores {
-        acc: corr(&imu.accel_magnitude, &seg.accel_magnitude),
-        vel: corr(&imu.velocity_magnitude, &seg.velocity_magnitude),
-        ori: corr(&imu.orientation_magnitude, &seg.orientation_magnitude),
+        acc: corr(
+            &imu.accel_magnitude,
+            iu(|u| &u.accel_magnitude),
+            &seg.accel_magnitude,
+            su(|u| &u.accel_magnitude),
+        ),
+        vel: corr(
+            &imu.velocity_magnitude,
+            iu(|u| &u.velocity_magnitude),
+            &seg.velocity_magnitude,
+            su(|u| &u.velocity_magnitude),
+        ),
+        ori: corr(
+            &imu.orientation_magnitude,
+            iu(|u| &u.orientation_magnitude),
+            &seg.orientation_magnitude,
+            su(|u| &u.orientation_magnitude),
+        ),
         dl: None,
     };
     // The axis along the segment is unknown (mounting) and its sign flips the correlation's:
     // the largest |r| over the three axes (it lifts wrong pairs a little, the same for all).
+    let elevation_unit = su(|u| &u.elevation);
     let inclination = imu
         .axis_elevation
         .iter()
-        .filter_map(|axis| corr(axis, &seg.elevation).map(f64::abs))
+        .enumerate()
+        .filter_map(|(k, axis)| {
+            let unit = imu_units
+                .and_then(|u| u.axis_elevation.get(k))
+                .and_then(Option::as_ref);
+            corr(axis, unit, &seg.elevation, elevation_unit).map(f64::abs)
+        })
         .reduce(f64::max);
     let kinematic = KinematicScores {
-        swing: corr(&imu.swing, &seg.swing),
-        vertical_accel: corr(&imu.vertical_accel, &seg.vertical_accel),
-        vertical_vel: corr(&imu.vertical_velocity, &seg.vertical_velocity),
+        swing: corr(&imu.swing, iu(|u| &u.swing), &seg.swing, su(|u| &u.swing)),
+        vertical_accel: corr(
+            &imu.vertical_accel,
+            iu(|u| &u.vertical_accel),
+            &seg.vertical_accel,
+            su(|u| &u.vertical_accel),
+        ),
+        vertical_vel: corr(
+            &imu.vertical_velocity,
+            iu(|u| &u.vertical_velocity),
+            &seg.vertical_velocity,
+            su(|u| &u.vertical_velocity),
+        ),
         inclination,
-        turn: corr(&imu.turn_rate, &seg.turn_rate),
+        turn: corr(
+            &imu.turn_rate,
+            iu(|u| &u.turn_rate),
+            &seg.turn_rate,
+            su(|u| &u.turn_rate),
+        ),
     };
     (geometric, kinematic)
 }
@@ -490,7 +617,7 @@ mod tests {
     use super::*;
     use crate::{
         imu_accel_magnitude, imu_velocity_magnitude, joint_accel_magnitude,
-        joint_velocity_magnitude,
+        joint_velocity_magnitude, pearson,
     };
     use nalgebra::{Point3, UnitQuaternion, Vector3};
     use nomen_core::skeleton::Joints;
@@ -656,6 +783,50 @@ mod tests {
         let mut seg = fresh();
         seg.drop_run_edges(0, false);
         assert_eq!(present(&seg.vertical_velocity), present(&signal));
+    }
+
+    #[test]
+    fn prepared_comparisons_equal_the_pairwise_ones() {
+        let (imu, skel) = windows();
+        let (geo, kin) = (GeometricConfig::default(), KinematicConfig::default());
+        let imu_features = ImuFeatures::new(&imu, &geo, &kin);
+        let close = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(a), Some(b)) => (a - b).abs() < 1e-12,
+            (a, b) => a == b,
+        };
+        // The full window, its skeleton with dropped edges (samples the IMU has and the
+        // skeleton misses) and a joint the window lacks.
+        let mut dropped = SegmentFeatures::new(&skel, Joint::LeftWrist, &geo, &kin);
+        dropped.drop_run_edges(4, false);
+        let mut num_compared = 0;
+        for seg in [
+            SegmentFeatures::new(&skel, Joint::LeftWrist, &geo, &kin),
+            dropped,
+            SegmentFeatures::new(&skel, Joint::RightAnkle, &geo, &kin),
+        ] {
+            let (g, k) = compare_features(&imu_features, &seg, &geo);
+            let (gp, kp) = compare_prepared(
+                &imu_features,
+                &imu_features.units(),
+                &seg,
+                &seg.units(),
+                &geo,
+            );
+            for (a, b) in [
+                (g.acc, gp.acc),
+                (g.vel, gp.vel),
+                (g.ori, gp.ori),
+                (k.swing, kp.swing),
+                (k.vertical_accel, kp.vertical_accel),
+                (k.vertical_vel, kp.vertical_vel),
+                (k.inclination, kp.inclination),
+                (k.turn, kp.turn),
+            ] {
+                assert!(close(a, b), "{a:?} against {b:?}");
+                num_compared += usize::from(a.is_some());
+            }
+        }
+        assert!(num_compared >= 12, "{num_compared} scores compared");
     }
 
     #[test]

@@ -35,8 +35,9 @@ pub use belmonte::{
     belmonte_costs, belmonte_costs_from,
 };
 pub use features::{
-    HorizontalCross, ImuFeatures, SegmentFeatures, axis_elevations_rad, compare_features,
-    horizontal_cross, imu_lag_models, segment_lag_models, segment_site_lag_models,
+    HorizontalCross, ImuFeatures, ImuUnits, SegmentFeatures, SegmentUnits, axis_elevations_rad,
+    compare_features, compare_prepared, horizontal_cross, imu_lag_models, segment_lag_models,
+    segment_site_lag_models,
 };
 pub use fusion::{Fusion, FusionConfig, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{
@@ -50,5 +51,8 @@ pub use kinematic::{
     segment_swing_signal,
 };
 pub use scorer::PairScorer;
-pub use signal::{LagConfig, PearsonSums, best_lag, best_lag_with, first_finite, pearson};
+pub use signal::{
+    LagConfig, PearsonSums, UnitSignal, best_lag, best_lag_with, first_finite, pearson,
+    pearson_prepared,
+};
 pub use window::{ImuWindow, ModelScores, SkeletonWindow};

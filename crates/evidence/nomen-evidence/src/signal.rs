@@ -37,6 +37,158 @@ pub fn pearson(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
     sums.correlation(min_samples)
 }
 
+/// A signal prepared for many correlations with others: its present (finite) values less their
+/// mean, 0 where missing, with running sums of them and of their squares and a bit mask of the
+/// present samples. Its Pearson correlation with another such signal over the samples both
+/// have is then one dot product plus a few sums read per run of common samples. A window's IMU
+/// and skeleton features are each correlated with dozens of partners, and [`pearson`]'s two
+/// passes with their finiteness checks per pair cost far more than preparing each signal once.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct UnitSignal {
+    /// The values less `mean`, 0 where missing.
+    centred: Vec<f64>,
+    /// `[Σ c, Σ c²]` of `centred` over the samples before each index (one more than samples).
+    running: Vec<[f64; 2]>,
+    /// Mean of the present values.
+    mean: f64,
+    /// Bit `k % 64` of word `k / 64`: whether sample `k` is present.
+    present: Vec<u64>,
+}
+
+impl UnitSignal {
+    /// `x` prepared, or `None` if it has no finite value.
+    pub fn new(x: &[f64]) -> Option<UnitSignal> {
+        let mut present = vec![0_u64; x.len().div_ceil(64)];
+        let (mut n, mut sum) = (0_usize, 0.0);
+        for (word, chunk) in present.iter_mut().zip(x.chunks(64)) {
+            for (bit, v) in chunk.iter().enumerate() {
+                if v.is_finite() {
+                    *word |= 1 << bit;
+                    n += 1;
+                    sum += v;
+                }
+            }
+        }
+        if n == 0 {
+            return None;
+        }
+        let mean = sum / n as f64;
+        let centred: Vec<f64> = x
+            .iter()
+            .map(|v| if v.is_finite() { v - mean } else { 0.0 })
+            .collect();
+        let mut running = Vec::with_capacity(x.len() + 1);
+        let (mut s1, mut s2) = (0.0, 0.0);
+        running.push([s1, s2]);
+        running.extend(centred.iter().map(|c| {
+            s1 += c;
+            s2 += c * c;
+            [s1, s2]
+        }));
+        Some(UnitSignal {
+            centred,
+            running,
+            mean,
+            present,
+        })
+    }
+
+    /// Number of samples, present or not.
+    pub fn len(&self) -> usize {
+        self.centred.len()
+    }
+
+    /// Whether there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.centred.is_empty()
+    }
+
+    /// `[Σ c, Σ c²]` over the samples in `[from, to)`.
+    fn sums_over(&self, from: usize, to: usize) -> [f64; 2] {
+        match (self.running.get(from), self.running.get(to)) {
+            (Some(a), Some(b)) => [b[0] - a[0], b[1] - a[1]],
+            _ => [0.0; 2],
+        }
+    }
+
+    /// The Pearson correlation with `other` over the samples both have, by [`pearson`]'s rules
+    /// (`None` with fewer than `min_samples`, at least 3, or a constant signal there); `None`
+    /// too if the lengths differ.
+    pub fn correlation(&self, other: &UnitSignal, min_samples: usize) -> Option<f64> {
+        if self.centred.len() != other.centred.len() {
+            return None;
+        }
+        let (mut n, mut x, mut y) = (0_usize, [0.0; 2], [0.0; 2]);
+        for (w, (a, b)) in self.present.iter().zip(&other.present).enumerate() {
+            let mut both = a & b;
+            n += both.count_ones() as usize;
+            // Each run of common samples in this word.
+            while both != 0 {
+                let start = both.trailing_zeros();
+                let len = (!(both >> start)).trailing_zeros();
+                let ones = if len >= 64 { u64::MAX } else { (1 << len) - 1 };
+                both &= !(ones << start);
+                let from = w * 64 + start as usize;
+                let to = from + len as usize;
+                let (sx, sy) = (self.sums_over(from, to), other.sums_over(from, to));
+                x = [x[0] + sx[0], x[1] + sx[1]];
+                y = [y[0] + sy[0], y[1] + sy[1]];
+            }
+        }
+        if n < min_samples.max(MIN_PEARSON_SAMPLES) {
+            return None;
+        }
+        // Σ c_x c_y: a missing sample is 0 on its side, so only common samples count. Four
+        // running sums: independent additions the compiler may keep in vector lanes.
+        let mut sums = [0.0; 4];
+        let (a, b) = (self.centred.chunks_exact(4), other.centred.chunks_exact(4));
+        let tail: f64 = a
+            .remainder()
+            .iter()
+            .zip(b.remainder())
+            .map(|(p, q)| p * q)
+            .sum();
+        for (p, q) in a.zip(b) {
+            for ((s, pv), qv) in sums.iter_mut().zip(p).zip(q) {
+                *s += pv * qv;
+            }
+        }
+        let sxy = (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail;
+        let nf = n as f64;
+        let vxx = x[1] - x[0] * x[0] / nf;
+        let vyy = y[1] - y[0] * y[0] / nf;
+        let vxy = sxy - x[0] * y[0] / nf;
+        // `PearsonSums::correlation`'s test for a constant signal, with the raw values' squares
+        // `Σ (c + mean)²` over the common samples.
+        let is_constant = |v: f64, s: [f64; 2], mean: f64| {
+            let q = s[1] + 2.0 * mean * s[0] + nf * mean * mean;
+            !(v > 1e-12 * q && v > 1e-12 * s[1] && v > f64::MIN_POSITIVE)
+        };
+        if is_constant(vxx, x, self.mean) || is_constant(vyy, y, other.mean) {
+            return None;
+        }
+        let r = vxy / (vxx.sqrt() * vyy.sqrt());
+        r.is_finite().then(|| r.clamp(-1.0, 1.0))
+    }
+}
+
+/// [`pearson`] of `x` and `y` through their prepared forms when both have one ([`UnitSignal`]
+/// of the same `x` and `y`): the same value to rounding, for a dot product and a few sums.
+pub fn pearson_prepared(
+    x: &[f64],
+    ux: Option<&UnitSignal>,
+    y: &[f64],
+    uy: Option<&UnitSignal>,
+    min_samples: usize,
+) -> Option<f64> {
+    match (ux, uy) {
+        (Some(a), Some(b)) if a.len() == x.len() && b.len() == y.len() && x.len() == y.len() => {
+            a.correlation(b, min_samples)
+        }
+        _ => pearson(x, y, min_samples),
+    }
+}
+
 /// One-pass sums for a Pearson correlation, for callers that produce the pairs on the fly (the
 /// clock-offset lag search interpolates one side per candidate lag) and cannot afford
 /// [`pearson`]'s two passes over a buffer. Values are taken relative to shifts given up front
@@ -381,6 +533,69 @@ mod tests {
         let z: Vec<f64> = x.iter().map(|v| -v).collect();
         assert!((pearson(&x, &y, 3).unwrap() - 1.0).abs() < 1e-12);
         assert!((pearson(&x, &z, 3).unwrap() + 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn prepared_correlations_equal_pearson_over_the_samples_both_have() {
+        let wave = |f: f64, p: f64| -> Vec<f64> {
+            (0..150)
+                .map(|k| (k as f64 * f + p).sin() * 2.0 + 5.0 + 0.01 * k as f64)
+                .collect()
+        };
+        let prepared = |x: &[f64], y: &[f64], min: usize| {
+            pearson_prepared(
+                x,
+                UnitSignal::new(x).as_ref(),
+                y,
+                UnitSignal::new(y).as_ref(),
+                min,
+            )
+        };
+        let agree =
+            |x: &[f64], y: &[f64], min: usize| match (prepared(x, y, min), pearson(x, y, min)) {
+                (Some(a), Some(b)) => (a - b).abs() < 1e-12,
+                (a, b) => a == b,
+            };
+        let (mut x, mut y) = (wave(0.31, 0.2), wave(0.17, 1.3));
+        let r = pearson(&x, &y, 3).unwrap();
+        assert!(r.abs() > 0.01);
+        assert!(agree(&x, &y, 3));
+        assert!((prepared(&x, &x, 3).unwrap() - 1.0).abs() < 1e-12);
+        // Missing samples on one side, the other, both, in runs across the masks' 64-sample
+        // words and at the ends.
+        for k in [0, 1, 2, 40, 63, 64, 65, 66, 69, 127, 128, 149] {
+            x[k] = f64::NAN;
+        }
+        for k in (20..35).chain(60..70).chain(140..150) {
+            y[k] = f64::NAN;
+        }
+        assert!(agree(&x, &y, 3));
+        assert!(agree(&y, &x, 3));
+        assert!(prepared(&x, &y, 3).is_some_and(|r| r.abs() > 0.01));
+        // A signal offset far from zero with a small spread stays accurate.
+        let far: Vec<f64> = y.iter().map(|v| 1e6 + v).collect();
+        assert!(agree(&x, &far, 3));
+        // Fewer common samples than asked for: `None`, as pearson says.
+        let common = x
+            .iter()
+            .zip(&y)
+            .filter(|(a, b)| a.is_finite() && b.is_finite())
+            .count();
+        assert_eq!(prepared(&x, &y, common + 1), None);
+        assert!(prepared(&x, &y, common).is_some());
+        // Constant where both have samples, though not elsewhere; constant everywhere; empty.
+        let mut step = vec![3.0; 150];
+        for v in step.iter_mut().take(35).skip(20) {
+            *v = 9.0;
+        }
+        assert_eq!(prepared(&step, &y, 3), None);
+        assert!(agree(&step, &y, 3));
+        assert_eq!(prepared(&[3.0; 150], &x, 3), None);
+        assert!(UnitSignal::new(&[f64::NAN; 5]).is_none());
+        assert_eq!(prepared(&[f64::NAN; 150], &x, 3), None);
+        // Lengths that differ: pearson over the shorter one.
+        let short = &wave(0.31, 0.2)[..50];
+        assert_eq!(prepared(short, &y, 3), pearson(short, &y, 3));
     }
 
     #[test]

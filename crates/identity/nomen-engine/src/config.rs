@@ -386,6 +386,12 @@ pub struct EngineConfig {
     /// How often an accepted offset is re-estimated against the tracks labelled with its wearer
     /// (their lag curves averaged, weighted by coverage), s. Default 5 s.
     pub offset_refine_interval_s: f64,
+    /// Longest interval between refinements of an offset that stays put, s: each refinement
+    /// that finds a peak and leaves the offset where it was doubles the IMU's interval from
+    /// `offset_refine_interval_s` up to this; an offset that moves (by any path) starts again.
+    /// Default 20 s (clocks drift by well under the 10 ms lag step in that time); set it to
+    /// `offset_refine_interval_s` to refine at a fixed pace.
+    pub offset_refine_max_interval_s: f64,
     /// Lag range around the current estimate searched when refining, s. Default 0.1 s.
     pub offset_refine_range_s: f64,
     /// Shortest coverage, s, of the offset-estimation buffer by a track labelled with an IMU's
@@ -607,6 +613,7 @@ impl Default for EngineConfig {
             offset_tie_tolerance: 0.02,
             offset_peak_clarity: 0.1,
             offset_refine_interval_s: 5.0,
+            offset_refine_max_interval_s: 20.0,
             offset_refine_range_s: 0.1,
             offset_label_min_track_s: 2.0,
             offset_label_curves: 6,
@@ -658,6 +665,10 @@ impl EngineConfig {
                 self.offset_estimation_window_s,
             ),
             ("offset_refine_interval_s", self.offset_refine_interval_s),
+            (
+                "offset_refine_max_interval_s",
+                self.offset_refine_max_interval_s,
+            ),
             ("offset_min_track_s", self.offset_min_track_s),
             ("offset_search_interval_s", self.offset_search_interval_s),
             (

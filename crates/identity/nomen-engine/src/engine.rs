@@ -168,6 +168,9 @@ struct ImuState {
     offset_ns: i64,
     is_offset_known: bool,
     last_refine_end: i64,
+    /// The offset the last refinement left, and how many refinements in a row found a peak
+    /// and left it where it was (see [`EngineConfig::offset_refine_max_interval_s`]).
+    refined: Option<(i64, u32)>,
     /// The registry's offset: the prior, restored when an accepted offset is withdrawn.
     registry_offset_ns: i64,
     /// Offset candidates of the latest searches, oldest first (`None`: no clear winner).
@@ -419,6 +422,7 @@ impl Engine {
                     offset_ns: w.clock.offset_ns,
                     is_offset_known: config.known_clock_offsets,
                     last_refine_end: i64::MIN,
+                    refined: None,
                     registry_offset_ns: w.clock.offset_ns,
                     candidates: VecDeque::new(),
                     winners: VecDeque::new(),

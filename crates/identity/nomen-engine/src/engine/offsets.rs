@@ -730,7 +730,9 @@ impl Engine {
             } else {
                 search_every
             };
+            // With trusted offsets only the refinement moves them.
             if self.config.offset_label_curves == 0
+                || self.config.known_clock_offsets
                 || end.saturating_sub(imu.last_label_search_end) < every
             {
                 continue;
@@ -802,7 +804,6 @@ impl Engine {
             // lag does better, was most likely found on someone else's track: it is withdrawn
             // and searched for again.
             if imu.is_offset_known
-                && !self.config.known_clock_offsets
                 && is_contradicted(
                     &grid,
                     &mean,
@@ -881,6 +882,7 @@ impl Engine {
         let min_track = search.min_track;
         let refine_every = search.refine_every;
         let refine_range = search.refine_range;
+        let refine_max = ns(self.config.offset_refine_max_interval_s);
         let full = &search.full;
         let imu_cache = &mut search.imu_cache;
         let skel_cache = &mut search.skel_cache;
@@ -890,7 +892,34 @@ impl Engine {
             let Some(imu) = self.imus.get(i) else {
                 continue;
             };
-            if !imu.is_offset_known || end.saturating_sub(imu.last_refine_end) < refine_every {
+            // The interval doubles with every refinement in a row that left the offset within a
+            // lag step of where it was, up to the longest; an offset moved since (by any path)
+            // starts again.
+            let num_kept = match imu.refined {
+                Some((o, n)) if o == imu.offset_ns => n,
+                _ => 0,
+            };
+            let every = refine_every
+                .saturating_mul(1_i64 << num_kept.min(16))
+                .min(refine_max.max(refine_every));
+            if !imu.is_offset_known || end.saturating_sub(imu.last_refine_end) < every {
+                continue;
+            }
+            // The tracks labelled with the wearer that cover enough of the buffer, weighted by
+            // how much each covers: a long track's peak is sharper than a short one's.
+            let tracks: Vec<(TrackKey, f64)> = self
+                .tracks
+                .iter()
+                .filter(|(_, tr)| tr.label == Some(imu.subject))
+                .map(|(key, tr)| (*key, covered_span(tr, lo, hi)))
+                .filter(|(_, covered)| *covered >= min_track)
+                .map(|(key, covered)| (key, covered as f64 * 1e-9))
+                .collect();
+            if tracks.is_empty() {
+                // Nothing to refine against (the wearer unseen or unnamed): not a refinement.
+                if let Some(imu) = self.imus.get_mut(i) {
+                    imu.last_refine_end = end;
+                }
                 continue;
             }
             let offsets: Vec<i64> = full
@@ -898,27 +927,16 @@ impl Engine {
                 .filter(|o| o.abs() <= refine_range)
                 .map(|o| o + imu.offset_ns)
                 .collect();
-            // The curves against every track labelled with the wearer, weighted by how much of
-            // the buffer each covers: a long track's peak is sharper than a short one's.
             let mut sum = vec![(0.0, 0.0); offsets.len()];
             if let Some(imu_sig) = imu_cache.signals(i, imu, imu.offset_ns, lag_memos, &self.config)
             {
-                for (key, tr) in self
-                    .tracks
-                    .iter()
-                    .filter(|(_, tr)| tr.label == Some(imu.subject))
-                {
-                    let covered = covered_span(tr, lo, hi);
-                    if covered < min_track {
-                        continue;
-                    }
+                for &(key, w) in &tracks {
                     let Some(sig) =
-                        skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
+                        skel_cache.signals(&self.tracks, key, imu.site, lo, hi, &self.config)
                     else {
                         continue;
                     };
                     let curve = scratch.curve(imu_sig, sig, &offsets, min_samples);
-                    let w = covered as f64 * 1e-9;
                     for (acc, v) in sum.iter_mut().zip(curve) {
                         if v.is_finite() {
                             acc.0 += w * v;
@@ -936,6 +954,7 @@ impl Engine {
                 continue;
             };
             imu.last_refine_end = end;
+            let before = imu.offset_ns;
             if let Some((offset, corr)) = best
                 && corr >= self.config.offset_min_correlation
             {
@@ -944,6 +963,12 @@ impl Engine {
                 imu.offset_ns = offset.clamp(prior - max_off, prior + max_off);
                 record_offset(&mut self.stats, &imu.device, imu.offset_ns, corr);
             }
+            let num_kept = if (imu.offset_ns - before).abs() <= LAG_STEP_NS {
+                num_kept.saturating_add(1)
+            } else {
+                0
+            };
+            imu.refined = Some((imu.offset_ns, num_kept));
         }
     }
 }

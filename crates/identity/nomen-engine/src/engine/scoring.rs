@@ -14,9 +14,9 @@ use nomen_core::skeleton::Joints;
 use nomen_core::{Joint, TrackId};
 use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
-    BandSignals, ForearmSignals, ImuFeatures, ImuWindow, ScoreTensor, SegmentFeatures, Side,
-    SkeletonWindow, belmonte_costs_from, body_turn_rate_signal, compare_features, fuse,
-    horizontal_cross, imu_linear_accel_world,
+    BandSignals, ForearmSignals, ImuFeatures, ImuUnits, ImuWindow, ScoreTensor, SegmentFeatures,
+    SegmentUnits, Side, SkeletonWindow, belmonte_costs_from, body_turn_rate_signal,
+    compare_prepared, fuse, horizontal_cross, imu_linear_accel_world,
 };
 use std::collections::{BTreeMap, VecDeque};
 
@@ -239,7 +239,7 @@ impl Engine {
             // The skeleton's samples next to a run edge that the IMU's filter does not share.
             let run_edge_samples =
                 grid_rate_hz(&skel.t_s).map_or(0, |rate| (RUN_EDGE_S * rate).round() as usize);
-            let mut segments: Vec<(Joint, SegmentFeatures)> = Vec::new();
+            let mut segments: Vec<(Joint, SegmentFeatures, SegmentUnits)> = Vec::new();
             // The body's turn rate, the same for every site: computed once per track.
             let mut turn_rate: Option<Vec<f64>> = None;
             // The skeleton side of Belmonte's costs, per band side.
@@ -300,7 +300,12 @@ impl Engine {
                             &self.config.belmonte,
                         )
                     });
-                    (win, features, band)
+                    ImuGridFeatures {
+                        window: win,
+                        units: features.units(),
+                        features,
+                        band,
+                    }
                 };
                 let hypotheses: &[i64] = if imu.is_offset_known {
                     &[]
@@ -311,7 +316,7 @@ impl Engine {
                 if !imu.is_offset_known && pair_offset.is_none() && hypotheses.is_empty() {
                     continue;
                 }
-                let segment = match segments.iter().position(|(j, _)| *j == imu.site) {
+                let segment = match segments.iter().position(|(j, _, _)| *j == imu.site) {
                     Some(k) => k,
                     None => {
                         let turn = turn_rate
@@ -327,11 +332,12 @@ impl Engine {
                             turn,
                         );
                         features.drop_run_edges(run_edge_samples, grid_from == 0);
-                        segments.push((imu.site, features));
+                        let units = features.units();
+                        segments.push((imu.site, features, units));
                         segments.len() - 1
                     }
                 };
-                let Some((_, seg_features)) = segments.get(segment) else {
+                let Some((_, seg_features, seg_units)) = segments.get(segment) else {
                     continue;
                 };
                 // The scores at the chosen hypothesis, already computed.
@@ -343,11 +349,16 @@ impl Engine {
                     (false, None) => {
                         let mut best: Option<(f64, i64, PairScores)> = None;
                         for &o in hypotheses {
-                            let (_, features_o, _) = imu_cache
+                            let imu_o = imu_cache
                                 .entry((i, o, grid_index))
                                 .or_insert_with(|| build(o));
-                            let (scores, k) =
-                                compare_features(features_o, seg_features, &self.config.geometric);
+                            let (scores, k) = compare_prepared(
+                                &imu_o.features,
+                                &imu_o.units,
+                                seg_features,
+                                seg_units,
+                                &self.config.geometric,
+                            );
                             if let Some(fit) = weighted_fit(&scores, &k, &self.config.model_weights)
                                 && best.as_ref().is_none_or(|(b, _, _)| fit > *b)
                             {
@@ -366,10 +377,16 @@ impl Engine {
                 let cached = imu_cache
                     .entry((i, offset, grid_index))
                     .or_insert_with(|| build(offset));
-                let (imu_win, imu_features) = (&cached.0, &cached.1);
+                let (imu_win, imu_features) = (&cached.window, &cached.features);
                 let (mut scores, k) = match chosen {
                     Some(pair) => pair,
-                    None => compare_features(imu_features, seg_features, &self.config.geometric),
+                    None => compare_prepared(
+                        imu_features,
+                        &cached.units,
+                        seg_features,
+                        seg_units,
+                        &self.config.geometric,
+                    ),
                 };
                 // The heading model: only at a known offset, where the window's cross sum
                 // is that of the IMU's own clock (a pair scored at its own best lag would
@@ -396,7 +413,7 @@ impl Engine {
                 if let Some(scorer) = &self.pair_scorer {
                     scores.dl = scorer.score(imu_win, &skel, imu.site);
                 }
-                if let (Some(band), Some(side)) = (&cached.2, band_side(imu.site)) {
+                if let (Some(band), Some(side)) = (&cached.band, band_side(imu.site)) {
                     let arm = match arms.iter().position(|(s, _)| *s == side) {
                         Some(k) => k,
                         None => {
@@ -638,8 +655,17 @@ pub(super) fn lateral_distance_m(eye: &Point3<f64>, a: &Point3<f64>, b: &Point3<
 
 /// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
 /// per (IMU, offset, grid index).
-pub(super) type ImuFeatureCache =
-    BTreeMap<(usize, i64, usize), (ImuWindow, ImuFeatures, Option<BandSignals>)>;
+pub(super) type ImuFeatureCache = BTreeMap<(usize, i64, usize), ImuGridFeatures>;
+
+/// An IMU's window on one grid at one offset, with what every pair reads from it.
+pub(super) struct ImuGridFeatures {
+    window: ImuWindow,
+    features: ImuFeatures,
+    /// `features` prepared for the correlations with every track.
+    units: ImuUnits,
+    /// A forearm band's signals (Belmonte-Hernández).
+    band: Option<BandSignals>,
+}
 
 /// De Marchi's and nomen's correlations of one pair in one window.
 pub(super) type PairScores = (nomen_evidence::ModelScores, nomen_evidence::KinematicScores);
