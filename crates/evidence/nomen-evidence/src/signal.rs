@@ -38,56 +38,100 @@ pub fn pearson(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
 }
 
 /// A signal prepared for many correlations with others: its present (finite) values less their
-/// mean, 0 where missing, with running sums of them and of their squares and a bit mask of the
+/// mean, 0 where missing, the sums of those and of their squares, and a bit mask of the
 /// present samples. Its Pearson correlation with another such signal over the samples both
-/// have is then one dot product plus a few sums read per run of common samples. A window's IMU
+/// have is then one dot product, corrected by the few samples only one side has. A window's IMU
 /// and skeleton features are each correlated with dozens of partners, and [`pearson`]'s two
-/// passes with their finiteness checks per pair cost far more than preparing each signal once.
+/// passes with their finiteness checks per pair cost more than preparing each signal once.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct UnitSignal {
     /// The values less `mean`, 0 where missing.
     centred: Vec<f64>,
-    /// `[Σ c, Σ c²]` of `centred` over the samples before each index (one more than samples).
-    running: Vec<[f64; 2]>,
+    /// `[Σ c, Σ c²]` of `centred`.
+    sums: [f64; 2],
     /// Mean of the present values.
     mean: f64,
-    /// Bit `k % 64` of word `k / 64`: whether sample `k` is present.
-    present: Vec<u64>,
+    /// Which samples are present.
+    present: Mask,
+}
+
+/// Bit `k % 64` of word `k / 64`: whether sample `k` is present. Up to 128 samples (a window)
+/// the words live inline.
+#[derive(Debug, Clone, PartialEq, Default)]
+struct Mask {
+    inline: [u64; 2],
+    heap: Vec<u64>,
+    num_words: usize,
+}
+
+impl Mask {
+    fn new(num_samples: usize) -> Mask {
+        let num_words = num_samples.div_ceil(64);
+        Mask {
+            inline: [0; 2],
+            heap: if num_words > 2 {
+                vec![0; num_words]
+            } else {
+                Vec::new()
+            },
+            num_words,
+        }
+    }
+
+    fn words(&self) -> &[u64] {
+        if self.num_words > 2 {
+            &self.heap
+        } else {
+            self.inline.get(..self.num_words).unwrap_or(&[])
+        }
+    }
+
+    fn words_mut(&mut self) -> &mut [u64] {
+        if self.num_words > 2 {
+            &mut self.heap
+        } else {
+            self.inline.get_mut(..self.num_words).unwrap_or(&mut [])
+        }
+    }
 }
 
 impl UnitSignal {
     /// `x` prepared, or `None` if it has no finite value.
     pub fn new(x: &[f64]) -> Option<UnitSignal> {
-        let mut present = vec![0_u64; x.len().div_ceil(64)];
+        let mut present = Mask::new(x.len());
         let (mut n, mut sum) = (0_usize, 0.0);
-        for (word, chunk) in present.iter_mut().zip(x.chunks(64)) {
+        for (word, chunk) in present.words_mut().iter_mut().zip(x.chunks(64)) {
+            let mut bits = 0_u64;
             for (bit, v) in chunk.iter().enumerate() {
                 if v.is_finite() {
-                    *word |= 1 << bit;
+                    bits |= 1 << bit;
                     n += 1;
                     sum += v;
                 }
             }
+            *word = bits;
         }
         if n == 0 {
             return None;
         }
         let mean = sum / n as f64;
-        let centred: Vec<f64> = x
-            .iter()
-            .map(|v| if v.is_finite() { v - mean } else { 0.0 })
-            .collect();
-        let mut running = Vec::with_capacity(x.len() + 1);
         let (mut s1, mut s2) = (0.0, 0.0);
-        running.push([s1, s2]);
-        running.extend(centred.iter().map(|c| {
-            s1 += c;
-            s2 += c * c;
-            [s1, s2]
-        }));
+        let centred = x
+            .iter()
+            .map(|v| {
+                if v.is_finite() {
+                    let c = v - mean;
+                    s1 += c;
+                    s2 += c * c;
+                    c
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         Some(UnitSignal {
             centred,
-            running,
+            sums: [s1, s2],
             mean,
             present,
         })
@@ -103,12 +147,19 @@ impl UnitSignal {
         self.centred.is_empty()
     }
 
-    /// `[Σ c, Σ c²]` over the samples in `[from, to)`.
-    fn sums_over(&self, from: usize, to: usize) -> [f64; 2] {
-        match (self.running.get(from), self.running.get(to)) {
-            (Some(a), Some(b)) => [b[0] - a[0], b[1] - a[1]],
-            _ => [0.0; 2],
+    /// `[Σ c, Σ c²]` over the present samples not in `other` (by mask words).
+    fn sums_outside(&self, other: &[u64]) -> [f64; 2] {
+        let mut out = [0.0; 2];
+        for (w, (mine, theirs)) in self.present.words().iter().zip(other).enumerate() {
+            let mut only = mine & !theirs;
+            while only != 0 {
+                let k = w * 64 + only.trailing_zeros() as usize;
+                only &= only - 1;
+                let c = self.centred.get(k).copied().unwrap_or(0.0);
+                out = [out[0] + c, out[1] + c * c];
+            }
         }
+        out
     }
 
     /// The Pearson correlation with `other` over the samples both have, by [`pearson`]'s rules
@@ -118,26 +169,21 @@ impl UnitSignal {
         if self.centred.len() != other.centred.len() {
             return None;
         }
-        let (mut n, mut x, mut y) = (0_usize, [0.0; 2], [0.0; 2]);
-        for (w, (a, b)) in self.present.iter().zip(&other.present).enumerate() {
-            let mut both = a & b;
-            n += both.count_ones() as usize;
-            // Each run of common samples in this word.
-            while both != 0 {
-                let start = both.trailing_zeros();
-                let len = (!(both >> start)).trailing_zeros();
-                let ones = if len >= 64 { u64::MAX } else { (1 << len) - 1 };
-                both &= !(ones << start);
-                let from = w * 64 + start as usize;
-                let to = from + len as usize;
-                let (sx, sy) = (self.sums_over(from, to), other.sums_over(from, to));
-                x = [x[0] + sx[0], x[1] + sx[1]];
-                y = [y[0] + sy[0], y[1] + sy[1]];
-            }
-        }
+        let (mine, theirs) = (self.present.words(), other.present.words());
+        let n: usize = mine
+            .iter()
+            .zip(theirs)
+            .map(|(a, b)| (a & b).count_ones() as usize)
+            .sum();
         if n < min_samples.max(MIN_PEARSON_SAMPLES) {
             return None;
         }
+        // Each side's sums over the common samples: its own, less the samples the other lacks.
+        let common = |u: &UnitSignal, lacking: &[u64]| {
+            let [a, b] = u.sums_outside(lacking);
+            [u.sums[0] - a, u.sums[1] - b]
+        };
+        let (x, y) = (common(self, theirs), common(other, mine));
         // Σ c_x c_y: a missing sample is 0 on its side, so only common samples count. Four
         // running sums: independent additions the compiler may keep in vector lanes.
         let mut sums = [0.0; 4];
@@ -501,14 +547,43 @@ pub(crate) fn differentiate_runs(
 /// Causal moving average of `len` samples over a series with gaps; a `NaN` stays `NaN` and does not
 /// enter the average. `len` of 0 or 1 leaves the series unchanged.
 pub(crate) fn moving_average(x: &mut [f64], len: usize) {
+    /// Longest average kept on the stack (the window features use 5 samples).
+    const INLINE_LEN: usize = 16;
     if len <= 1 {
         return;
     }
-    let Ok(mut avg) = MovingAverage::new(len) else {
+    if len > INLINE_LEN {
+        let Ok(mut avg) = MovingAverage::new(len) else {
+            return;
+        };
+        for v in x.iter_mut() {
+            *v = avg.process(*v).unwrap_or(f64::NAN);
+        }
         return;
-    };
+    }
+    // `MovingAverage::process`, step for step (the same sums in the same order, so the same
+    // values), on a ring buffer that needs no allocation.
+    let mut ring = [0.0; INLINE_LEN];
+    let ring = ring.get_mut(..len).unwrap_or(&mut []);
+    let (mut head, mut num_filled, mut sum) = (0_usize, 0_usize, 0.0);
     for v in x.iter_mut() {
-        *v = avg.process(*v).unwrap_or(f64::NAN);
+        let Some(slot) = ring.get_mut(head).filter(|_| v.is_finite()) else {
+            *v = f64::NAN;
+            continue;
+        };
+        if num_filled == len {
+            sum -= *slot;
+        } else {
+            num_filled += 1;
+        }
+        *slot = *v;
+        sum += *v;
+        head += 1;
+        if head == len {
+            head = 0;
+            sum = ring.get(..num_filled).unwrap_or(&[]).iter().sum();
+        }
+        *v = sum / num_filled as f64;
     }
 }
 
@@ -596,6 +671,35 @@ mod tests {
         // Lengths that differ: pearson over the shorter one.
         let short = &wave(0.31, 0.2)[..50];
         assert_eq!(prepared(short, &y, 3), pearson(short, &y, 3));
+    }
+
+    #[test]
+    fn the_windows_moving_average_is_the_filters_bit_for_bit() {
+        let series: Vec<f64> = (0..90)
+            .map(|k| match k {
+                7 | 8 | 40 => f64::NAN,
+                23 => f64::INFINITY,
+                _ => (k as f64 * 0.37).sin() * 3.0 + 1e3 + 0.1 * k as f64,
+            })
+            .collect();
+        for len in [0, 1, 2, 5, 16, 17, 40] {
+            let mut ours = series.clone();
+            moving_average(&mut ours, len);
+            let theirs: Vec<f64> = match MovingAverage::new(len) {
+                Ok(mut avg) if len > 1 => series
+                    .iter()
+                    .map(|v| avg.process(*v).unwrap_or(f64::NAN))
+                    .collect(),
+                _ => series.clone(),
+            };
+            assert_eq!(ours.len(), theirs.len());
+            for (k, (a, b)) in ours.iter().zip(&theirs).enumerate() {
+                assert!(
+                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                    "len {len}, sample {k}: {a} against {b}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -19,6 +19,7 @@ use nomen_evidence::{
     compare_prepared, fuse, horizontal_cross, imu_linear_accel_world,
 };
 use std::collections::{BTreeMap, VecDeque};
+use std::rc::Rc;
 
 impl Engine {
     /// Scores this window: per camera, a [`ScoreTensor`] of De Marchi's correlations of every
@@ -270,12 +271,17 @@ impl Engine {
                             let lin_world_mps2 =
                                 imu_linear_accel_world(&window, &self.config.geometric);
                             ImuBase {
-                                window,
+                                window: Rc::new(window),
                                 orientation_from,
                                 lin_world_mps2,
                             }
                         });
-                    let win = base.window.tail(grid_from);
+                    // The camera's whole grid shares the base's window; a suffix copies its part.
+                    let win = if grid_from == 0 {
+                        Rc::clone(&base.window)
+                    } else {
+                        Rc::new(base.window.tail(grid_from))
+                    };
                     let orientation_from = base.orientation_from.get(grid_from..).unwrap_or(&[]);
                     // The orientation's per-sample terms, computed when the samples settled.
                     let terms = |of: &VecDeque<[f64; 3]>| -> Vec<[f64; 3]> {
@@ -534,7 +540,7 @@ struct WindowScoring {
 /// An IMU resampled onto a camera's grid of one window at one offset
 /// ([`imu_window_on_grid`]), with its low-passed world linear acceleration.
 struct ImuBase {
-    window: ImuWindow,
+    window: Rc<ImuWindow>,
     /// Per grid point, the IMU sample whose orientation it took.
     orientation_from: Vec<Option<usize>>,
     lin_world_mps2: Vec<Vector3<f64>>,
@@ -659,7 +665,7 @@ pub(super) type ImuFeatureCache = BTreeMap<(usize, i64, usize), ImuGridFeatures>
 
 /// An IMU's window on one grid at one offset, with what every pair reads from it.
 pub(super) struct ImuGridFeatures {
-    window: ImuWindow,
+    window: Rc<ImuWindow>,
     features: ImuFeatures,
     /// `features` prepared for the correlations with every track.
     units: ImuUnits,
