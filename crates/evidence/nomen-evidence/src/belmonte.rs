@@ -340,7 +340,7 @@ pub fn band_axis_pitch_rad(imu: &ImuWindow, axis: SensorAxis, cfg: &BelmonteConf
 fn elevation_rad(d: &Vector3<f64>) -> f64 {
     let horizontal = d.x.hypot(d.y);
     if is_finite3(d) && (horizontal > 0.0 || d.z != 0.0) {
-        d.z.atan2(horizontal)
+        crate::angle::atan2(d.z, horizontal)
     } else {
         f64::NAN
     }
@@ -371,7 +371,7 @@ pub fn skeleton_heading_rad(skel: &SkeletonWindow, cfg: &BelmonteConfig) -> Vec<
     let line = |j: &nomen_core::skeleton::Joints<nalgebra::Point3<f64>>, l: Joint, r: Joint| {
         let d = j.get(r)? - j.get(l)?;
         let h = d.x.hypot(d.y);
-        (h.is_finite() && h >= cfg.min_heading_line_m).then(|| d.y.atan2(d.x))
+        (h.is_finite() && h >= cfg.min_heading_line_m).then(|| crate::angle::atan2(d.y, d.x))
     };
     let mut out = Vec::with_capacity(skel.t_s.len());
     let mut prev: Option<f64> = None;

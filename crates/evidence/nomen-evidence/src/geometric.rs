@@ -29,6 +29,7 @@
 //! (wrist: elbow→wrist, ankle: knee→ankle, elbow: shoulder→elbow, …); the trunk for the pelvis
 //! and the chest (pelvis→chest), since the pelvis is the root and the chest's parent is the pelvis.
 
+use crate::angle::{angle_between_rad, rotation_angle_rad};
 use crate::features::{ImuFeatures, SegmentFeatures, compare_features};
 use crate::kinematic::KinematicConfig;
 use crate::signal::{
@@ -232,7 +233,7 @@ pub(crate) fn imu_orientation_magnitude_every(imu: &ImuWindow, step: usize) -> V
         .iter()
         .step_by(step)
         .map(|q| match q0 {
-            Some(q0) if is_finite_q(q) => (q0.inverse() * q).angle(),
+            Some(q0) if is_finite_q(q) => rotation_angle_rad(&(q0.inverse() * q)),
             _ => f64::NAN,
         })
         .collect()
@@ -341,7 +342,7 @@ pub fn segment_orientation_magnitude(
     let mut out: Vec<f64> = dirs
         .iter()
         .map(|d| match (d0, d) {
-            (Some(d0), Some(d)) => d0.angle(d),
+            (Some(d0), Some(d)) => angle_between_rad(&d0, d),
             _ => f64::NAN,
         })
         .collect();

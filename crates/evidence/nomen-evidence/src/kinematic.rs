@@ -36,6 +36,7 @@
 //! Every score is a Pearson correlation in `-1..=1` (`None` when a signal is missing, constant or
 //! too short), so the fusions treat these models like De Marchi's.
 
+use crate::angle::{angle_between_rad, rotation_angle_rad};
 use crate::belmonte::{BelmonteConfig, band_yaw_rate_radps, skeleton_yaw_rate_radps};
 use crate::features::{ImuFeatures, SegmentFeatures, compare_features};
 use crate::geometric::{
@@ -126,7 +127,7 @@ pub fn kinematic_scores(
 pub(crate) fn elevation_rad(d: &Vector3<f64>) -> f64 {
     let horizontal = d.x.hypot(d.y);
     if (horizontal > 0.0 || d.z != 0.0) && d.iter().all(|v| v.is_finite()) {
-        d.z.atan2(horizontal)
+        crate::angle::atan2(d.z, horizontal)
     } else {
         f64::NAN
     }
@@ -147,7 +148,7 @@ pub(crate) fn imu_swing_every(imu: &ImuWindow, lag: usize, step: usize) -> Vec<f
                 .checked_sub(lag)
                 .and_then(|i| imu.world_from_sensor.get(i));
             match (a, imu.world_from_sensor.get(k)) {
-                (Some(a), Some(b)) if ok(a) && ok(b) => (a.inverse() * b).angle(),
+                (Some(a), Some(b)) if ok(a) && ok(b) => rotation_angle_rad(&(a.inverse() * b)),
                 _ => f64::NAN,
             }
         })
@@ -170,7 +171,7 @@ pub(crate) fn segment_swing(skel: &SkeletonWindow, site: Joint, lag: usize) -> V
                 .copied()
                 .flatten();
             match (a, dirs.get(k).copied().flatten()) {
-                (Some(a), Some(b)) => a.angle(&b),
+                (Some(a), Some(b)) => angle_between_rad(&a, &b),
                 _ => f64::NAN,
             }
         })

@@ -21,6 +21,7 @@
 mod error;
 pub use error::{EvidenceError, Result};
 
+pub mod angle;
 pub mod belmonte;
 pub mod features;
 pub mod fusion;

@@ -26,6 +26,7 @@
 
 use crate::signal::{ImuSeries, LagSignals};
 use nalgebra::UnitQuaternion;
+use nomen_evidence::angle::rotation_angle_rad;
 use nomen_evidence::{GeometricConfig, ImuWindow, KinematicConfig, imu_lag_models};
 use std::collections::VecDeque;
 
@@ -216,7 +217,7 @@ pub(crate) fn imu_lag_signals(
     let orientation = kept
         .iter()
         .map(|(_, (q, _))| match reference {
-            Some(r) if is_finite(q) => (r * q).angle(),
+            Some(r) if is_finite(q) => rotation_angle_rad(&(r * q)),
             _ => f64::NAN,
         })
         .collect();
