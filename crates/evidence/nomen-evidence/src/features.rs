@@ -6,7 +6,9 @@
 //! of every subject. Filtering, differentiating and integrating a window costs far more than
 //! correlating two finished signals, so [`ImuFeatures`] is built once per (IMU, window grid) and
 //! [`SegmentFeatures`] once per (track, site), and [`compare_features`] only runs the Pearson
-//! correlations. [`crate::geometric_scores`] and [`crate::kinematic_scores`] are this same path
+//! correlations; [`compare_prepared`] takes each side's signals prepared once as well
+//! ([`ImuFeatures::units`], [`SegmentFeatures::units`]), so that a pair costs a dot product per
+//! model. [`crate::geometric_scores`] and [`crate::kinematic_scores`] are this same path
 //! for one pair.
 
 use crate::geometric::{

@@ -83,7 +83,10 @@
 //!    itself there); [`EngineConfig::offset_settle_passes`] such peaks in a row at an accepted
 //!    offset settle it, and the pass stops reading that IMU while it stays there.
 //!    Accepted offsets are refined every [`EngineConfig::offset_refine_interval_s`] against the tracks
-//!    labelled with the wearer (their fine lag curves averaged, weighted by coverage);
+//!    labelled with the wearer (their fine lag curves averaged, weighted by coverage; the
+//!    interval doubles while refinements leave the offset where it was, up to
+//!    [`EngineConfig::offset_refine_max_interval_s`]; with trusted offsets this is the only
+//!    path that moves them);
 //! 2. **evidence**: per camera, every active track against every subject. IMUs are resampled
 //!    onto the track's timestamps at their offset (before it is accepted, at that pair's own
 //!    lag-curve peak, so identity can be found meanwhile; a track too short for the search, at

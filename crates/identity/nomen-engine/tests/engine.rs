@@ -384,6 +384,40 @@ fn a_clock_offset_of_0_4_s_is_estimated_within_25_ms() {
 }
 
 #[test]
+fn a_refined_offset_that_stays_put_is_refined_less_often_and_one_that_moves_is_followed() {
+    // Both bands' offsets are trusted at 0 (the registry's); Ana's clock is really 60 ms off,
+    // within the refinement's reach. Ben's stays put: his refinements back off. Ana's moves:
+    // it is followed to the truth, with the interval starting again at every move.
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.06;
+    let msgs = recording(&people, 60.0);
+    let trusted = EngineConfig {
+        known_clock_offsets: true,
+        ..EngineConfig::default()
+    };
+    let fixed = EngineConfig {
+        offset_refine_max_interval_s: trusted.offset_refine_interval_s,
+        ..trusted
+    };
+    let (out, stats) = run_batch(&registry(&people), &msgs, &trusted).unwrap();
+    let (fixed_out, fixed_stats) = run_batch(&registry(&people), &msgs, &fixed).unwrap();
+    let updates =
+        |s: &EngineStats, device: &str| s.clock_offsets[&DeviceId::new(device)].num_updates;
+    let (ben, ben_fixed) = (updates(&stats, "ben_imu"), updates(&fixed_stats, "ben_imu"));
+    assert!(ben_fixed >= 8, "{fixed_stats:?}");
+    assert!(
+        ben * 2 <= ben_fixed,
+        "{ben} refinements against {ben_fixed} at a fixed pace"
+    );
+    for s in [&stats, &fixed_stats] {
+        assert!(offset_s(s, "ben_imu").abs() <= 0.025, "{s:?}");
+        assert!((offset_s(s, "ana_imu") - 0.06).abs() <= 0.025, "{s:?}");
+    }
+    assert!(accuracy(&people, &out, 12.0) > 0.98);
+    assert!(accuracy(&people, &fixed_out, 12.0) > 0.98);
+}
+
+#[test]
 fn a_wearer_out_of_view_does_not_take_the_lags_of_someone_moving_alike() {
     // Cleo swings like Ana 0.3 s later (and with another amplitude rhythm) but is not in view:
     // her IMU correlates well with Ana's track at a lag of about 0.3 s, only less well than
