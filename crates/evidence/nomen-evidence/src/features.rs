@@ -475,32 +475,26 @@ fn compare_by(
     let corr = |a: &[f64], ua: Option<&UnitSignal>, b: &[f64], ub: Option<&UnitSignal>| {
         pearson_prepared(a, ua, b, ub, geo.min_samples)
     };
-    let iu = |f: fn(&ImuUnits) -> &Option<UnitSignal>| imu_units.and_then(|u| f(u).as_ref());
-    let su = |f: fn(&SegmentUnits) -> &Option<UnitSignal>| seg_units.and_then(|u| f(u).as_ref());
+    // One model's correlation: the IMU's and the segment's signals, each with its unit.
+    macro_rules! model {
+        ($imu:ident, $seg:ident) => {
+            corr(
+                &imu.$imu,
+                imu_units.and_then(|u| u.$imu.as_ref()),
+                &seg.$seg,
+                seg_units.and_then(|u| u.$seg.as_ref()),
+            )
+        };
+    }
     let geometric = ModelScores {
-        acc: corr(
-            &imu.accel_magnitude,
-            iu(|u| &u.accel_magnitude),
-            &seg.accel_magnitude,
-            su(|u| &u.accel_magnitude),
-        ),
-        vel: corr(
-            &imu.velocity_magnitude,
-            iu(|u| &u.velocity_magnitude),
-            &seg.velocity_magnitude,
-            su(|u| &u.velocity_magnitude),
-        ),
-        ori: corr(
-            &imu.orientation_magnitude,
-            iu(|u| &u.orientation_magnitude),
-            &seg.orientation_magnitude,
-            su(|u| &u.orientation_magnitude),
-        ),
+        acc: model!(accel_magnitude, accel_magnitude),
+        vel: model!(velocity_magnitude, velocity_magnitude),
+        ori: model!(orientation_magnitude, orientation_magnitude),
         dl: None,
     };
     // The axis along the segment is unknown (mounting) and its sign flips the correlation's:
     // the largest |r| over the three axes (it lifts wrong pairs a little, the same for all).
-    let elevation_unit = su(|u| &u.elevation);
+    let elevation_unit = seg_units.and_then(|u| u.elevation.as_ref());
     let inclination = imu
         .axis_elevation
         .iter()
@@ -513,26 +507,11 @@ fn compare_by(
         })
         .reduce(f64::max);
     let kinematic = KinematicScores {
-        swing: corr(&imu.swing, iu(|u| &u.swing), &seg.swing, su(|u| &u.swing)),
-        vertical_accel: corr(
-            &imu.vertical_accel,
-            iu(|u| &u.vertical_accel),
-            &seg.vertical_accel,
-            su(|u| &u.vertical_accel),
-        ),
-        vertical_vel: corr(
-            &imu.vertical_velocity,
-            iu(|u| &u.vertical_velocity),
-            &seg.vertical_velocity,
-            su(|u| &u.vertical_velocity),
-        ),
+        swing: model!(swing, swing),
+        vertical_accel: model!(vertical_accel, vertical_accel),
+        vertical_vel: model!(vertical_velocity, vertical_velocity),
         inclination,
-        turn: corr(
-            &imu.turn_rate,
-            iu(|u| &u.turn_rate),
-            &seg.turn_rate,
-            su(|u| &u.turn_rate),
-        ),
+        turn: model!(turn_rate, turn_rate),
     };
     (geometric, kinematic)
 }
