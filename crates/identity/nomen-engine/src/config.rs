@@ -387,10 +387,11 @@ pub struct EngineConfig {
     /// (their lag curves averaged, weighted by coverage), s. Default 5 s.
     pub offset_refine_interval_s: f64,
     /// Longest interval between refinements of an offset that stays put, s: each refinement
-    /// that finds a peak and leaves the offset where it was doubles the IMU's interval from
-    /// `offset_refine_interval_s` up to this; an offset that moves (by any path) starts again.
-    /// Default 20 s (clocks drift by well under the 10 ms lag step in that time); set it to
-    /// `offset_refine_interval_s` to refine at a fixed pace.
+    /// that leaves the offset within a 10 ms lag step of where it was (its peak there, or no
+    /// peak clear enough to move it) doubles the IMU's interval from `offset_refine_interval_s`
+    /// up to this; an offset that moves (by any path) starts again, and a wearer with no
+    /// track to refine against is no refinement. Default 20 s (clocks drift by well under a
+    /// lag step in that time); set it to `offset_refine_interval_s` to refine at a fixed pace.
     pub offset_refine_max_interval_s: f64,
     /// Lag range around the current estimate searched when refining, s. Default 0.1 s.
     pub offset_refine_range_s: f64,
