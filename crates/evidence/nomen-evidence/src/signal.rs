@@ -7,7 +7,7 @@
 use nalgebra::Vector3;
 use nomen_core::SessionTime;
 use nomen_filters::derivative;
-use nomen_filters::lowpass::{ButterworthConfig, MovingAverage, ZeroPhaseLowpass};
+use nomen_filters::lowpass::{ButterworthConfig, ZeroPhaseLowpass};
 use serde::{Deserialize, Serialize};
 
 /// Smallest number of paired finite samples [`pearson`] accepts by default.
@@ -544,48 +544,9 @@ pub(crate) fn differentiate_runs(
     out
 }
 
-/// Causal moving average of `len` samples over a series with gaps; a `NaN` stays `NaN` and does not
-/// enter the average. `len` of 0 or 1 leaves the series unchanged.
-pub(crate) fn moving_average(x: &mut [f64], len: usize) {
-    /// Longest average kept on the stack (the window features use 5 samples).
-    const INLINE_LEN: usize = 16;
-    if len <= 1 {
-        return;
-    }
-    if len > INLINE_LEN {
-        let Ok(mut avg) = MovingAverage::new(len) else {
-            return;
-        };
-        for v in x.iter_mut() {
-            *v = avg.process(*v).unwrap_or(f64::NAN);
-        }
-        return;
-    }
-    // `MovingAverage::process`, step for step (the same sums in the same order, so the same
-    // values), on a ring buffer that needs no allocation.
-    let mut ring = [0.0; INLINE_LEN];
-    let ring = ring.get_mut(..len).unwrap_or(&mut []);
-    let (mut head, mut num_filled, mut sum) = (0_usize, 0_usize, 0.0);
-    for v in x.iter_mut() {
-        let Some(slot) = ring.get_mut(head).filter(|_| v.is_finite()) else {
-            *v = f64::NAN;
-            continue;
-        };
-        if num_filled == len {
-            sum -= *slot;
-        } else {
-            num_filled += 1;
-        }
-        *slot = *v;
-        sum += *v;
-        head += 1;
-        if head == len {
-            head = 0;
-            sum = ring.get(..num_filled).unwrap_or(&[]).iter().sum();
-        }
-        *v = sum / num_filled as f64;
-    }
-}
+/// Causal moving average of `len` samples over a series with gaps, in place; a `NaN` stays `NaN`
+/// and does not enter the average. `len` of 0 or 1 leaves the series unchanged.
+pub(crate) use nomen_filters::lowpass::moving_average_in_place as moving_average;
 
 /// A vector of `NaN`s (missing).
 pub(crate) fn nan3() -> Vector3<f64> {
@@ -671,35 +632,6 @@ mod tests {
         // Lengths that differ: pearson over the shorter one.
         let short = &wave(0.31, 0.2)[..50];
         assert_eq!(prepared(short, &y, 3), pearson(short, &y, 3));
-    }
-
-    #[test]
-    fn the_windows_moving_average_is_the_filters_bit_for_bit() {
-        let series: Vec<f64> = (0..90)
-            .map(|k| match k {
-                7 | 8 | 40 => f64::NAN,
-                23 => f64::INFINITY,
-                _ => (k as f64 * 0.37).sin() * 3.0 + 1e3 + 0.1 * k as f64,
-            })
-            .collect();
-        for len in [0, 1, 2, 5, 16, 17, 40] {
-            let mut ours = series.clone();
-            moving_average(&mut ours, len);
-            let theirs: Vec<f64> = match MovingAverage::new(len) {
-                Ok(mut avg) if len > 1 => series
-                    .iter()
-                    .map(|v| avg.process(*v).unwrap_or(f64::NAN))
-                    .collect(),
-                _ => series.clone(),
-            };
-            assert_eq!(ours.len(), theirs.len());
-            for (k, (a, b)) in ours.iter().zip(&theirs).enumerate() {
-                assert!(
-                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
-                    "len {len}, sample {k}: {a} against {b}"
-                );
-            }
-        }
     }
 
     #[test]

@@ -410,9 +410,42 @@ impl Lanes for Vector3<f64> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct MovingAverage {
     buffer: Vec<f64>,
+    state: BoxcarState,
+}
+
+/// A moving average's running state over its ring of the last samples.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct BoxcarState {
     head: usize,
     num_filled: usize,
     sum: f64,
+}
+
+impl BoxcarState {
+    /// Adds `x` to `ring` (the average's length) and returns the mean of the last
+    /// `min(len, samples seen)` samples; a non-finite sample is missing: ignored, `None`.
+    #[inline]
+    fn step(&mut self, ring: &mut [f64], x: f64) -> Option<f64> {
+        if !x.is_finite() {
+            return None;
+        }
+        let len = ring.len();
+        let slot = ring.get_mut(self.head)?;
+        if self.num_filled == len {
+            self.sum -= *slot;
+        } else {
+            self.num_filled += 1;
+        }
+        *slot = x;
+        self.sum += x;
+        self.head += 1;
+        if self.head == len {
+            self.head = 0;
+            // Re-sum once per lap so rounding errors of the running sum cannot accumulate.
+            self.sum = ring.get(..self.num_filled).unwrap_or(&[]).iter().sum();
+        }
+        Some(self.sum / self.num_filled as f64)
+    }
 }
 
 impl MovingAverage {
@@ -426,9 +459,7 @@ impl MovingAverage {
         }
         Ok(Self {
             buffer: vec![0.0; len],
-            head: 0,
-            num_filled: 0,
-            sum: 0.0,
+            state: BoxcarState::default(),
         })
     }
 
@@ -436,25 +467,32 @@ impl MovingAverage {
     /// A non-finite sample is missing: ignored, and `None` returned.
     #[inline]
     pub fn process(&mut self, x: f64) -> Option<f64> {
-        if !x.is_finite() {
-            return None;
+        self.state.step(&mut self.buffer, x)
+    }
+}
+
+/// [`MovingAverage`] of `len` samples run over `x` in place, a missing (non-finite) sample
+/// becoming `NaN`; `len` of 0 or 1 leaves `x` unchanged. The same values as
+/// [`MovingAverage::process`], without allocating for averages of up to 16 samples: for the
+/// many short series a window's features smooth.
+pub fn moving_average_in_place(x: &mut [f64], len: usize) {
+    /// Longest average kept on the stack.
+    const INLINE_LEN: usize = 16;
+    if len <= 1 {
+        return;
+    }
+    let mut inline = [0.0; INLINE_LEN];
+    let mut heap = Vec::new();
+    let ring = match inline.get_mut(..len) {
+        Some(ring) => ring,
+        None => {
+            heap.resize(len, 0.0);
+            &mut heap[..]
         }
-        let len = self.buffer.len();
-        let slot = self.buffer.get_mut(self.head)?;
-        if self.num_filled == len {
-            self.sum -= *slot;
-        } else {
-            self.num_filled += 1;
-        }
-        *slot = x;
-        self.sum += x;
-        self.head += 1;
-        if self.head == len {
-            self.head = 0;
-            // Re-sum once per lap so rounding errors of the running sum cannot accumulate.
-            self.sum = self.buffer[..self.num_filled].iter().sum();
-        }
-        Some(self.sum / self.num_filled as f64)
+    };
+    let mut state = BoxcarState::default();
+    for v in x.iter_mut() {
+        *v = state.step(ring, *v).unwrap_or(f64::NAN);
     }
 }
 
@@ -594,6 +632,39 @@ mod tests {
             let ya = a.process(x);
             assert_eq!(a.process(f64::NAN), None);
             assert_eq!(ya, b.process(x));
+        }
+    }
+
+    #[test]
+    fn the_in_place_moving_average_is_the_filters_bit_for_bit() {
+        let series: Vec<f64> = (0..90)
+            .map(|k| match k {
+                7 | 8 | 40 => f64::NAN,
+                23 => f64::INFINITY,
+                _ => (k as f64 * 0.37).sin() * 3.0 + 1e3 + 0.1 * k as f64,
+            })
+            .collect();
+        for len in [0, 1, 2, 5, 16, 17, 40] {
+            let mut ours = series.clone();
+            moving_average_in_place(&mut ours, len);
+            let theirs: Vec<f64> = match MovingAverage::new(len) {
+                Ok(mut avg) if len > 1 => series
+                    .iter()
+                    .map(|v| avg.process(*v).unwrap_or(f64::NAN))
+                    .collect(),
+                _ => series.clone(),
+            };
+            assert_eq!(ours.len(), theirs.len());
+            for (k, (a, b)) in ours.iter().zip(&theirs).enumerate() {
+                assert!(
+                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                    "len {len}, sample {k}: {a} against {b}"
+                );
+            }
+            // Past the stack's length the ring is on the heap, and still averages `len`.
+            if len == 40 {
+                assert!((ours[89] - series[50..90].iter().sum::<f64>() / 40.0).abs() < 1e-9);
+            }
         }
     }
 
