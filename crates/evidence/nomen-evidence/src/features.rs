@@ -388,7 +388,8 @@ pub fn compare_features(
 
 /// [`compare_features`] with each side's signals prepared once ([`ImuFeatures::units`],
 /// [`SegmentFeatures::units`]): the same scores to rounding, each correlation a dot product
-/// where both signals are complete (every value finite) and [`crate::pearson`] elsewhere.
+/// corrected by the samples only one side has ([`UnitSignal::correlation`]), and
+/// [`crate::pearson`]'s where a signal has no unit (no finite value).
 pub fn compare_prepared(
     imu: &ImuFeatures,
     imu_units: &ImuUnits,
