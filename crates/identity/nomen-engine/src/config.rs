@@ -469,6 +469,28 @@ pub struct EngineConfig {
     /// settle, the whole `nomen run` takes 6–8 % less time and its last minute's engine time
     /// about a quarter less (`cargo bench -p nomen-engine`), with the same accuracy.
     pub offset_settle_passes: usize,
+    /// How far a track's clear lag peak must beat both another subject's explanation of that
+    /// track and the IMU's support at its own offset to vote for moving the accepted offset of
+    /// a single-IMU subject there; 0 disables (see the crate docs, step 1). It undoes a lock-in the other paths keep: on the one-wrist scenes
+    /// two people walk the same clip with the same wrist, a stride-fraction apart, and an IMU
+    /// whose offset was accepted on its look-alike's track names that track while its wearer's
+    /// own track, which correlates clearly at the true offset, goes unnamed or to someone else;
+    /// the labelled-track checks then read the wrong tracks and the best-track sum still holds
+    /// the passes that agreed with the wrong offset. Default 0.1, with 4 votes among 6 passes
+    /// (18 s at 3 s) and only while the refinement finds no peak of `offset_min_correlation`.
+    /// Over the 138 runs of the engine README, +0.19 ± 0.10 points per run (6 better, none
+    /// worse; one wrist IMU, 5 people, seed 27: 57.5 → 67.1 %); the full network's runs are
+    /// untouched (its subjects have several IMUs); 180-s one-wrist scenes, seeds 1–3, 83.58 →
+    /// 88.41 % (seed 3: 63.8 → 78.2 %), seeds 4–9 unchanged. Looser variants gained more on
+    /// average and lost runs: 3 votes among 5 passes +0.38 ± 0.16 (3 runs worse, up to 2.0
+    /// points, and the 180-s seeds 4–9 −0.56); the same without the refinement's condition
+    /// +0.34 ± 0.16 (7 worse); 2 votes in a row +0.23 ± 0.18 (9 worse, up to 6.9).
+    pub offset_unexplained_margin: f64,
+    /// Votes (see `offset_unexplained_margin`) within `offset_consistency_s` of each other that
+    /// move an accepted offset. Default 4.
+    pub offset_unexplained_votes: usize,
+    /// Best-track passes over which the votes count. Default 6.
+    pub offset_unexplained_passes: usize,
     /// A track with no observation for this long is forgotten, s. Default 5 s.
     pub track_timeout_s: f64,
     /// Trust the registry's per-device clock offsets (wearables synchronised by PTP/NTP or
@@ -626,6 +648,9 @@ impl Default for EngineConfig {
             offset_best_track_interval_s: 3.0,
             offset_best_track_margin: 0.05,
             offset_settle_passes: 6,
+            offset_unexplained_margin: 0.1,
+            offset_unexplained_votes: 4,
+            offset_unexplained_passes: 6,
             track_timeout_s: 5.0,
             known_clock_offsets: false,
             stitch_max_gap_s: 3.0,
@@ -703,6 +728,7 @@ impl EngineConfig {
             ("offset_short_track_s", self.offset_short_track_s),
             ("offset_label_margin", self.offset_label_margin),
             ("offset_best_track_margin", self.offset_best_track_margin),
+            ("offset_unexplained_margin", self.offset_unexplained_margin),
             ("offset_margin", self.offset_margin),
             ("offset_consistency_s", self.offset_consistency_s),
             ("offset_confirm_apart_s", self.offset_confirm_apart_s),
@@ -765,6 +791,14 @@ impl EngineConfig {
             return Err(EngineError::InvalidConfig(
                 "offset_estimation_window_s must exceed twice max_clock_offset_s".into(),
             ));
+        }
+        if self.offset_unexplained_margin > 0.0
+            && !(1..=self.offset_unexplained_passes).contains(&self.offset_unexplained_votes)
+        {
+            return Err(EngineError::InvalidConfig(format!(
+                "offset_unexplained_votes ({}) must be in 1..=offset_unexplained_passes ({})",
+                self.offset_unexplained_votes, self.offset_unexplained_passes
+            )));
         }
         if self.offset_num_consistent == 0 {
             return Err(EngineError::InvalidConfig(

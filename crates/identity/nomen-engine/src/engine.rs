@@ -199,6 +199,12 @@ struct ImuState {
     best_track_curve: Vec<(f64, usize)>,
     /// Passes summed into `best_track_curve`.
     num_best_track_curves: usize,
+    /// The votes of the latest passes of [`Engine::move_to_unexplained_peaks`] to move the
+    /// accepted offset (`None`: no vote that pass), oldest first.
+    unexplained_votes: VecDeque<Option<i64>>,
+    /// The peak correlation the latest refinement found around the accepted offset (`None`:
+    /// no peak, or no refinement yet); refinements with no labelled track to read leave it.
+    refine_peak: Option<f64>,
     /// Passes in a row whose best-track sum peaked clearly near the accepted offset.
     num_best_track_agreements: usize,
     /// The accepted offset the best-track sum settled ([`EngineConfig::offset_settle_passes`]):
@@ -434,6 +440,8 @@ impl Engine {
                     last_label_search_end: i64::MIN,
                     best_track_curve: Vec::new(),
                     num_best_track_curves: 0,
+                    unexplained_votes: VecDeque::new(),
+                    refine_peak: None,
                     num_best_track_agreements: 0,
                     best_track_settled_ns: None,
                     settled_until_ns: i64::MIN,

@@ -81,7 +81,17 @@
 //!    peak standing [`EngineConfig::offset_best_track_margin`] above every lag more than 0.15 s
 //!    away accepts the offset or moves an accepted one (a wrong early label cannot confirm
 //!    itself there); [`EngineConfig::offset_settle_passes`] such peaks in a row at an accepted
-//!    offset settle it, and the pass stops reading that IMU while it stays there.
+//!    offset settle it, and the pass stops reading that IMU while it stays there. At the same
+//!    passes, a single-IMU subject's accepted offset is compared with the clear peaks of its
+//!    lag curves on tracks nobody else explains (another subject explains a track as well as
+//!    its accepted IMUs correlate there, at their offsets): while the IMU's refinement finds no
+//!    peak, a peak that beats both its correlation at its own offset on the tracks it explains
+//!    best and every other subject's explanation of that track by
+//!    [`EngineConfig::offset_unexplained_margin`] is a vote, and
+//!    [`EngineConfig::offset_unexplained_votes`] votes within
+//!    [`EngineConfig::offset_consistency_s`] among the last
+//!    [`EngineConfig::offset_unexplained_passes`] passes move the offset there (it undoes an
+//!    offset taken from a look-alike's track).
 //!    Accepted offsets are refined every [`EngineConfig::offset_refine_interval_s`] against the tracks
 //!    labelled with the wearer (their fine lag curves averaged, weighted by coverage; the
 //!    interval doubles while refinements leave the offset where it was, up to

@@ -861,6 +861,27 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
                 ..EngineConfig::default()
             },
         ),
+        (
+            "offset_unexplained_margin",
+            EngineConfig {
+                offset_unexplained_margin: -0.1,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "offset_unexplained_votes",
+            EngineConfig {
+                offset_unexplained_votes: 7,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "offset_unexplained_votes",
+            EngineConfig {
+                offset_unexplained_votes: 0,
+                ..EngineConfig::default()
+            },
+        ),
     ] {
         let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), config) else {
             panic!("{name} out of range was accepted");

@@ -172,6 +172,7 @@ impl Engine {
         self.score_contested(&mut search);
         self.accept_joint_winners(&mut search);
         self.best_track_pass(&mut search);
+        self.move_to_unexplained_peaks(&mut search);
         self.sum_labelled_curves(&mut search);
         self.refine_offsets(&mut search);
         for (imu, memo) in self.imus.iter_mut().zip(search.lag_memos) {
@@ -702,6 +703,185 @@ impl Engine {
         }
     }
 
+    /// Accepted offsets of single-IMU subjects that someone else's track contradicts (see
+    /// [`EngineConfig::offset_unexplained_margin`]). At every best-track pass, each such IMU's
+    /// coarse lag curve is taken against every candidate track:
+    /// - another subject *explains* a track as well as the mean correlation of its accepted
+    ///   IMUs there, each at its own offset;
+    /// - the IMU's *support* is its best correlation at its own offset on a track it explains
+    ///   better than anyone else (0 if none);
+    /// - a *vote* is the highest clear peak (as the joint search's candidates) on a track,
+    ///   farther than [`OFFSET_PEAK_SEPARATION_NS`] from the accepted offset, of at least
+    ///   `offset_min_correlation`, that beats both the support and every other subject's
+    ///   explanation of that track by the margin, while the IMU's last refinement found no
+    ///   peak of `offset_min_correlation` (see [`ImuState::refine_peak`]).
+    ///
+    /// `offset_unexplained_votes` votes within `offset_consistency_s` of this one among the
+    /// last `offset_unexplained_passes` passes move the offset there.
+    fn move_to_unexplained_peaks(&mut self, search: &mut LagSearch) {
+        let margin = self.config.offset_unexplained_margin;
+        if margin <= 0.0
+            || self.config.known_clock_offsets
+            || self.last_best_track_end != search.end
+        {
+            return;
+        }
+        let end = search.end;
+        let lo = search.lo;
+        let hi = search.hi;
+        let max_off = search.max_off;
+        let min_samples = search.min_samples;
+        let refine_every = search.refine_every;
+        let same_offset = search.same_offset;
+        let coarse = &search.coarse;
+        let candidates = &search.candidates;
+        let imu_cache = &mut search.imu_cache;
+        let skel_cache = &mut search.skel_cache;
+        let scratch = &mut search.scratch;
+        let lag_memos = &mut search.lag_memos;
+        let min_correlation = self.config.offset_min_correlation;
+        // (subject, track) → the subject's mean correlation there at its accepted offsets.
+        let mut explained: BTreeMap<(usize, TrackKey), Option<f64>> = BTreeMap::new();
+        // Per IMU looked at: this pass's vote, if any, as `(offset, peak)`.
+        let mut votes: Vec<(usize, Option<(i64, f64)>)> = Vec::new();
+        for i in 0..self.imus.len() {
+            let Some(imu) = self.imus.get(i) else {
+                continue;
+            };
+            if !imu.is_offset_known || self.is_network(imu.subject) {
+                continue;
+            }
+            // Always cut at the registry's offset, as the best-track pass does (whose coarse
+            // curves this pass shares).
+            let cut = imu.registry_offset_ns;
+            let grid: Vec<i64> = coarse.iter().map(|o| o + cut).collect();
+            let Some(at_offset) = nearest_index(&grid, imu.offset_ns) else {
+                continue;
+            };
+            let mut support = 0.0f64;
+            let mut best: Option<(i64, f64)> = None;
+            for key in candidates {
+                let mut others = f64::NEG_INFINITY;
+                for (l, imus) in self.subject_imus.iter().enumerate() {
+                    if l == imu.subject || !self.is_synced(l) {
+                        continue;
+                    }
+                    let e = *explained.entry((l, *key)).or_insert_with(|| {
+                        let (mut sum, mut n) = (0.0, 0usize);
+                        for &j in imus {
+                            let Some(other) = self.imus.get(j).filter(|m| m.is_offset_known) else {
+                                continue;
+                            };
+                            let cut_j = other.registry_offset_ns;
+                            let (Some(sig_j), Some(track_j)) = (
+                                imu_cache.signals(j, other, cut_j, lag_memos, &self.config),
+                                skel_cache.signals(
+                                    &self.tracks,
+                                    *key,
+                                    other.site,
+                                    lo,
+                                    hi,
+                                    &self.config,
+                                ),
+                            ) else {
+                                continue;
+                            };
+                            let at = [other.offset_ns];
+                            if let Some(v) = scratch
+                                .curve(sig_j, track_j, &at, min_samples)
+                                .first()
+                                .filter(|v| v.is_finite())
+                            {
+                                sum += v;
+                                n += 1;
+                            }
+                        }
+                        (n > 0).then(|| sum / n as f64)
+                    });
+                    if let Some(e) = e {
+                        others = others.max(e);
+                    }
+                }
+                let (Some(imu_sig), Some(sig)) = (
+                    imu_cache.signals(i, imu, cut, lag_memos, &self.config),
+                    skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config),
+                ) else {
+                    continue;
+                };
+                let curve = scratch
+                    .coarse_curve(i, cut, *key, imu_sig, sig, &grid, min_samples)
+                    .to_vec();
+                let own = curve.get(at_offset).copied().unwrap_or(f64::NAN);
+                if own.is_finite() && own > others {
+                    support = support.max(own);
+                }
+                let Some((offset, value)) =
+                    curve_peak(&grid, &curve, cut, self.config.offset_tie_tolerance)
+                else {
+                    continue;
+                };
+                let is_clear = nearest_index(&grid, offset)
+                    .is_some_and(|k| falls_on_both_sides(&curve, k, PEAK_DROP))
+                    && value - rival_value(&grid, &curve, offset, OFFSET_PEAK_SEPARATION_NS)
+                        >= self.config.offset_peak_clarity;
+                if is_clear
+                    && (offset - imu.offset_ns).abs() > OFFSET_PEAK_SEPARATION_NS
+                    && (offset - cut).abs() < max_off - LAG_STEP_NS / 2
+                    && value >= min_correlation
+                    && value - others >= margin
+                    && best.is_none_or(|(_, b)| value > b)
+                {
+                    best = Some((offset, value));
+                }
+            }
+            let is_unrefined = imu.refine_peak.is_none_or(|c| c < min_correlation);
+            votes.push((
+                i,
+                best.filter(|(_, v)| is_unrefined && v - support >= margin),
+            ));
+        }
+        let passes = self.config.offset_unexplained_passes.max(1);
+        let needed = self.config.offset_unexplained_votes.max(1);
+        for (i, vote) in votes {
+            let Some(imu) = self.imus.get_mut(i) else {
+                continue;
+            };
+            imu.unexplained_votes.push_back(vote.map(|(o, _)| o));
+            while imu.unexplained_votes.len() > passes {
+                imu.unexplained_votes.pop_front();
+            }
+            let Some((offset, peak)) = vote else {
+                continue;
+            };
+            let agreeing = imu
+                .unexplained_votes
+                .iter()
+                .flatten()
+                .filter(|o| (*o - offset).abs() <= same_offset)
+                .count();
+            if agreeing < needed {
+                continue;
+            }
+            imu.unexplained_votes.clear();
+            self.stats.num_offsets_moved += 1;
+            imu.offset_ns = offset;
+            imu.candidates.clear();
+            imu.winners.clear();
+            imu.pending_offset = None;
+            imu.label_curve.clear();
+            imu.num_label_curves = 0;
+            // The best-track sum still holds the passes that agreed with the old offset, and
+            // would move it back.
+            imu.best_track_curve.clear();
+            imu.num_best_track_curves = 0;
+            imu.num_best_track_agreements = 0;
+            imu.best_track_settled_ns = None;
+            // Refined at once (below) from the coarse step to the fine one.
+            imu.last_refine_end = end - refine_every;
+            record_offset(&mut self.stats, &imu.device, offset, peak);
+        }
+    }
+
     /// Unaccepted IMUs whose wearer the decisions put on a track: the coarse lag curve
     /// against that track is summed over searches, so tracks too short for the joint search
     /// ([`Engine::update_offsets`]) still add up; the sum's peak is accepted once it is clear
@@ -954,6 +1134,7 @@ impl Engine {
                 continue;
             };
             imu.last_refine_end = end;
+            imu.refine_peak = best.map(|(_, c)| c);
             let before = imu.offset_ns;
             if let Some((offset, corr)) = best
                 && corr >= self.config.offset_min_correlation
@@ -1076,6 +1257,15 @@ impl LagScratch {
         );
         &self.curve
     }
+}
+
+/// Index of the lag in `offsets_ns` nearest to `offset_ns` (`None` for an empty grid).
+fn nearest_index(offsets_ns: &[i64], offset_ns: i64) -> Option<usize> {
+    offsets_ns
+        .iter()
+        .enumerate()
+        .min_by_key(|(_, o)| o.abs_diff(offset_ns))
+        .map(|(k, _)| k)
 }
 
 /// Reports an accepted or updated clock offset of `device` in the run's statistics.
