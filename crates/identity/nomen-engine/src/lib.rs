@@ -85,8 +85,9 @@
 //!    passes, a single-IMU subject's accepted offset is compared with the clear peaks of its
 //!    lag curves on tracks nobody else explains (another subject explains a track as well as
 //!    its accepted IMUs correlate there, at their offsets): while the IMU's refinement finds no
-//!    peak, a peak that beats both its correlation at its own offset on the tracks it explains
-//!    best and every other subject's explanation of that track by
+//!    peak, a peak of [`EngineConfig::offset_unexplained_min_peak`] that beats both its
+//!    correlation at its own offset on the tracks it explains best and every other subject's
+//!    explanation of that track by
 //!    [`EngineConfig::offset_unexplained_margin`] is a vote, and
 //!    [`EngineConfig::offset_unexplained_votes`] votes within
 //!    [`EngineConfig::offset_consistency_s`] among the last

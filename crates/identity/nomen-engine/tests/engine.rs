@@ -869,6 +869,13 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             },
         ),
         (
+            "offset_unexplained_min_peak",
+            EngineConfig {
+                offset_unexplained_min_peak: 1.5,
+                ..EngineConfig::default()
+            },
+        ),
+        (
             "offset_unexplained_votes",
             EngineConfig {
                 offset_unexplained_votes: 7,

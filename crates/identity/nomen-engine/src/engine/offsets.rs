@@ -712,7 +712,7 @@ impl Engine {
     ///   better than anyone else (0 if none);
     /// - a *vote* is the highest clear peak (as the joint search's candidates) on a track,
     ///   farther than [`OFFSET_PEAK_SEPARATION_NS`] from the accepted offset, of at least
-    ///   `offset_min_correlation`, that beats both the support and every other subject's
+    ///   `offset_unexplained_min_peak`, that beats both the support and every other subject's
     ///   explanation of that track by the margin, while the IMU's last refinement found no
     ///   peak of `offset_min_correlation` (see [`ImuState::refine_peak`]).
     ///
@@ -827,7 +827,7 @@ impl Engine {
                 if is_clear
                     && (offset - imu.offset_ns).abs() > OFFSET_PEAK_SEPARATION_NS
                     && (offset - cut).abs() < max_off - LAG_STEP_NS / 2
-                    && value >= min_correlation
+                    && value >= self.config.offset_unexplained_min_peak
                     && value - others >= margin
                     && best.is_none_or(|(_, b)| value > b)
                 {
