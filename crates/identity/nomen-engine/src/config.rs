@@ -487,7 +487,10 @@ pub struct EngineConfig {
     /// 63.8 → 83.2 %), seeds 4–9 unchanged. Looser variants (with peaks of 0.3) gained more on
     /// average and lost runs: 3 votes among 5 passes +0.38 ± 0.16 (3 runs worse, up to 2.0
     /// points, and the 180-s seeds 4–9 −0.56); the same without the refinement's condition
-    /// +0.34 ± 0.16 (7 worse); 2 votes in a row +0.23 ± 0.18 (9 worse, up to 6.9).
+    /// +0.34 ± 0.16 (7 worse); 2 votes in a row +0.23 ± 0.18 (9 worse, up to 6.9). Each pass
+    /// correlates every unrefined single IMU with every candidate track over the coarse lag
+    /// grid: `nomen run` of the 8-person one-wrist scene takes about a fifth more time (0.50 →
+    /// 0.59 s user, seed 2, five runs each).
     pub offset_unexplained_margin: f64,
     /// Lowest peak that votes (see `offset_unexplained_margin`). Default 0.25: a wearer's own
     /// track in a crowd often peaks at 0.2–0.35 over the 12-s buffer; at 0.3 the 138 runs

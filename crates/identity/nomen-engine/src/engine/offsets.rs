@@ -751,6 +751,11 @@ impl Engine {
             if !imu.is_offset_known || self.is_network(imu.subject) {
                 continue;
             }
+            // An offset the refinement still finds a peak at gets no vote this pass.
+            if imu.refine_peak.is_some_and(|c| c >= min_correlation) {
+                votes.push((i, None));
+                continue;
+            }
             // Always cut at the registry's offset, as the best-track pass does (whose coarse
             // curves this pass shares).
             let cut = imu.registry_offset_ns;
@@ -834,11 +839,7 @@ impl Engine {
                     best = Some((offset, value));
                 }
             }
-            let is_unrefined = imu.refine_peak.is_none_or(|c| c < min_correlation);
-            votes.push((
-                i,
-                best.filter(|(_, v)| is_unrefined && v - support >= margin),
-            ));
+            votes.push((i, best.filter(|(_, v)| v - support >= margin)));
         }
         let passes = self.config.offset_unexplained_passes.max(1);
         let needed = self.config.offset_unexplained_votes.max(1);
