@@ -92,8 +92,9 @@ pub struct EngineStats {
     /// Camera id swaps undone: a track's observation jumped onto where another track of its
     /// camera just was, so the two tracks' people (history, filters, evidence) were exchanged.
     pub num_swaps: u64,
-    /// Accepted clock offsets moved to a clearly better peak of the lag curves summed against
-    /// the wearer's labelled tracks.
+    /// Accepted clock offsets moved: to a clearly better peak of the lag curves summed against
+    /// the wearer's labelled tracks or of the best-track sum, or to a clear peak on a track
+    /// nobody else explains.
     pub num_offsets_moved: u64,
     /// Settlings of accepted clock offsets: the best-track sum peaked clearly at one for
     /// `EngineConfig::offset_settle_passes` passes in a row, so the pass skips its IMU while it

@@ -288,17 +288,14 @@ impl Engine {
                     // Whether this pair's peak stands clear of every lag a stride or a
                     // look-alike away (on the coarse curve): only a clear one may be a
                     // candidate. A known offset is read at itself and is no candidate.
-                    let clarity = self.config.offset_peak_clarity;
                     let is_clear = is_coarse
-                        && offsets
-                            .iter()
-                            .enumerate()
-                            .min_by_key(|(_, o)| o.abs_diff(offset))
-                            .is_some_and(|(k, _)| falls_on_both_sides(curve, k, PEAK_DROP))
-                        && (clarity <= 0.0
-                            || value
-                                - rival_value(&offsets, curve, offset, OFFSET_PEAK_SEPARATION_NS)
-                                >= clarity);
+                        && is_clear_peak(
+                            &offsets,
+                            curve,
+                            offset,
+                            value,
+                            self.config.offset_peak_clarity,
+                        );
                     if is_coarse {
                         let reach = COARSE_LAG_STEPS as i64 * LAG_STEP_NS;
                         let near = offset.div_euclid(LAG_STEP_NS) * LAG_STEP_NS;
@@ -756,8 +753,8 @@ impl Engine {
                 votes.push((i, None));
                 continue;
             }
-            // Always cut at the registry's offset, as the best-track pass does (whose coarse
-            // curves this pass shares).
+            // Always cut at the registry's offset, as the best-track pass does: the signals
+            // depend on where the buffer starts, and every pass must measure the same thing.
             let cut = imu.registry_offset_ns;
             let grid: Vec<i64> = coarse.iter().map(|o| o + cut).collect();
             let Some(at_offset) = nearest_index(&grid, imu.offset_ns) else {
@@ -825,12 +822,13 @@ impl Engine {
                 else {
                     continue;
                 };
-                let is_clear = nearest_index(&grid, offset)
-                    .is_some_and(|k| falls_on_both_sides(&curve, k, PEAK_DROP))
-                    && value - rival_value(&grid, &curve, offset, OFFSET_PEAK_SEPARATION_NS)
-                        >= self.config.offset_peak_clarity;
-                if is_clear
-                    && (offset - imu.offset_ns).abs() > OFFSET_PEAK_SEPARATION_NS
+                if is_clear_peak(
+                    &grid,
+                    &curve,
+                    offset,
+                    value,
+                    self.config.offset_peak_clarity,
+                ) && (offset - imu.offset_ns).abs() > OFFSET_PEAK_SEPARATION_NS
                     && (offset - cut).abs() < max_off - LAG_STEP_NS / 2
                     && value >= self.config.offset_unexplained_min_peak
                     && value - others >= margin
@@ -1258,6 +1256,22 @@ impl LagScratch {
         );
         &self.curve
     }
+}
+
+/// Whether the peak `(offset_ns, value)` of `curve` over `offsets_ns` is clear: the curve falls
+/// by [`PEAK_DROP`] on both sides of it and, unless `clarity` ≤ 0, it stands `clarity` above
+/// every lag more than [`OFFSET_PEAK_SEPARATION_NS`] away.
+fn is_clear_peak(
+    offsets_ns: &[i64],
+    curve: &[f64],
+    offset_ns: i64,
+    value: f64,
+    clarity: f64,
+) -> bool {
+    nearest_index(offsets_ns, offset_ns).is_some_and(|k| falls_on_both_sides(curve, k, PEAK_DROP))
+        && (clarity <= 0.0
+            || value - rival_value(offsets_ns, curve, offset_ns, OFFSET_PEAK_SEPARATION_NS)
+                >= clarity)
 }
 
 /// Index of the lag in `offsets_ns` nearest to `offset_ns` (`None` for an empty grid).
