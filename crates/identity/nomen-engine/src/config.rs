@@ -471,9 +471,10 @@ pub struct EngineConfig {
     pub offset_settle_passes: usize,
     /// How far a track's clear lag peak must beat both another subject's explanation of that
     /// track and the IMU's support at its own offset to vote for moving the accepted offset of
-    /// a single-IMU subject there; 0 disables (see the crate docs, step 1). It undoes a lock-in
-    /// the other paths keep: on the one-wrist scenes two people walk the same clip with the
-    /// same wrist, a fraction of a stride apart, and an IMU whose offset was accepted on its
+    /// a single-IMU subject there; 0 disables (see the crate docs, step 1). It runs at the
+    /// best-track pass's pace, so not at all when `offset_best_track_curves` is 0. It undoes a
+    /// lock-in the other paths keep: on the one-wrist scenes two people walk the same clip with
+    /// the same wrist, a fraction of a stride apart, and an IMU whose offset was accepted on its
     /// look-alike's track names that track while its wearer's own track, which correlates
     /// clearly at the true offset, goes unnamed or to someone else; the labelled-track checks
     /// then read the wrong tracks, and the best-track sum still holds the passes that agreed
