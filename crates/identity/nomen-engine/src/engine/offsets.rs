@@ -375,37 +375,21 @@ impl Engine {
                 continue;
             };
             for key in &contested {
-                let (mut sum, mut num) = (0.0, 0usize);
-                for &i in theirs {
-                    let Some(imu) = self.imus.get(i) else {
-                        continue;
-                    };
-                    let Some(imu_sig) =
-                        imu_cache.signals(i, imu, imu.offset_ns, lag_memos, &self.config)
-                    else {
-                        continue;
-                    };
-                    let Some(sig) =
-                        skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
-                    else {
-                        continue;
-                    };
-                    let offsets = [imu.offset_ns];
-                    let curve = scratch.curve(imu_sig, sig, &offsets, min_samples);
-                    if let Some((_, value)) = curve_peak(
-                        &offsets,
-                        curve,
-                        imu.registry_offset_ns,
-                        self.config.offset_tie_tolerance,
-                    ) {
-                        sum += value;
-                        num += 1;
-                    }
-                }
-                if num > 0
+                // Every IMU of a subject that is not searching has an accepted offset.
+                let explained = mean_at_offsets(
+                    &self.imus,
+                    theirs,
+                    |imu| imu.offset_ns,
+                    &self.tracks,
+                    *key,
+                    (lo, hi, min_samples),
+                    (imu_cache, skel_cache, scratch, lag_memos),
+                    &self.config,
+                );
+                if let Some(v) = explained
                     && let Some(scores) = subject_scores.get_mut(c)
                 {
-                    scores.insert(*key, sum / num as f64);
+                    scores.insert(*key, v);
                 }
             }
         }
@@ -769,36 +753,16 @@ impl Engine {
                         continue;
                     }
                     let e = *explained.entry((l, *key)).or_insert_with(|| {
-                        let (mut sum, mut n) = (0.0, 0usize);
-                        for &j in imus {
-                            let Some(other) = self.imus.get(j).filter(|m| m.is_offset_known) else {
-                                continue;
-                            };
-                            let cut_j = other.registry_offset_ns;
-                            let (Some(sig_j), Some(track_j)) = (
-                                imu_cache.signals(j, other, cut_j, lag_memos, &self.config),
-                                skel_cache.signals(
-                                    &self.tracks,
-                                    *key,
-                                    other.site,
-                                    lo,
-                                    hi,
-                                    &self.config,
-                                ),
-                            ) else {
-                                continue;
-                            };
-                            let at = [other.offset_ns];
-                            if let Some(v) = scratch
-                                .curve(sig_j, track_j, &at, min_samples)
-                                .first()
-                                .filter(|v| v.is_finite())
-                            {
-                                sum += v;
-                                n += 1;
-                            }
-                        }
-                        (n > 0).then(|| sum / n as f64)
+                        mean_at_offsets(
+                            &self.imus,
+                            imus,
+                            |other| other.registry_offset_ns,
+                            &self.tracks,
+                            *key,
+                            (lo, hi, min_samples),
+                            (imu_cache, skel_cache, scratch, lag_memos),
+                            &self.config,
+                        )
                     });
                     if let Some(e) = e {
                         others = others.max(e);
@@ -1256,6 +1220,50 @@ impl LagScratch {
         );
         &self.curve
     }
+}
+
+/// How well the IMUs `theirs` (indices into `imus`; those without an accepted offset are
+/// skipped) explain track `key`: the mean of their lag curves' values on it, each at its own
+/// offset, over the search's buffer `(lo, hi, min_samples)`, each IMU's buffer cut at
+/// `cut_ns(imu)`; `None` if none has a value.
+#[allow(clippy::too_many_arguments)]
+fn mean_at_offsets(
+    imus: &[ImuState],
+    theirs: &[usize],
+    cut_ns: impl Fn(&ImuState) -> i64,
+    tracks: &BTreeMap<TrackKey, TrackState>,
+    key: TrackKey,
+    (lo, hi, min_samples): (i64, i64, usize),
+    (imu_cache, skel_cache, scratch, lag_memos): (
+        &mut ImuLagCache,
+        &mut TrackLagCache,
+        &mut LagScratch,
+        &mut [ImuLagMemo],
+    ),
+    config: &EngineConfig,
+) -> Option<f64> {
+    let (mut sum, mut num) = (0.0, 0usize);
+    for &i in theirs {
+        let Some(imu) = imus.get(i).filter(|m| m.is_offset_known) else {
+            continue;
+        };
+        let (Some(imu_sig), Some(sig)) = (
+            imu_cache.signals(i, imu, cut_ns(imu), lag_memos, config),
+            skel_cache.signals(tracks, key, imu.site, lo, hi, config),
+        ) else {
+            continue;
+        };
+        let at = [imu.offset_ns];
+        if let Some(v) = scratch
+            .curve(imu_sig, sig, &at, min_samples)
+            .first()
+            .filter(|v| v.is_finite())
+        {
+            sum += v;
+            num += 1;
+        }
+    }
+    (num > 0).then(|| sum / num as f64)
 }
 
 /// Whether the peak `(offset_ns, value)` of `curve` over `offsets_ns` is clear: the curve falls
