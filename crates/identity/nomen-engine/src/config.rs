@@ -207,6 +207,27 @@ pub struct EngineConfig {
     /// Joint measurement noise (per axis standard deviation) for the Kalman filter, m. Default
     /// 0.03 m (Kinect v2 joint noise at 2–4 m, Otte et al. 2016).
     pub joint_noise_std_m: f64,
+    /// Factor on [`Self::joint_noise_std_m`] for a joint the camera reports as inferred
+    /// (`JointState::Inferred`: occluded, guessed by the SDK), so the Kalman filter leans on
+    /// its motion model there instead of following the guess (Kinect v2 inferred joints err
+    /// several times more than tracked ones, Wang et al. 2015); 1 treats both alike. In the
+    /// 8-person scenes a wrist is inferred in about a quarter of the frames.
+    ///
+    /// Default 3, measured over the ten imu-table scenes at seeds 1–9 given the true clock
+    /// offsets (where no offset search can lock in): 97.20 % of frames right at 1, 97.44 /
+    /// 97.64 / 97.69 / 97.80 % at 2 / 3 / 4 / 6 (at 3: +0.44 ± 0.09 points per run, 25 runs
+    /// better, 1 worse; one wrist, 8 people 94.01 → 95.05 %). Dropping inferred joints instead
+    /// (gaps) gave 92.96 %. With searched offsets the gain is smaller and noisier, since a
+    /// sharper early fit also changes which look-alike's track an offset locks onto first: 3
+    /// against 1 (with `offset_subject_margin` 0.05 and `offset_label_network_min_peak` 0.3)
+    /// +0.13 ± 0.53 per run over 138 runs (the ten scenes at seeds 1–9, both 8-person scenes at
+    /// 10–15, one wrist at 5 and 8 people at 16–33) and +0.32 ± 0.99 over 45 more (5 scenes at
+    /// seeds 10–18). 4 did better there (+1.00 ± 0.32 per run against 3 over the 138, +0.62
+    /// ± 0.97 over the 45), but in the Belmonte-Hernández intruder episode at seed 5 the
+    /// intruder's first window fitted the band better than its wearer's track did and he was
+    /// named for half of his frames: anonymous in 96.51 % of his frames over seeds 1–18
+    /// (99.48 % at 3; seeds 19–36: 99.71 % at 4, 99.63 % at 3).
+    pub inferred_joint_noise_factor: f64,
     /// Madgwick gains for every IMU's `world_from_sensor`.
     pub madgwick: MadgwickConfig,
     /// Gravity removed from the world-frame specific force, m/s².
@@ -340,10 +361,14 @@ pub struct EngineConfig {
     /// a candidate, correlation units. Default 0.1.
     pub offset_margin: f64,
     /// How much a subject's winning track's mean peak must beat every other subject's mean peak
-    /// on that track, correlation units (negative: not checked). Default 0: two people walking
-    /// alike must not both take one track's lags as their offsets (on the simulated scenes some
-    /// share a motion clip at another phase). With 2.5 s tracks it is worth 1.9 points over the
-    /// ten imu-table scenes at seeds 1–6; 0.05 was within 0.2 points of 0.
+    /// on that track, correlation units (negative: not checked): two people walking alike must
+    /// not both take one track's lags as their offsets (on the simulated scenes some share a
+    /// motion clip at another phase). Checking it at all (0 against negative) was worth 1.9
+    /// points over the ten imu-table scenes at seeds 1–6 with 2.5-s tracks. Default 0.05:
+    /// with inferred joints weighed down ([`Self::inferred_joint_noise_factor`]) the early fits
+    /// are sharper and a look-alike's track wins more often by a hair; against 0, +0.35 ± 0.42
+    /// points per run over the 138 runs (12 better, 8 worse) and +0.49 ± 0.37 over the 45 (9
+    /// better, 1 worse); 0.03 / 0.1 within 0.2 points of 0.05 (with a factor of 4).
     pub offset_subject_margin: f64,
     /// Number of successive candidates that must agree within `offset_consistency_s` before an
     /// offset is accepted. Default 3.
@@ -426,6 +451,19 @@ pub struct EngineConfig {
     /// tracks, lower than one long track's peak (`offset_min_correlation`); on the simulated
     /// wrist scenes right peaks were 0.2–0.3 and stood 0.08–0.15 above the rest.
     pub offset_label_min_correlation: f64,
+    /// Lowest mean of the summed-curve peaks (`offset_label_min_correlation`'s curves) over a
+    /// body-area network's IMUs for the network's first offsets to be accepted from its
+    /// labels, all together; 0 lets each IMU's own peak decide. Default 0.3, the joint
+    /// search's `offset_min_correlation`. Those labels came from pairs scored at their own
+    /// best lags, and a look-alike's tracks among them give some IMUs a clear peak at the
+    /// look-alike's lag while the network as a whole fits poorly: on 5 people, full network,
+    /// seed 3, four of Ana's five IMUs had summed peaks of 0.22–0.47 at 15.5 s, all 0.2–0.8 s
+    /// off, and were accepted one by one, to be moved by the best-track sum at 24.5 s; held,
+    /// her offsets were accepted by the joint search at 22.5 s, right. Against 0 (with the defaults otherwise): +0.07 ± 0.08 points
+    /// per run over the 138 runs of [`Self::inferred_joint_noise_factor`]; over its 45 runs
+    /// +0.83 ± 0.77 (2 better, none worse; full network, 5 people, seeds 10–18: 85.81 →
+    /// 89.97 %).
+    pub offset_label_network_min_peak: f64,
     /// An accepted offset is withdrawn (and searched for again) when the summed lag curve of
     /// its IMU against the wearer's labelled tracks is below this at the offset and at least
     /// `offset_label_margin` higher at another lag. Default 0.05: on the simulated 8-person
@@ -624,6 +662,7 @@ impl Default for EngineConfig {
             geometric: GeometricConfig::default(),
             joint_filter: Some(ConstantVelocityConfig::default()),
             joint_noise_std_m: 0.03,
+            inferred_joint_noise_factor: 3.0,
             madgwick: MadgwickConfig::default(),
             gravity_mps2: 9.81,
             evidence_half_life_s: 2.0,
@@ -639,7 +678,7 @@ impl Default for EngineConfig {
             offset_search_while_blind: true,
             offset_min_correlation: 0.3,
             offset_margin: 0.1,
-            offset_subject_margin: 0.0,
+            offset_subject_margin: 0.05,
             offset_num_consistent: 3,
             offset_consistency_s: 0.05,
             offset_hypotheses: 3,
@@ -654,6 +693,7 @@ impl Default for EngineConfig {
             offset_label_curves_unsynced: 12,
             offset_label_margin: 0.05,
             offset_label_min_correlation: 0.15,
+            offset_label_network_min_peak: 0.3,
             offset_withdraw_below: 0.05,
             offset_best_track_curves: 7,
             offset_best_track_interval_s: 3.0,
@@ -779,6 +819,10 @@ impl EngineConfig {
                 "offset_unexplained_min_peak",
                 self.offset_unexplained_min_peak,
             ),
+            (
+                "offset_label_network_min_peak",
+                self.offset_label_network_min_peak,
+            ),
             ("exclusion_margin", self.exclusion_margin),
         ] {
             if !(v.is_finite() && (-1.0..=1.0).contains(&v)) {
@@ -796,6 +840,14 @@ impl EngineConfig {
                     "{name} must be in 0..=1, got {v}"
                 )));
             }
+        }
+        if !(self.inferred_joint_noise_factor.is_finite()
+            && self.inferred_joint_noise_factor >= 1.0)
+        {
+            return Err(EngineError::InvalidConfig(format!(
+                "inferred_joint_noise_factor must be >= 1, got {}",
+                self.inferred_joint_noise_factor
+            )));
         }
         if self.hop_s > self.window_s {
             return Err(EngineError::InvalidConfig(format!(

@@ -285,8 +285,15 @@ struct Accumulator {
     weight: f64,
 }
 
+/// One camera observation of a track waiting for the reorder window.
+struct PendingFrame {
+    joints_world_m: Joints<Point3<f64>>,
+    /// The joints the camera reported as inferred.
+    inferred: Joints<()>,
+}
+
 struct TrackState {
-    pending: BTreeMap<i64, Joints<Point3<f64>>>,
+    pending: BTreeMap<i64, PendingFrame>,
     samples: VecDeque<TrackSample>,
     kalman: Vec<Option<JointKalman>>,
     /// Earliest and newest observation times, session ns.
@@ -766,9 +773,13 @@ impl Engine {
             });
         }
         let mut world = Joints::new();
+        let mut inferred = Joints::new();
         for (j, obs) in s.joints.iter() {
             if obs.state != JointState::Missing {
                 world.insert(j, cam.world_from_camera * obs.position_m);
+            }
+            if obs.state == JointState::Inferred {
+                inferred.insert(j, ());
             }
         }
         cam.newest = Some(cam.newest.map_or(t, |n| n.max(t)));
@@ -800,7 +811,13 @@ impl Engine {
                 settled_anchor_world_m: None,
                 return_from_gap: None,
             });
-        track.pending.insert(t, world);
+        track.pending.insert(
+            t,
+            PendingFrame {
+                joints_world_m: world,
+                inferred,
+            },
+        );
         track.first_t = track.first_t.min(t);
         if t >= track.last_t {
             track.last_t = t;
@@ -1174,11 +1191,13 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
 /// Settles a track's pending observations below `frontier` through the joint filters.
 fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise_std_m: f64) {
     let r = Matrix3::identity() * noise_std_m * noise_std_m;
+    let r_inferred = r * config.inferred_joint_noise_factor.powi(2);
     while let Some(entry) = tr.pending.first_entry() {
         if *entry.key() >= frontier {
             break;
         }
-        let (t, joints) = entry.remove_entry();
+        let (t, frame) = entry.remove_entry();
+        let joints = frame.joints_world_m;
         let mut sample = TrackSample {
             t,
             joints: Joints::new(),
@@ -1196,7 +1215,12 @@ fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise
                         continue;
                     };
                     let z = joints.get(*j);
-                    let stepped = kf.step(SessionTime::from_ns(t), z.map(|p| (p, &r)));
+                    let r = if frame.inferred.get(*j).is_some() {
+                        &r_inferred
+                    } else {
+                        &r
+                    };
+                    let stepped = kf.step(SessionTime::from_ns(t), z.map(|p| (p, r)));
                     if stepped.is_ok()
                         && z.is_some()
                         && let Some(p) = kf.position()

@@ -5,7 +5,9 @@
 //! is late by at most [`EngineConfig::reorder_window_s`] behind its own newest message. Each
 //! source is *settled* in time order below that frontier:
 //! - skeleton joints go to the world frame (`world_from_camera` from the registry) and through
-//!   a constant-velocity Kalman filter per joint ([`EngineConfig::joint_filter`]);
+//!   a constant-velocity Kalman filter per joint ([`EngineConfig::joint_filter`]), a joint the
+//!   camera reports as inferred with [`EngineConfig::inferred_joint_noise_factor`] times the
+//!   measurement noise;
 //! - IMU samples go through Madgwick's `update_imu` for `world_from_sensor`, giving the
 //!   linear-acceleration magnitude `|R·a − g ẑ|` and the angular-rate magnitude. The filter
 //!   (re)starts, at the first sample and after a gap of a second, from the vertical of the
@@ -70,7 +72,9 @@
 //!    [`EngineConfig::offset_label_margin`] above every lag more than 0.15 s away is accepted
 //!    too (a wearer with several IMUs, none of them accepted yet, needs
 //!    [`EngineConfig::offset_label_curves_unsynced`] curves: her labels then come from pairs
-//!    scored at their own best lags). The same sum, restarted at acceptance and taken every
+//!    scored at their own best lags; and her first offsets are accepted together, only when
+//!    the peaks of all her IMUs' sums average
+//!    [`EngineConfig::offset_label_network_min_peak`]). The same sum, restarted at acceptance and taken every
 //!    [`EngineConfig::offset_refine_interval_s`], moves an accepted offset whose wearer's tracks
 //!    clearly peak elsewhere (a stride away, or first found on someone else's track), and
 //!    withdraws one at which that sum stays below [`EngineConfig::offset_withdraw_below`] while

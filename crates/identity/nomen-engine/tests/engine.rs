@@ -889,6 +889,27 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
                 ..EngineConfig::default()
             },
         ),
+        (
+            "offset_label_network_min_peak",
+            EngineConfig {
+                offset_label_network_min_peak: 1.5,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "inferred_joint_noise_factor",
+            EngineConfig {
+                inferred_joint_noise_factor: 0.5,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "inferred_joint_noise_factor",
+            EngineConfig {
+                inferred_joint_noise_factor: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
     ] {
         let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), config) else {
             panic!("{name} out of range was accepted");
@@ -1405,4 +1426,71 @@ fn a_networks_first_names_come_from_the_first_search_that_finds_peaks() {
         "first named at {blind:?} against {paced:?}"
     );
     assert!(blind.1 > 0.98, "accuracy after 4 s {}", blind.1);
+}
+
+/// The mean IMU evidence score of the decisions naming each person's own subject, after
+/// `from_s`.
+fn mean_own_imu_score(people: &[Person], out: &[Message], from_s: f64) -> f64 {
+    let scores: Vec<f64> = out
+        .iter()
+        .filter_map(|m| match m {
+            Message::Identified(id) if id.t.as_secs_f64() >= from_s => Some(id),
+            _ => None,
+        })
+        .filter(|id| {
+            people.iter().any(|p| {
+                p.track_at(id.t.as_secs_f64()) == id.track
+                    && p.subject.is_some()
+                    && id.identity.subject().map(|s| s.as_str()) == p.subject
+            })
+        })
+        .flat_map(|id| id.evidence.iter())
+        .filter(|e| e.modality == "imu")
+        .map(|e| e.score)
+        .collect();
+    assert!(!scores.is_empty(), "no IMU evidence after {from_s} s");
+    scores.iter().sum::<f64>() / scores.len() as f64
+}
+
+#[test]
+fn inferred_joints_weigh_less_in_the_joint_filter() {
+    // Two of every three frames the camera guesses each left wrist (inferred) 15 cm off in a
+    // direction that changes every frame; the third frame it sees it.
+    let people = two_people();
+    let mut msgs = recording(&people, 20.0);
+    let mut frame = 0u32;
+    for m in &mut msgs {
+        let Message::Skeleton(s) = m else { continue };
+        frame += 1;
+        if frame.is_multiple_of(3) {
+            continue;
+        }
+        let angle = f64::from(frame) * 2.399_963; // the golden angle: no repeating pattern
+        if let Some(wrist) = s.joints.get_mut(Joint::LeftWrist) {
+            wrist.position_m += 0.15 * Vector3::new(angle.cos(), angle.sin(), 0.5 * angle.cos());
+            wrist.state = nomen_core::JointState::Inferred;
+            wrist.confidence = 0.5;
+        }
+    }
+    let run = |factor: f64| {
+        let config = EngineConfig {
+            inferred_joint_noise_factor: factor,
+            ..EngineConfig::default()
+        };
+        let (out, _) = run_batch(&registry(&people), &msgs, &config).unwrap();
+        (
+            mean_own_imu_score(&people, &out, 8.0),
+            accuracy(&people, &out, 8.0),
+        )
+    };
+    let (alike, acc_alike) = run(1.0);
+    let (weighted, acc_weighted) = run(EngineConfig::default().inferred_joint_noise_factor);
+    assert!(
+        weighted > alike + 0.05,
+        "own IMU score {weighted} (inferred joints weighed less) against {alike} (alike)"
+    );
+    assert!(
+        acc_weighted >= acc_alike,
+        "{acc_weighted} against {acc_alike}"
+    );
 }

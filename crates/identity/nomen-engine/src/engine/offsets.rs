@@ -863,6 +863,7 @@ impl Engine {
         let scratch = &mut search.scratch;
         let lag_memos = &mut search.lag_memos;
         let label_min = ns(self.config.offset_label_min_track_s);
+        let mut held: Vec<HeldLabelPeak> = Vec::new();
         for i in 0..self.imus.len() {
             let Some(imu) = self.imus.get(i) else {
                 continue;
@@ -915,14 +916,15 @@ impl Engine {
             // Labels of a body-area network none of whose offsets is accepted yet came from
             // pairs scored at their own best lags; the joint search, which averages over the
             // network, usually finds its first offset, and this path waits for more curves.
-            let needed =
-                if !imu.is_offset_known && !self.is_synced(subject) && self.is_network(subject) {
-                    self.config
-                        .offset_label_curves
-                        .max(self.config.offset_label_curves_unsynced)
-                } else {
-                    self.config.offset_label_curves
-                };
+            let is_unsynced_network =
+                !imu.is_offset_known && !self.is_synced(subject) && self.is_network(subject);
+            let needed = if is_unsynced_network {
+                self.config
+                    .offset_label_curves
+                    .max(self.config.offset_label_curves_unsynced)
+            } else {
+                self.config.offset_label_curves
+            };
             let Some(imu) = self.imus.get_mut(i) else {
                 continue;
             };
@@ -971,29 +973,35 @@ impl Engine {
                 continue;
             }
             // The peak must lie inside the searched range (see the joint search).
-            let Some((offset, peak, rival)) = summed_peak(
+            let found = summed_peak(
                 &grid,
                 &mean,
                 prior,
                 max_off,
                 LAG_STEP_NS / 2,
                 OFFSET_PEAK_SEPARATION_NS,
-            ) else {
+            );
+            let accepted = found.filter(|&(offset, peak, rival)| {
+                peak >= self.config.offset_label_min_correlation
+                    && peak - rival >= self.config.offset_label_margin
+                    // An offset the joint search agreed on and is confirming is not
+                    // overruled here.
+                    && (imu.is_offset_known
+                        || imu
+                            .pending_offset
+                            .is_none_or(|p| (p - offset).abs() <= OFFSET_PEAK_SEPARATION_NS))
+            });
+            if is_unsynced_network {
+                held.push(HeldLabelPeak {
+                    imu: i,
+                    peak: found.map_or(0.0, |f| f.1),
+                    accepted: accepted.map(|(offset, peak, _)| (offset, peak)),
+                });
+                continue;
+            }
+            let Some((offset, peak, _)) = accepted else {
                 continue;
             };
-            if peak < self.config.offset_label_min_correlation
-                || peak - rival < self.config.offset_label_margin
-            {
-                continue;
-            }
-            // An offset the joint search agreed on and is confirming is not overruled here.
-            if !imu.is_offset_known
-                && imu
-                    .pending_offset
-                    .is_some_and(|p| (p - offset).abs() > OFFSET_PEAK_SEPARATION_NS)
-            {
-                continue;
-            }
             // A fresh sum from here on: for an accepted offset, the check of the next curves.
             imu.label_curve.clear();
             imu.num_label_curves = 0;
@@ -1012,6 +1020,45 @@ impl Engine {
             // Refined at once (below) from the coarse step to the fine one.
             imu.last_refine_end = end - refine_every;
             record_offset(&mut self.stats, &imu.device, offset, peak);
+        }
+        // A network's first offsets: its labels came from pairs scored at their own best lags,
+        // and a look-alike's tracks among them give each IMU a peak at another lag, lower on
+        // average than the wearer's own tracks give. They are accepted together, when the
+        // peaks of all of the network's summed curves average at least
+        // `offset_label_network_min_peak`; otherwise the sums go on.
+        let mut subjects: Vec<usize> = held
+            .iter()
+            .filter(|h| h.accepted.is_some())
+            .filter_map(|h| self.imus.get(h.imu).map(|imu| imu.subject))
+            .collect();
+        subjects.sort_unstable();
+        subjects.dedup();
+        let min_peak = self.config.offset_label_network_min_peak;
+        for subject in subjects {
+            let theirs: Vec<&HeldLabelPeak> = held
+                .iter()
+                .filter(|h| {
+                    self.imus
+                        .get(h.imu)
+                        .is_some_and(|imu| imu.subject == subject)
+                })
+                .collect();
+            let mean_peak = theirs.iter().map(|h| h.peak).sum::<f64>() / theirs.len().max(1) as f64;
+            if min_peak > 0.0 && mean_peak < min_peak {
+                continue;
+            }
+            for h in theirs {
+                let (Some((offset, peak)), Some(imu)) = (h.accepted, self.imus.get_mut(h.imu))
+                else {
+                    continue;
+                };
+                imu.label_curve.clear();
+                imu.num_label_curves = 0;
+                imu.offset_ns = offset;
+                imu.is_offset_known = true;
+                imu.last_refine_end = end - refine_every;
+                record_offset(&mut self.stats, &imu.device, offset, peak);
+            }
         }
     }
 
@@ -1289,6 +1336,16 @@ fn nearest_index(offsets_ns: &[i64], offset_ns: i64) -> Option<usize> {
         .enumerate()
         .min_by_key(|(_, o)| o.abs_diff(offset_ns))
         .map(|(k, _)| k)
+}
+
+/// An IMU of a body-area network none of whose offsets is accepted yet, as the labelled-track
+/// path read it before accepting any of the network's offsets.
+struct HeldLabelPeak {
+    imu: usize,
+    /// Its summed curve's peak (0 without one).
+    peak: f64,
+    /// The offset and peak it would accept on its own, if any.
+    accepted: Option<(i64, f64)>,
 }
 
 /// Reports an accepted or updated clock offset of `device` in the run's statistics.

@@ -272,8 +272,8 @@ impl Engine {
                 .range((c, TrackId(0))..)
                 .take_while(|(k, _)| k.0 == c)
                 .filter_map(|(k, tr)| {
-                    let (&t, joints) = tr.pending.first_key_value()?;
-                    (t < frontier).then(|| (t, k.1, joint_centroid(joints)))
+                    let (&t, frame) = tr.pending.first_key_value()?;
+                    (t < frontier).then(|| (t, k.1, joint_centroid(&frame.joints_world_m)))
                 })
                 .min_by_key(|(t, id, _)| (*t, *id));
             let Some((t, id, anchor)) = next else {
