@@ -202,7 +202,18 @@ pub struct EngineConfig {
     pub fusion_config: FusionConfig,
     /// Filters and smoothing of De Marchi's magnitude signals (`nomen_evidence::geometric_scores`).
     pub geometric: GeometricConfig,
-    /// Constant-velocity Kalman filter on every world-frame joint; `None`: raw joints.
+    /// Constant-velocity Kalman filter on every world-frame joint; `None`: raw joints. Default
+    /// an acceleration noise density of 1.33 m²/s³ (Bar-Shalom's `a_max² · T` for about
+    /// 6.3 m/s² at 30 Hz; the filter crate's generic default is 3, 10 m/s²) and an initial
+    /// velocity within 2 m/s. The smoother joints fit their wearers' IMUs better: against 3,
+    /// +1.24 ± 0.43 points per run over the 138 runs of [`Self::inferred_joint_noise_factor`]
+    /// (60 better, 25 worse; the ten imu-table scenes 93.27 → 93.72 %) and +0.59 ± 0.23 over
+    /// its 45 (23 better, 9 worse); 180-s scenes: full network 98.10 → 98.16 %, one wrist 91.88
+    /// → 93.99 % (seeds 1–3) and 93.79 → 94.29 % (4–9); given the true offsets 97.64 → 97.71 %.
+    /// At 0.75: +1.14 ± 0.55 and −0.10 ± 0.48. The price is a later skeleton: a causal filter
+    /// delays a gait's signals, and the estimated clock offsets, which align the IMU with the
+    /// filtered joints, absorb it. At the end of the ten scenes' 90 runs they sit 29 ms
+    /// (median) after the true offsets, 21 ms at 3.
     pub joint_filter: Option<ConstantVelocityConfig>,
     /// Joint measurement noise (per axis standard deviation) for the Kalman filter, m. Default
     /// 0.03 m (Kinect v2 joint noise at 2–4 m, Otte et al. 2016).
@@ -213,7 +224,8 @@ pub struct EngineConfig {
     /// several times more than tracked ones, Wang et al. 2015); 1 treats both alike. In the
     /// 8-person scenes a wrist is inferred in about a quarter of the frames.
     ///
-    /// Default 3, measured over the ten imu-table scenes at seeds 1–9 given the true clock
+    /// Default 3, measured with the filter crate's default joint filter (3 m²/s³; see
+    /// [`Self::joint_filter`]) over the ten imu-table scenes at seeds 1–9 given the true clock
     /// offsets (where no offset search can lock in): 97.20 % of frames right at 1, 97.44 /
     /// 97.64 / 97.69 / 97.80 % at 2 / 3 / 4 / 6 (at 3: +0.44 ± 0.09 points per run, 25 runs
     /// better, 1 worse; one wrist, 8 people 94.01 → 95.05 %). Dropping inferred joints instead
@@ -457,7 +469,7 @@ pub struct EngineConfig {
     /// search's `offset_min_correlation`. Those labels came from pairs scored at their own
     /// best lags, and a look-alike's tracks among them give some IMUs a clear peak at the
     /// look-alike's lag while the network as a whole fits poorly: on 5 people, full network,
-    /// seed 3, four of Ana's five IMUs had summed peaks of 0.22–0.47 at 15.5 s, all 0.2–0.8 s
+    /// seed 3, four of Ana's five IMUs had summed peaks of 0.20–0.43 at 16.5 s, all 0.2–0.8 s
     /// off, and were accepted one by one, to be moved by the best-track sum at 24.5 s; held,
     /// her offsets were accepted by the joint search at 22.5 s, right. Against 0 (with the defaults otherwise): +0.07 ± 0.08 points
     /// per run over the 138 runs of [`Self::inferred_joint_noise_factor`]; over its 45 runs
@@ -660,7 +672,10 @@ impl Default for EngineConfig {
                 ..FusionConfig::default()
             },
             geometric: GeometricConfig::default(),
-            joint_filter: Some(ConstantVelocityConfig::default()),
+            joint_filter: Some(ConstantVelocityConfig {
+                accel_psd_m2ps3: 1.33,
+                ..ConstantVelocityConfig::default()
+            }),
             joint_noise_std_m: 0.03,
             inferred_joint_noise_factor: 3.0,
             madgwick: MadgwickConfig::default(),

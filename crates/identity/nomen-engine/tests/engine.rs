@@ -11,6 +11,12 @@ use nomen_core::{
     SessionTime, SkeletonObservation, TrackId,
 };
 use nomen_engine::{Engine, EngineConfig, EngineError, EngineStats, ModelWeights, run_batch};
+use nomen_filters::kalman::ConstantVelocityConfig;
+
+/// How far an estimated clock offset may lie from the truth, s: the joints' causal Kalman filter
+/// delays the skeleton's signals, and the offset that aligns the IMU with them absorbs the
+/// delay (25–31 ms on these pendulums at the default filter; see the 0.4 s offset test).
+const OFFSET_TOLERANCE_S: f64 = 0.035;
 
 /// The clock offset the engine estimated for `device`, s (the test fails if it made none).
 fn offset_s(stats: &EngineStats, device: &str) -> f64 {
@@ -366,11 +372,13 @@ fn bad_messages_are_rejected_and_counted_while_the_rest_goes_on() {
 }
 
 #[test]
-fn a_clock_offset_of_0_4_s_is_estimated_within_25_ms() {
-    // The estimates come out 15–21 ms early here: the joints' causal Kalman filter delays the
-    // skeleton's signals (with raw joints they are within 7 ms, but identification is worse on
-    // the simulated scenes). Two IMU samples (20 ms) was the bound until the offset search took
-    // 2.5 s tracks, which moved Ben's estimate from 19.6 to 20.5 ms.
+fn a_clock_offset_of_0_4_s_is_estimated_within_35_ms() {
+    // The estimates come out 25–31 ms late here: the joints' causal Kalman filter delays the
+    // skeleton's signals, and the offset that aligns the IMU with them absorbs the delay (with
+    // raw joints they are within 7 ms, but identification is worse on the simulated scenes).
+    // The bound was two IMU samples (20 ms) until the offset search took 2.5-s tracks (Ben's
+    // estimate 19.6 → 20.5 ms), then 25 ms until the filter's acceleration noise density went
+    // from 3 to 1.33 m²/s³ (Ana 15 → 25 ms, Ben 21 → 31 ms) for better identification.
     let mut people = two_people();
     people[0].imu_offset_s = 0.4;
     people[1].imu_offset_s = -0.25;
@@ -378,8 +386,8 @@ fn a_clock_offset_of_0_4_s_is_estimated_within_25_ms() {
     let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
     let ana = offset_s(&stats, "ana_imu");
     let ben = offset_s(&stats, "ben_imu");
-    assert!((ana - 0.4).abs() <= 0.025, "ana offset {ana}");
-    assert!((ben + 0.25).abs() <= 0.025, "ben offset {ben}");
+    assert!((ana - 0.4).abs() <= OFFSET_TOLERANCE_S, "ana offset {ana}");
+    assert!((ben + 0.25).abs() <= OFFSET_TOLERANCE_S, "ben offset {ben}");
     assert!(accuracy(&people, &out, 12.0) > 0.98);
 }
 
@@ -410,8 +418,11 @@ fn a_refined_offset_that_stays_put_is_refined_less_often_and_one_that_moves_is_f
         "{ben} refinements against {ben_fixed} at a fixed pace"
     );
     for s in [&stats, &fixed_stats] {
-        assert!(offset_s(s, "ben_imu").abs() <= 0.025, "{s:?}");
-        assert!((offset_s(s, "ana_imu") - 0.06).abs() <= 0.025, "{s:?}");
+        assert!(offset_s(s, "ben_imu").abs() <= OFFSET_TOLERANCE_S, "{s:?}");
+        assert!(
+            (offset_s(s, "ana_imu") - 0.06).abs() <= OFFSET_TOLERANCE_S,
+            "{s:?}"
+        );
     }
     assert!(accuracy(&people, &out, 12.0) > 0.98);
     assert!(accuracy(&people, &fixed_out, 12.0) > 0.98);
@@ -440,7 +451,6 @@ fn a_wearer_out_of_view_does_not_take_the_lags_of_someone_moving_alike() {
         "{:?}",
         stats.clock_offsets
     );
-    // 25 ms: the joints' filter delays the track (see the 0.4 s offset test).
     assert!(
         stats.clock_offsets[&DeviceId::new("ana_imu")]
             .offset_ns
@@ -493,9 +503,8 @@ fn the_offset_search_is_centred_on_the_registry_offset() {
     assert_eq!(stats.num_windows_timed_out, 0);
     let ana = offset_s(&stats, "ana_imu");
     let ben = offset_s(&stats, "ben_imu");
-    // 25 ms: the joints' filter delays the track (see the 0.4 s offset test).
-    assert!((ana - 2.05).abs() <= 0.025, "ana offset {ana}");
-    assert!((ben + 1.65).abs() <= 0.025, "ben offset {ben}");
+    assert!((ana - 2.05).abs() <= OFFSET_TOLERANCE_S, "ana offset {ana}");
+    assert!((ben + 1.65).abs() <= OFFSET_TOLERANCE_S, "ben offset {ben}");
     assert!(accuracy(&people, &out, 12.0) > 0.98);
 }
 
@@ -541,13 +550,12 @@ fn an_offset_is_also_found_from_the_best_track_at_every_lag() {
     };
     let (_, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
     let ben = offset_s(&stats, "ben_imu");
-    // 25 ms: the joints' filter delays the track (see the 0.4 s offset test).
-    assert!((ben + 0.15).abs() <= 0.025, "ben offset {ben}");
+    assert!((ben + 0.15).abs() <= OFFSET_TOLERANCE_S, "ben offset {ben}");
     // Ana's pendulum swing repeats its magnitude signals every half period (0.56 s), so her
     // curve has two near-equal peaks and no clear one: no offset, and above all no wrong one.
     let ana = stats.clock_offsets.get(&DeviceId::new("ana_imu"));
     assert!(
-        ana.is_none_or(|e| (e.offset_ns as f64 * 1e-9 - 0.05).abs() <= 0.025),
+        ana.is_none_or(|e| (e.offset_ns as f64 * 1e-9 - 0.05).abs() <= OFFSET_TOLERANCE_S),
         "ana offset {ana:?}"
     );
     let off = EngineConfig {
@@ -585,9 +593,12 @@ fn a_look_alikes_track_explained_by_her_synchronised_band_is_no_peak_for_another
     };
     let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
     let ben = offset_s(&stats, "ben_imu");
-    assert!((ben + 0.15).abs() <= 0.025, "ben offset {ben}");
+    assert!((ben + 0.15).abs() <= OFFSET_TOLERANCE_S, "ben offset {ben}");
     let cleo = offset_s(&stats, "cleo_imu");
-    assert!((cleo + 0.15).abs() <= 0.025, "cleo offset {cleo} {stats:?}");
+    assert!(
+        (cleo + 0.15).abs() <= OFFSET_TOLERANCE_S,
+        "cleo offset {cleo} {stats:?}"
+    );
     assert!(accuracy(&people, &out, 45.0) > 0.95);
 }
 
@@ -597,6 +608,9 @@ fn the_joint_search_takes_only_peaks_that_stand_clear_of_the_rest_of_the_curve()
     // peak lies outside the searched range; Ben's repeat every 0.38 s, and at −0.2 s his
     // curve also peaks near +0.18 s. With the other paths off, only Ana's offset is found;
     // taking any peak finds Ben's too (the tie-break toward the registry's zero is right here).
+    // The joints are filtered with the filter crate's default acceleration noise (3 m²/s³):
+    // with the engine's smoother default, Ben's second peak sits low enough for his first to
+    // stand clear, and the scene no longer tests the rule.
     let mut people = two_people();
     people[0].imu_offset_s = 0.4;
     people[1].imu_offset_s = -0.2;
@@ -604,12 +618,12 @@ fn the_joint_search_takes_only_peaks_that_stand_clear_of_the_rest_of_the_curve()
     let joint_only = EngineConfig {
         offset_label_curves: 0,
         offset_best_track_curves: 0,
+        joint_filter: Some(ConstantVelocityConfig::default()),
         ..EngineConfig::default()
     };
     let (out, stats) = run_batch(&registry(&people), &msgs, &joint_only).unwrap();
-    // 25 ms: the joints' filter delays the track (see the 0.4 s offset test).
     let ana = offset_s(&stats, "ana_imu");
-    assert!((ana - 0.4).abs() <= 0.025, "ana offset {ana}");
+    assert!((ana - 0.4).abs() <= OFFSET_TOLERANCE_S, "ana offset {ana}");
     assert!(
         !stats.clock_offsets.contains_key(&DeviceId::new("ben_imu")),
         "{:?}",
@@ -623,7 +637,7 @@ fn the_joint_search_takes_only_peaks_that_stand_clear_of_the_rest_of_the_curve()
     };
     let (_, stats) = run_batch(&registry(&people), &msgs, &any).unwrap();
     let ben = offset_s(&stats, "ben_imu");
-    assert!((ben + 0.2).abs() <= 0.025, "ben offset {ben}");
+    assert!((ben + 0.2).abs() <= OFFSET_TOLERANCE_S, "ben offset {ben}");
 }
 
 #[test]
@@ -1247,7 +1261,7 @@ fn a_single_imus_offset_waits_for_a_confirming_search_when_asked() {
     );
     let (_, stats) = run_batch(&registry(&people), &msgs, &confirming).unwrap();
     let ana = offset_s(&stats, "ana_imu");
-    assert!((ana - 0.4).abs() <= 0.025, "ana offset {ana}");
+    assert!((ana - 0.4).abs() <= OFFSET_TOLERANCE_S, "ana offset {ana}");
 }
 
 #[test]
@@ -1265,7 +1279,10 @@ fn clear_best_track_peaks_in_a_row_settle_an_accepted_offset_and_keep_it() {
     // Settled offsets stay right while the best-track pass no longer reads their IMUs.
     for (device, truth) in [("ana_imu", 0.05), ("ben_imu", -0.15)] {
         let est = offset_s(&stats, device);
-        assert!((est - truth).abs() <= 0.025, "{device} offset {est}");
+        assert!(
+            (est - truth).abs() <= OFFSET_TOLERANCE_S,
+            "{device} offset {est}"
+        );
     }
     // Off, or asking more passes than the run holds, settles nothing.
     for passes in [0, 30] {

@@ -4,6 +4,7 @@
 
 use nomen_core::{DeviceId, Identity, Message, TrackId};
 use nomen_engine::{EngineConfig, EngineStats, run_batch};
+use nomen_filters::kalman::ConstantVelocityConfig;
 use nomen_sim::{Scenario, SimOutput, load_scenario_clips, simulate};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -66,9 +67,10 @@ fn accuracy(sim: &SimOutput, out: &[Message]) -> f64 {
 #[test]
 fn an_offset_taken_from_a_look_alikes_track_moves_to_the_wearers_own_track() {
     // Ana and Eva walk the same clip with the same wrist, 1.48 s apart, round similar
-    // rectangles. At this seed, with inferred joints weighed like tracked ones and no margin
-    // over other subjects in the joint search (the defaults when the move was written; the
-    // current ones happen to find Eva's offset right here), Eva's band is accepted at 11 s on
+    // rectangles. At this seed, with inferred joints weighed like tracked ones, no margin over
+    // other subjects in the joint search and the filter crate's joint filter (the defaults when
+    // the move was written; the current ones happen to find Eva's offset right here), Eva's
+    // band is accepted at 11 s on
     // Ana's track, 0.7 s from its true offset; its own tracks then peak clearly at the true
     // offset, which nobody else explains, while Ana's band explains Ana's track better than
     // Eva's does.
@@ -79,6 +81,7 @@ fn an_offset_taken_from_a_look_alikes_track_moves_to_the_wearers_own_track() {
     let with = EngineConfig {
         inferred_joint_noise_factor: 1.0,
         offset_subject_margin: 0.0,
+        joint_filter: Some(ConstantVelocityConfig::default()),
         ..EngineConfig::default()
     };
     let without = EngineConfig {
@@ -108,7 +111,7 @@ fn an_offset_taken_from_a_look_alikes_track_moves_to_the_wearers_own_track() {
 fn a_networks_first_offsets_wait_until_its_labelled_tracks_fit_the_whole_network() {
     // Five people, full body-area networks; Ana, Cleo and Eva walk the same clip at phases
     // 0, 0.74 and 1.48 s. At this seed the early labels put Ana on her look-alikes' tracks,
-    // and at 15.5 s the summed curves of four of her IMUs peak clearly, at 0.22-0.47, each
+    // and at 16.5 s the summed curves of four of her IMUs peak clearly, at 0.20-0.43, each
     // 0.2-0.8 s off. Accepted one by one they hold her offsets wrong until 24.5 s; held until
     // the network's peaks average 0.3, her offsets come from the joint search at 22.5 s.
     let Some(sim) = simulated("scenarios/imu_ban_5.toml", 3) else {
@@ -129,8 +132,10 @@ fn a_networks_first_offsets_wait_until_its_labelled_tracks_fit_the_whole_network
         "pelvis",
     ] {
         let device = format!("ana_{site}");
+        // Right: the joints' filter delays the track by a few hundredths of a second; the
+        // look-alikes' lags lie 0.2 s or more away.
         let e = offset_error_s(&sim, &stats, &device);
-        assert!(e.abs() < 0.05, "{device}: {e}");
+        assert!(e.abs() < 0.1, "{device}: {e}");
     }
     let (before, after) = (accuracy(&sim, &out_without), accuracy(&sim, &out));
     assert!(after > before + 0.05, "{before} -> {after}");
