@@ -378,7 +378,8 @@ pub struct EngineConfig {
     /// motion clip at another phase). Checking it at all (0 against negative) was worth 1.9
     /// points over the ten imu-table scenes at seeds 1–6 with 2.5-s tracks. Default 0.05:
     /// with inferred joints weighed down ([`Self::inferred_joint_noise_factor`]) the early fits
-    /// are sharper and a look-alike's track wins more often by a hair; against 0, +0.35 ± 0.42
+    /// are sharper and a look-alike's track wins more often by a hair; against 0 (with the
+    /// filter crate's joint filter, 3 m²/s³), +0.35 ± 0.42
     /// points per run over the 138 runs (12 better, 8 worse) and +0.49 ± 0.37 over the 45 (9
     /// better, 1 worse); 0.03 / 0.1 within 0.2 points of 0.05 (with a factor of 4).
     pub offset_subject_margin: f64,
@@ -471,10 +472,10 @@ pub struct EngineConfig {
     /// look-alike's lag while the network as a whole fits poorly: on 5 people, full network,
     /// seed 3, four of Ana's five IMUs had summed peaks of 0.20–0.43 at 16.5 s, all 0.2–0.8 s
     /// off, and were accepted one by one, to be moved by the best-track sum at 24.5 s; held,
-    /// her offsets were accepted by the joint search at 22.5 s, right. Against 0 (with the defaults otherwise): +0.07 ± 0.08 points
-    /// per run over the 138 runs of [`Self::inferred_joint_noise_factor`]; over its 45 runs
-    /// +0.83 ± 0.77 (2 better, none worse; full network, 5 people, seeds 10–18: 85.81 →
-    /// 89.97 %).
+    /// her offsets were accepted by the joint search at 22.5 s, right. Against 0 (the other
+    /// defaults as now, but the filter crate's joint filter, 3 m²/s³): +0.07 ± 0.08 points per
+    /// run over the 138 runs of [`Self::inferred_joint_noise_factor`]; over its 45 runs +0.83
+    /// ± 0.77 (2 better, none worse; full network, 5 people, seeds 10–18: 85.81 → 89.97 %).
     pub offset_label_network_min_peak: f64,
     /// An accepted offset is withdrawn (and searched for again) when the summed lag curve of
     /// its IMU against the wearer's labelled tracks is below this at the offset and at least

@@ -70,10 +70,9 @@ fn an_offset_taken_from_a_look_alikes_track_moves_to_the_wearers_own_track() {
     // rectangles. At this seed, with inferred joints weighed like tracked ones, no margin over
     // other subjects in the joint search and the filter crate's joint filter (the defaults when
     // the move was written; the current ones happen to find Eva's offset right here), Eva's
-    // band is accepted at 11 s on
-    // Ana's track, 0.7 s from its true offset; its own tracks then peak clearly at the true
-    // offset, which nobody else explains, while Ana's band explains Ana's track better than
-    // Eva's does.
+    // band is accepted at 11 s on Ana's track, 0.7 s from its true offset; its own tracks then
+    // peak clearly at the true offset, which nobody else explains, while Ana's band explains
+    // Ana's track better than Eva's does.
     let Some(sim) = simulated("scenarios/imu_wrist_5.toml", 27) else {
         return;
     };
