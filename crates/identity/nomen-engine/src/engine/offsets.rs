@@ -994,6 +994,7 @@ impl Engine {
             if is_unsynced_network {
                 held.push(HeldLabelPeak {
                     imu: i,
+                    subject,
                     peak: found.map_or(0.0, |f| f.1),
                     accepted: accepted.map(|(offset, peak, _)| (offset, peak)),
                 });
@@ -1015,11 +1016,7 @@ impl Engine {
                 imu.num_best_track_agreements = 0;
                 imu.best_track_settled_ns = None;
             }
-            imu.offset_ns = offset;
-            imu.is_offset_known = true;
-            // Refined at once (below) from the coarse step to the fine one.
-            imu.last_refine_end = end - refine_every;
-            record_offset(&mut self.stats, &imu.device, offset, peak);
+            take_label_offset(imu, &mut self.stats, offset, peak, end - refine_every);
         }
         // A network's first offsets: its labels came from pairs scored at their own best lags,
         // and a look-alike's tracks among them give each IMU a peak at another lag, lower on
@@ -1029,35 +1026,22 @@ impl Engine {
         let mut subjects: Vec<usize> = held
             .iter()
             .filter(|h| h.accepted.is_some())
-            .filter_map(|h| self.imus.get(h.imu).map(|imu| imu.subject))
+            .map(|h| h.subject)
             .collect();
         subjects.sort_unstable();
         subjects.dedup();
         let min_peak = self.config.offset_label_network_min_peak;
         for subject in subjects {
-            let theirs: Vec<&HeldLabelPeak> = held
-                .iter()
-                .filter(|h| {
-                    self.imus
-                        .get(h.imu)
-                        .is_some_and(|imu| imu.subject == subject)
-                })
-                .collect();
+            let theirs: Vec<&HeldLabelPeak> =
+                held.iter().filter(|h| h.subject == subject).collect();
             let mean_peak = theirs.iter().map(|h| h.peak).sum::<f64>() / theirs.len().max(1) as f64;
             if min_peak > 0.0 && mean_peak < min_peak {
                 continue;
             }
             for h in theirs {
-                let (Some((offset, peak)), Some(imu)) = (h.accepted, self.imus.get_mut(h.imu))
-                else {
-                    continue;
-                };
-                imu.label_curve.clear();
-                imu.num_label_curves = 0;
-                imu.offset_ns = offset;
-                imu.is_offset_known = true;
-                imu.last_refine_end = end - refine_every;
-                record_offset(&mut self.stats, &imu.device, offset, peak);
+                if let (Some((offset, peak)), Some(imu)) = (h.accepted, self.imus.get_mut(h.imu)) {
+                    take_label_offset(imu, &mut self.stats, offset, peak, end - refine_every);
+                }
             }
         }
     }
@@ -1342,10 +1326,30 @@ fn nearest_index(offsets_ns: &[i64], offset_ns: i64) -> Option<usize> {
 /// path read it before accepting any of the network's offsets.
 struct HeldLabelPeak {
     imu: usize,
+    /// The IMU's wearer.
+    subject: usize,
     /// Its summed curve's peak (0 without one).
     peak: f64,
     /// The offset and peak it would accept on its own, if any.
     accepted: Option<(i64, f64)>,
+}
+
+/// Accepts `offset` (its summed curve's `peak`) for `imu` from the tracks labelled with its
+/// wearer: a fresh sum from here on, and the refinement due at `refine_at` (the window's end
+/// minus the refinement interval: at once, from the coarse step to the fine one).
+fn take_label_offset(
+    imu: &mut ImuState,
+    stats: &mut EngineStats,
+    offset: i64,
+    peak: f64,
+    refine_at: i64,
+) {
+    imu.label_curve.clear();
+    imu.num_label_curves = 0;
+    imu.offset_ns = offset;
+    imu.is_offset_known = true;
+    imu.last_refine_end = refine_at;
+    record_offset(stats, &imu.device, offset, peak);
 }
 
 /// Reports an accepted or updated clock offset of `device` in the run's statistics.
