@@ -22,7 +22,7 @@ use nomen_core::{
 use nomen_evidence::PairScorer;
 use nomen_evidence::belmonte::axis_pitches_rad;
 use nomen_evidence::features::axis_elevations_rad;
-use nomen_filters::kalman::JointKalman;
+use nomen_filters::kalman::JointSmoother;
 use nomen_filters::median;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
 use nomen_rssi::{
@@ -57,10 +57,14 @@ const CAMERA_PAIR_LOOKBACK_WINDOWS: i64 = 2;
 /// frames at 30 Hz).
 const ALIVE_AT_END_NS: i64 = 100_000_000;
 
-/// The best-track pass sums its curves on every this-many-th lag of the coarse grid (80 ms):
-/// half the work, the same accuracy over the ten imu-table scenes (80.52 against 80.51 %, seeds
-/// 1–9; three steps lost 0.4 points). Its accepted offsets are refined to the fine step at once.
-const BEST_TRACK_LAG_STEPS: usize = 2;
+/// The best-track pass sums its curves on every this-many-th lag of the coarse grid (40 ms).
+/// Every second lag (80 ms) was half the work and as accurate with the unsmoothed joints (80.52
+/// against 80.51 % over the ten imu-table scenes, seeds 1–9), but the smoothed joints'
+/// acceleration peaks are narrow (0.92 at the true lag, 0.63 at 80 ms from it, in a synthetic
+/// swing): that grid missed the registry's lag itself, and a periodic swing's alias half a
+/// period away that fell on the grid won (the engine test of a track-id change). Its accepted
+/// offsets are refined to the fine step at once.
+const BEST_TRACK_LAG_STEPS: usize = 1;
 
 /// A search for an unknown offset first steps this many [`LAG_STEP_NS`] at a time (40 ms: ten
 /// points per 0.4–0.5 s stride period, so the coarse curve still shows every stride peak), then
@@ -295,7 +299,10 @@ struct PendingFrame {
 struct TrackState {
     pending: BTreeMap<i64, PendingFrame>,
     samples: VecDeque<TrackSample>,
-    kalman: Vec<Option<JointKalman>>,
+    /// The joint filters (with their smoothers), one per [`Joint::ALL`].
+    kalman: Vec<Option<JointSmoother>>,
+    /// Samples settled since the smoothers last revised them ([`smooth_track`]).
+    is_smoothing_due: bool,
     /// Earliest and newest observation times, session ns.
     first_t: i64,
     last_t: i64,
@@ -784,7 +791,6 @@ impl Engine {
         }
         cam.newest = Some(cam.newest.map_or(t, |n| n.max(t)));
         cam.frontier = cam.frontier.max(t - self.reorder_ns);
-        let frontier = cam.frontier;
         let anchor = joint_centroid(&world);
         // A new track's predecessor, if any, is chosen later (`stitch_new_tracks`).
         let track = self
@@ -794,6 +800,7 @@ impl Engine {
                 pending: BTreeMap::new(),
                 samples: VecDeque::new(),
                 kalman: Vec::new(),
+                is_smoothing_due: false,
                 first_t: t,
                 last_t: t,
                 evidence: BTreeMap::new(),
@@ -830,7 +837,10 @@ impl Engine {
             self.note_encounters(c, s.track, t, &a);
         }
         self.stats.num_skeletons += 1;
-        self.settle_camera(c, frontier);
+        // Observations settle when a window needs them (`process_window`), never further: the
+        // joint smoothers revise a track's recent samples with every later observation, so a
+        // window must not see more than the observations before its end, however far the
+        // camera's messages ran ahead of the other sources'.
         self.note_time(t);
         Ok(())
     }
@@ -919,6 +929,10 @@ impl Engine {
             rssi.frontier = rssi.frontier.max(end);
             // A read the bank refuses was validated at push; nothing else to do with it here.
             let _ = rssi.settle();
+        }
+        for c in 0..self.cameras.len() {
+            let frontier = self.cameras.get(c).map_or(end, |cam| cam.frontier.min(end));
+            self.settle_camera(c, frontier);
         }
         self.stitch_new_tracks(end);
         self.update_offsets(end);
@@ -1202,36 +1216,75 @@ fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise
             t,
             joints: Joints::new(),
         };
-        match config.joint_filter {
-            Some(kf_config) => {
-                if tr.kalman.is_empty() {
-                    tr.kalman = Joint::ALL
-                        .iter()
-                        .map(|_| JointKalman::new(kf_config).ok())
-                        .collect();
-                }
-                for (j, kf) in Joint::ALL.iter().zip(tr.kalman.iter_mut()) {
-                    let Some(kf) = kf.as_mut() else {
-                        continue;
-                    };
-                    let z = joints.get(*j);
-                    let r = if frame.inferred.get(*j).is_some() {
-                        &r_inferred
-                    } else {
-                        &r
-                    };
-                    let stepped = kf.step(SessionTime::from_ns(t), z.map(|p| (p, r)));
-                    if stepped.is_ok()
-                        && z.is_some()
-                        && let Some(p) = kf.position()
-                    {
-                        sample.joints.insert(*j, p);
-                    }
-                }
+        let Some(kf_config) = config.joint_filter else {
+            sample.joints = joints;
+            tr.samples.push_back(sample);
+            continue;
+        };
+        if tr.kalman.is_empty() {
+            // Smoothed once per window's settle, the samples of the last hop as well as the
+            // lag are revised, so each one is smoothed over at least the lag.
+            let smoother_span_s = if config.joint_smoother_lag_s > 0.0 {
+                config.joint_smoother_lag_s + config.hop_s
+            } else {
+                0.0
+            };
+            tr.kalman = Joint::ALL
+                .iter()
+                .map(|_| JointSmoother::new(kf_config, smoother_span_s).ok())
+                .collect();
+        }
+        for (j, kf) in Joint::ALL.iter().zip(tr.kalman.iter_mut()) {
+            let Some(kf) = kf.as_mut() else {
+                continue;
+            };
+            let z = joints.get(*j);
+            let r = if frame.inferred.get(*j).is_some() {
+                &r_inferred
+            } else {
+                &r
+            };
+            let stepped = kf.step(SessionTime::from_ns(t), z.map(|p| (p, r)));
+            if stepped.is_ok()
+                && z.is_some()
+                && let Some(p) = kf.filter().position()
+            {
+                sample.joints.insert(*j, p);
             }
-            None => sample.joints = joints,
         }
         tr.samples.push_back(sample);
+        tr.is_smoothing_due = config.joint_smoother_lag_s > 0.0;
+    }
+}
+
+/// Revises a track's recent samples with its joint smoothers, once per settle (see
+/// [`EngineConfig::joint_smoother_lag_s`]): matched by time (an undone id swap may have moved a
+/// sample between tracks), observed joints only.
+fn smooth_track(tr: &mut TrackState) {
+    tr.is_smoothing_due = false;
+    for (j, kf) in Joint::ALL.iter().zip(tr.kalman.iter_mut()) {
+        let Some(kf) = kf.as_mut() else {
+            continue;
+        };
+        let revised = kf.smooth();
+        let Some(&(oldest, _)) = revised.first() else {
+            continue;
+        };
+        let mut revised = revised.iter().rev().peekable();
+        for sample in tr.samples.iter_mut().rev() {
+            if sample.t < oldest.as_ns() {
+                break;
+            }
+            while revised.next_if(|(ts, _)| ts.as_ns() > sample.t).is_some() {}
+            let Some((ts, p)) = revised.peek() else {
+                break;
+            };
+            if ts.as_ns() == sample.t
+                && let Some(q) = sample.joints.get_mut(*j)
+            {
+                *q = *p;
+            }
+        }
     }
 }
 

@@ -7,7 +7,7 @@ use super::{
     Engine, GapReturn, STITCH_MIN_GAP_NS, STITCH_VIEW_LOOKBACK_NS, STITCH_VIEW_MIN_FRAMES,
     SWAP_MAX_GAP_NS, SWAP_NOISE_M, SWAP_RETURN_GAP_NS, SWAP_RETURN_WINDOW_NS, SWAP_SPEED_MPS,
     TrackKey, TrackSample, TrackState, average_evidence, joint_centroid, sample_range,
-    settle_track,
+    settle_track, smooth_track,
 };
 use crate::config::ns;
 use nalgebra::Point3;
@@ -339,6 +339,14 @@ impl Engine {
                 }
             }
         }
+        for (_, tr) in self
+            .tracks
+            .range_mut((c, TrackId(0))..)
+            .take_while(|(k, _)| k.0 == c)
+            .filter(|(_, tr)| tr.is_smoothing_due)
+        {
+            smooth_track(tr);
+        }
     }
 
     /// The track that now follows the person camera `c` showed as `track` at `t`: undone swaps
@@ -439,6 +447,7 @@ impl Engine {
 pub(super) fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.samples, &mut b.samples);
     std::mem::swap(&mut a.kalman, &mut b.kalman);
+    std::mem::swap(&mut a.is_smoothing_due, &mut b.is_smoothing_due);
     std::mem::swap(&mut a.evidence, &mut b.evidence);
     std::mem::swap(&mut a.tag_evidence, &mut b.tag_evidence);
     std::mem::swap(&mut a.rssi_evidence, &mut b.rssi_evidence);
