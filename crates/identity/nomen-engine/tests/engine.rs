@@ -715,22 +715,6 @@ fn a_track_id_change_mid_walk_is_reidentified() {
         })
         .collect();
     assert!(!late_new_track.is_empty());
-    let mut last = std::collections::BTreeMap::new();
-    for m in &out {
-        if let Message::Identified(id) = m {
-            let s = format!("{:?}", id.identity);
-            if last.get(&id.track) != Some(&s) {
-                eprintln!(
-                    "SEQ {:.2} {:?} {s} {:.2}",
-                    id.t.as_secs_f64(),
-                    id.track,
-                    id.confidence
-                );
-                last.insert(id.track, s);
-            }
-        }
-    }
-    eprintln!("STATS {:?}", stats.clock_offsets);
     assert!(
         late_new_track
             .iter()
