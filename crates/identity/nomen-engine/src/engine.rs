@@ -57,15 +57,6 @@ const CAMERA_PAIR_LOOKBACK_WINDOWS: i64 = 2;
 /// frames at 30 Hz).
 const ALIVE_AT_END_NS: i64 = 100_000_000;
 
-/// The best-track pass sums its curves on every this-many-th lag of the coarse grid (40 ms).
-/// Every second lag (80 ms) was half the work and as accurate with the unsmoothed joints (80.52
-/// against 80.51 % over the ten imu-table scenes, seeds 1–9), but the smoothed joints'
-/// acceleration peaks are narrow (0.92 at the true lag, 0.63 at 80 ms from it, in a synthetic
-/// swing): that grid missed the registry's lag itself, and a periodic swing's alias half a
-/// period away that fell on the grid won (the engine test of a track-id change). Its accepted
-/// offsets are refined to the fine step at once.
-const BEST_TRACK_LAG_STEPS: usize = 1;
-
 /// A search for an unknown offset first steps this many [`LAG_STEP_NS`] at a time (40 ms: ten
 /// points per 0.4–0.5 s stride period, so the coarse curve still shows every stride peak), then
 /// refines around its peak at [`LAG_STEP_NS`].
@@ -197,7 +188,7 @@ struct ImuState {
     /// Curves summed into `label_curve`.
     num_label_curves: usize,
     last_label_search_end: i64,
-    /// Sum and count, per lag of the best-track grid ([`BEST_TRACK_LAG_STEPS`]), of the best
+    /// Sum and count, per lag of the coarse grid around the registry's offset, of the best
     /// value over all candidate tracks of this IMU's lag curves, one pass per
     /// `offset_best_track_interval_s` (see [`Engine::update_offsets`]).
     best_track_curve: Vec<(f64, usize)>,

@@ -927,6 +927,20 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
                 ..EngineConfig::default()
             },
         ),
+        (
+            "joint_smoother_lag_s",
+            EngineConfig {
+                joint_smoother_lag_s: -0.1,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "joint_smoother_lag_s",
+            EngineConfig {
+                joint_smoother_lag_s: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
     ] {
         let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), config) else {
             panic!("{name} out of range was accepted");
