@@ -400,8 +400,9 @@ pub fn compare_prepared(
     compare_by(imu, Some(imu_units), seg, Some(seg_units), geo)
 }
 
-/// Each correlated signal of an [`ImuFeatures`] prepared for many correlations
-/// ([`UnitSignal`]; `None` where it is incomplete or constant).
+/// Each Pearson-correlated signal of an [`ImuFeatures`] prepared for many correlations
+/// ([`UnitSignal`]; `None` where it is incomplete or constant). The turn rate is compared by
+/// concordance, from the signal itself.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ImuUnits {
     accel_magnitude: Option<UnitSignal>,
@@ -411,11 +412,11 @@ pub struct ImuUnits {
     vertical_accel: Option<UnitSignal>,
     vertical_velocity: Option<UnitSignal>,
     axis_elevation: [Option<UnitSignal>; 3],
-    turn_rate: Option<UnitSignal>,
 }
 
-/// Each correlated signal of a [`SegmentFeatures`] prepared for many correlations
-/// ([`UnitSignal`]; `None` where it is incomplete or constant).
+/// Each Pearson-correlated signal of a [`SegmentFeatures`] prepared for many correlations
+/// ([`UnitSignal`]; `None` where it is incomplete or constant). The turn rate is compared by
+/// concordance, from the signal itself.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct SegmentUnits {
     accel_magnitude: Option<UnitSignal>,
@@ -425,7 +426,6 @@ pub struct SegmentUnits {
     vertical_accel: Option<UnitSignal>,
     vertical_velocity: Option<UnitSignal>,
     elevation: Option<UnitSignal>,
-    turn_rate: Option<UnitSignal>,
 }
 
 impl ImuFeatures {
@@ -440,7 +440,6 @@ impl ImuFeatures {
             vertical_accel: UnitSignal::new(&self.vertical_accel),
             vertical_velocity: UnitSignal::new(&self.vertical_velocity),
             axis_elevation: [ex, ey, ez].map(|e| UnitSignal::new(e)),
-            turn_rate: UnitSignal::new(&self.turn_rate),
         }
     }
 }
@@ -456,13 +455,12 @@ impl SegmentFeatures {
             vertical_accel: UnitSignal::new(&self.vertical_accel),
             vertical_velocity: UnitSignal::new(&self.vertical_velocity),
             elevation: UnitSignal::new(&self.elevation),
-            turn_rate: UnitSignal::new(&self.turn_rate),
         }
     }
 }
 
-/// The body of [`compare_features`] and [`compare_prepared`]: without units, every correlation
-/// is [`crate::pearson`]'s.
+/// The body of [`compare_features`] and [`compare_prepared`]: without units, every Pearson
+/// correlation is [`crate::pearson`]'s; the turn rates go by [`crate::concordance`].
 fn compare_by(
     imu: &ImuFeatures,
     imu_units: Option<&ImuUnits>,
@@ -512,7 +510,8 @@ fn compare_by(
         vertical_accel: model!(vertical_accel, vertical_accel),
         vertical_vel: model!(vertical_velocity, vertical_velocity),
         inclination,
-        turn: model!(turn_rate, turn_rate),
+        // Same unit on both sides: concordance, not Pearson (see `KinematicScores::turn`).
+        turn: crate::concordance(&imu.turn_rate, &seg.turn_rate, geo.min_samples),
     };
     (geometric, kinematic)
 }
@@ -942,11 +941,13 @@ mod tests {
                 joint_velocity_magnitude(&skel, site, &geo)
             )
         );
+        // The turn rates are compared by concordance (same unit on both sides).
         assert_eq!(
             k.turn,
-            expect(
-                imu_turn_rate_signal(&imu, &kin),
-                body_turn_rate_signal(&skel, &kin)
+            crate::concordance(
+                &imu_turn_rate_signal(&imu, &kin),
+                &body_turn_rate_signal(&skel, &kin),
+                geo.min_samples
             )
         );
         // The swing and the inclination follow the forearm, which moves the same on both sides.

@@ -57,9 +57,12 @@ pub struct KinematicConfig {
     /// long enough for the camera's bone direction noise to average out, short enough to keep
     /// the swing's timing).
     pub swing_lag_s: f64,
-    /// Length of the moving average over the turn rates, s. Default 1.0 s: about one stride, so
-    /// the shoulders' and the limbs' back-and-forth yaw within a gait cycle averages out and
-    /// the body's turns remain.
+    /// Length of the moving average over the turn rates, s. Default 0.7 s: most of the
+    /// shoulders' and the limbs' back-and-forth yaw within a gait cycle averages out, while a
+    /// 2-s window still holds a turn's rise and fall. (It was 1.0 s, about one stride: a
+    /// window then held barely two independent values. With the turn compared by concordance,
+    /// 0.7 s gained 0.6 points per run over 138 simulated runs, as did 0.5 s, which cost the
+    /// Belmonte intruder scenes more.)
     pub turn_smoothing_s: f64,
 }
 
@@ -67,7 +70,7 @@ impl Default for KinematicConfig {
     fn default() -> Self {
         Self {
             swing_lag_s: 0.2,
-            turn_smoothing_s: 1.0,
+            turn_smoothing_s: 0.7,
         }
     }
 }
@@ -84,7 +87,9 @@ pub struct KinematicScores {
     /// Inclination of the carrying segment against the best-matching sensor axis.
     pub inclination: Option<f64>,
     /// Turn rate: the sensor's angular rate about the world vertical against the rate of
-    /// change of the body's heading.
+    /// change of the body's heading, by Lin's concordance ([`crate::concordance`]):
+    /// both are rad/s, so a body that does not turn when the sensor does scores low even if
+    /// its small wobbles happen to follow the sensor's.
     pub turn: Option<f64>,
 }
 
@@ -460,14 +465,15 @@ mod tests {
         let (r, w) = (right.turn.unwrap(), wrong.turn.unwrap());
         assert!(r > 0.95, "{right:?}");
         assert!(r > w + 0.5, "{right:?} {wrong:?}");
-        // The sensor side is the body's vertical rate, not the mounting's.
+        // The sensor side is the body's vertical rate, not the mounting's: the turn peaks at
+        // 3π/4 ≈ 2.36 rad/s, a little less after the 0.7-s average.
         let rate = imu_turn_rate_signal(&imu, &cfg);
         let peak = rate
             .iter()
             .copied()
             .filter(|v| v.is_finite())
             .fold(0.0, f64::max);
-        assert!((1.0..2.0).contains(&peak), "{peak}");
+        assert!((1.8..2.36).contains(&peak), "{peak}");
     }
 
     #[test]

@@ -53,7 +53,7 @@ pub use kinematic::{
 };
 pub use scorer::PairScorer;
 pub use signal::{
-    LagConfig, PearsonSums, UnitSignal, best_lag, best_lag_with, first_finite, pearson,
-    pearson_prepared,
+    LagConfig, PearsonSums, UnitSignal, best_lag, best_lag_with, concordance, first_finite,
+    pearson, pearson_prepared,
 };
 pub use window::{ImuWindow, ModelScores, SkeletonWindow};

@@ -37,6 +37,39 @@ pub fn pearson(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
     sums.correlation(min_samples)
 }
 
+/// Lin's concordance correlation coefficient of `x` and `y` over the indices where both are
+/// finite: `2·cov / (var x + var y + (mean x − mean y)²)`. Unlike Pearson's, it drops when the
+/// two differ in scale or level, so two signals in the same unit that merely wobble alike
+/// score low. `None` with fewer than `min_samples` (at least 3) such pairs or when both are
+/// constant.
+pub fn concordance(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
+    let mut n = 0usize;
+    let (mut sx, mut sy) = (0.0, 0.0);
+    for (a, b) in x.iter().zip(y) {
+        if a.is_finite() && b.is_finite() {
+            n += 1;
+            sx += a;
+            sy += b;
+        }
+    }
+    if n < min_samples.max(MIN_PEARSON_SAMPLES) {
+        return None;
+    }
+    let (mx, my) = (sx / n as f64, sy / n as f64);
+    let (mut vxx, mut vyy, mut vxy) = (0.0, 0.0, 0.0);
+    for (a, b) in x.iter().zip(y) {
+        if a.is_finite() && b.is_finite() {
+            let (dx, dy) = (a - mx, b - my);
+            vxx += dx * dx;
+            vyy += dy * dy;
+            vxy += dx * dy;
+        }
+    }
+    let nf = n as f64;
+    let denominator = vxx / nf + vyy / nf + (mx - my) * (mx - my);
+    (denominator > 0.0).then(|| 2.0 * vxy / nf / denominator)
+}
+
 /// A signal prepared for many correlations with others: its present (finite) values less their
 /// mean, 0 where missing, the sums of those and of their squares, and a bit mask of the
 /// present samples. Its Pearson correlation with another such signal over the samples both
@@ -632,6 +665,39 @@ mod tests {
         // Lengths that differ: pearson over the shorter one.
         let short = &wave(0.31, 0.2)[..50];
         assert_eq!(prepared(short, &y, 3), pearson(short, &y, 3));
+    }
+
+    #[test]
+    fn concordance_is_pearson_only_for_signals_that_agree_in_scale_and_level() {
+        let x: Vec<f64> = (0..60).map(|i| (i as f64 * 0.2).sin() + 0.5).collect();
+        // Identical: 1.
+        assert!((concordance(&x, &x, 3).unwrap() - 1.0).abs() < 1e-12);
+        let n = x.len() as f64;
+        let mean = x.iter().sum::<f64>() / n;
+        let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
+        // Twice as large: Pearson 1, concordance 2·2v / (v + 4v + (m − 2m)²).
+        let double: Vec<f64> = x.iter().map(|v| 2.0 * v).collect();
+        assert!((pearson(&x, &double, 3).unwrap() - 1.0).abs() < 1e-12);
+        let expect = 4.0 * var / (5.0 * var + mean * mean);
+        assert!((concordance(&x, &double, 3).unwrap() - expect).abs() < 1e-12);
+        // Shifted by a constant: Pearson 1, concordance 2v / (2v + 1).
+        let shifted: Vec<f64> = x.iter().map(|v| v + 1.0).collect();
+        let expect = 2.0 * var / (2.0 * var + 1.0);
+        assert!((concordance(&x, &shifted, 3).unwrap() - expect).abs() < 1e-12);
+        // A tiny copy of the shape (a body that barely turns): Pearson 1, concordance near 0.
+        let tiny: Vec<f64> = x.iter().map(|v| 0.01 * (v - mean)).collect();
+        assert!((pearson(&x, &tiny, 3).unwrap() - 1.0).abs() < 1e-12);
+        assert!(concordance(&x, &tiny, 3).unwrap() < 0.1);
+        // Missing samples are skipped on either side; too few pairs or no spread at all: None.
+        let mut gappy = x.clone();
+        gappy[3] = f64::NAN;
+        let mut other = x.clone();
+        other[10] = f64::NAN;
+        assert!((concordance(&gappy, &other, 3).unwrap() - 1.0).abs() < 1e-12);
+        assert_eq!(concordance(&gappy, &other, 59), None);
+        assert_eq!(concordance(&[2.0; 10], &[2.0; 10], 3), None);
+        assert_eq!(concordance(&[2.0; 10], &[3.0; 10], 3), Some(0.0));
+        assert_eq!(concordance(&[1.0, 2.0], &[1.0, 2.0], 1), None);
     }
 
     #[test]

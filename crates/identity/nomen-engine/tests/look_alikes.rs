@@ -4,6 +4,7 @@
 
 use nomen_core::{DeviceId, Identity, Message, TrackId};
 use nomen_engine::{EngineConfig, EngineStats, run_batch};
+use nomen_evidence::KinematicConfig;
 use nomen_filters::kalman::ConstantVelocityConfig;
 use nomen_sim::{Scenario, SimOutput, load_scenario_clips, simulate};
 use std::collections::BTreeMap;
@@ -68,10 +69,10 @@ fn accuracy(sim: &SimOutput, out: &[Message]) -> f64 {
 fn an_offset_taken_from_a_look_alikes_track_moves_to_the_wearers_own_track() {
     // Ana and Eva walk the same clip with the same wrist, 1.48 s apart, round similar
     // rectangles. At this seed, with inferred joints weighed like tracked ones, no margin over
-    // other subjects in the joint search and the filter crate's joint filter without the
-    // smoother (the defaults when the move was written; the current ones happen to find Eva's
-    // offset right here), Eva's
-    // band is accepted at 11 s on Ana's track, 0.7 s from its true offset; its own tracks then
+    // other subjects in the joint search, the filter crate's joint filter without the smoother
+    // and the turn rates averaged over 1 s (the defaults when the move was written; the
+    // current ones happen to find Eva's offset right here), Eva's band is accepted at 11 s on
+    // Ana's track, 0.7 s from its true offset; its own tracks then
     // peak clearly at the true offset, which nobody else explains, while Ana's band explains
     // Ana's track better than Eva's does.
     let Some(sim) = simulated("scenarios/imu_wrist_5.toml", 27) else {
@@ -83,6 +84,10 @@ fn an_offset_taken_from_a_look_alikes_track_moves_to_the_wearers_own_track() {
         offset_subject_margin: 0.0,
         joint_filter: Some(ConstantVelocityConfig::default()),
         joint_smoother_lag_s: 0.0,
+        kinematic: KinematicConfig {
+            turn_smoothing_s: 1.0,
+            ..KinematicConfig::default()
+        },
         ..EngineConfig::default()
     };
     let without = EngineConfig {
@@ -115,14 +120,21 @@ fn a_networks_first_offsets_wait_until_its_labelled_tracks_fit_the_whole_network
     // and at 16.5 s the summed curves of four of her IMUs peak clearly, at 0.20-0.43, each
     // 0.2-0.8 s off. Accepted one by one they hold her offsets wrong until 24.5 s; held until
     // the network's peaks average 0.3, her offsets come from the joint search at 22.5 s.
-    // This is without the joint smoother (the default when the gate was written): with it,
-    // Ana's first offsets come right at this seed with or without the gate (92.0 % both).
+    // This is without the joint smoother and with the turn rates averaged over 1 s (the
+    // defaults when the gate was written): with the smoother, Ana's first offsets come right
+    // at this seed with or without the gate (92.0 % both). Since the turn rates are compared
+    // by concordance, the run without the gate recovers sooner: 85.3 against 86.6 % with it
+    // (the gap was above 5 points with Pearson's turn score).
     let Some(sim) = simulated("scenarios/imu_ban_5.toml", 3) else {
         return;
     };
     let registry = &sim.scene.registry;
     let with = EngineConfig {
         joint_smoother_lag_s: 0.0,
+        kinematic: KinematicConfig {
+            turn_smoothing_s: 1.0,
+            ..KinematicConfig::default()
+        },
         ..EngineConfig::default()
     };
     let without = EngineConfig {
@@ -145,5 +157,5 @@ fn a_networks_first_offsets_wait_until_its_labelled_tracks_fit_the_whole_network
         assert!(e.abs() < 0.1, "{device}: {e}");
     }
     let (before, after) = (accuracy(&sim, &out_without), accuracy(&sim, &out));
-    assert!(after > before + 0.05, "{before} -> {after}");
+    assert!(after > before + 0.01, "{before} -> {after}");
 }
