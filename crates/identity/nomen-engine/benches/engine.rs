@@ -114,12 +114,13 @@ fn main() {
     frame_costs.sort_by(f64::total_cmp);
     let pct = |q: f64| frame_costs[((frame_costs.len() - 1) as f64 * q) as usize];
     println!(
-        "per camera skeleton push+poll: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs over {} skeletons; decision latency by design {:.2} s",
+        "per camera skeleton push+poll: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs over {} skeletons; decision latency by design {:.2} s ({:.2} s for the warm-up's frames)",
         pct(0.5),
         pct(0.99),
         frame_costs.last().copied().unwrap_or(0.0),
         frame_costs.len(),
-        engine.config().latency_s()
+        engine.config().latency_s(),
+        engine.config().max_latency_s()
     );
 
     // A longer session, offsets searched from scratch: the third minute, once most offsets are

@@ -172,6 +172,18 @@ pub struct EngineConfig {
     /// 93.2 / 93.1 / 93.0 / 92.9 % of his frames at 1.5 / 2 / 2.5 / 3 s. Each extra second is a
     /// second more before a frame's decision comes out; the gain is mostly at track starts.
     pub decision_delay_s: f64,
+    /// A session's warm-up, s: an observation within `warmup_s` of the session's first skeleton
+    /// is labelled with the decision of the first window ending at or after
+    /// `first + warmup_s + decision_delay_s`, as if it had been observed at the warm-up's end.
+    /// Until the first windows have filled, nobody can be named, so without it a session's
+    /// first frames come out anonymous whatever follows; with it they wait for the first
+    /// decisions, at most `warmup_s` longer (see [`EngineConfig::max_latency_s`]); later
+    /// observations are not affected. Default 1.0 s. Over the 138 simulated runs of the engine
+    /// README, 1 / 2 / 3 s gained 0.66 / 0.81 / 0.90 points per run (every run better or the
+    /// same at 1 s); at 2 and 3 s the Belmonte-Hernández intruder's first frames came out named
+    /// more often (anonymous in 98.67 → 98.38 / 98.48 % of his frames over seeds 1–72, the same
+    /// at 1 s). `0` turns it off.
+    pub warmup_s: f64,
     /// Fraction of the window a track must cover (first to last sample) to be scored. Default 0.5.
     pub min_window_coverage: f64,
     /// How De Marchi's per-(joint, model) correlations of one window are fused into one score
@@ -679,6 +691,7 @@ impl Default for EngineConfig {
             reorder_window_s: 0.25,
             silence_timeout_s: 1.0,
             decision_delay_s: 1.5,
+            warmup_s: 1.0,
             min_window_coverage: 0.5,
             fusion: Fusion::Max,
             motion_score: MotionScore::Nomen,
@@ -809,6 +822,7 @@ impl EngineConfig {
             ("joint_smoother_lag_s", self.joint_smoother_lag_s),
             ("silence_timeout_s", self.silence_timeout_s),
             ("decision_delay_s", self.decision_delay_s),
+            ("warmup_s", self.warmup_s),
             ("switch_margin", self.switch_margin),
             ("unsynced_switch_margin", self.unsynced_switch_margin),
             ("max_clock_offset_s", self.max_clock_offset_s),
@@ -929,9 +943,16 @@ impl EngineConfig {
     }
 
     /// Worst-case latency from an observation's time to its output, s, while every source keeps
-    /// sending: `decision_delay_s + hop_s + reorder_window_s`. A silent source adds at most
-    /// `silence_timeout_s`.
+    /// sending, once the session's warm-up is over: `decision_delay_s + hop_s +
+    /// reorder_window_s`. A silent source adds at most `silence_timeout_s`.
     pub fn latency_s(&self) -> f64 {
         self.decision_delay_s + self.hop_s + self.reorder_window_s
+    }
+
+    /// Worst-case latency of any observation, s, while every source keeps sending:
+    /// [`EngineConfig::latency_s`] plus `warmup_s`, which only the session's first observations
+    /// wait ([`EngineConfig::warmup_s`]).
+    pub fn max_latency_s(&self) -> f64 {
+        self.latency_s() + self.warmup_s
     }
 }

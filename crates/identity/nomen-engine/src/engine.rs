@@ -370,6 +370,10 @@ pub struct Engine {
     device_kinds: BTreeMap<DeviceId, DeviceKind>,
     tracks: BTreeMap<(usize, TrackId), TrackState>,
     pending_out: BTreeSet<(i64, usize, TrackId)>,
+    /// Time of the session's first accepted skeleton, for the warm-up.
+    first_frame_t: Option<i64>,
+    /// [`EngineConfig::warmup_s`], ns.
+    warmup_ns: i64,
     next_end: Option<i64>,
     global_max: Option<i64>,
     ready: Vec<Message>,
@@ -500,6 +504,8 @@ impl Engine {
             device_kinds,
             tracks: BTreeMap::new(),
             pending_out: BTreeSet::new(),
+            first_frame_t: None,
+            warmup_ns: ns(config.warmup_s),
             next_end: None,
             global_max: None,
             ready: Vec::new(),
@@ -824,6 +830,7 @@ impl Engine {
             }
         }
         self.pending_out.insert((t, c, s.track));
+        self.first_frame_t = Some(self.first_frame_t.map_or(t, |f| f.min(t)));
         if let Some(a) = anchor {
             self.note_encounters(c, s.track, t, &a);
         }
@@ -933,13 +940,23 @@ impl Engine {
         self.forget(end);
     }
 
-    /// Emits every observation whose decision window is `end` or earlier.
+    /// When an output for time `t` is due: `t + decision_delay`, or for the session's first
+    /// observations (and tag fixes) the warm-up's end plus the delay. Non-decreasing in `t`, so
+    /// the output stays in time order.
+    fn due_at(&self, t: i64) -> i64 {
+        let warm_end = self
+            .first_frame_t
+            .map_or(t, |f| f.saturating_add(self.warmup_ns));
+        t.max(warm_end).saturating_add(self.delay_ns)
+    }
+
+    /// Emits every observation whose decision window is `end` or earlier ([`Engine::due_at`]).
     fn emit(&mut self, end: i64) {
         self.emit_corrections(end);
         let due: Vec<(i64, usize, TrackId)> = self
             .pending_out
             .iter()
-            .take_while(|(t, _, _)| t.saturating_add(self.delay_ns) <= end)
+            .take_while(|(t, _, _)| self.due_at(*t) <= end)
             .copied()
             .collect();
         for key in due {
@@ -969,7 +986,7 @@ impl Engine {
         }
     }
 
-    /// Emits a [`TagCorrection`] for every settled fix at or before `end − decision_delay`: the
+    /// Emits a [`TagCorrection`] for every settled fix due by `end` ([`Engine::due_at`]): the
     /// fix blended with its wearer's key joint when a track labelled with the wearer has it
     /// at that time, the raw fix otherwise (see [`crate::tags`]).
     fn emit_corrections(&mut self, end: i64) {
@@ -979,7 +996,7 @@ impl Engine {
                 let Some(fix) = tag.to_correct.front().copied() else {
                     break;
                 };
-                if fix.t.saturating_add(self.delay_ns) > end {
+                if self.due_at(fix.t) > end {
                     break;
                 }
                 let joint = self

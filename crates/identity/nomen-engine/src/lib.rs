@@ -156,7 +156,10 @@
 //! track)`, labelled with the decision of the first window ending at or after
 //! `t + decision_delay_s`. While all sources send, an observation is emitted at most
 //! `decision_delay_s + hop_s + reorder_window_s` (default 2.25 s) of stream time after `t`
-//! ([`EngineConfig::latency_s`]); a silent source adds at most `silence_timeout_s`.
+//! ([`EngineConfig::latency_s`]); a silent source adds at most `silence_timeout_s`. The
+//! exception is the session's warm-up ([`EngineConfig::warmup_s`], 1 s): observations within
+//! it wait for the decision due at its end, up to `warmup_s` longer
+//! ([`EngineConfig::max_latency_s`]), since before the first windows fill nobody can be named.
 //! Every settled tag fix comes back once as a `Message::TagCorrection` on the same schedule:
 //! blended with the key joint of the track labelled with the tag's wearer, raw otherwise.
 //! Rejected messages produce no output.

@@ -240,7 +240,7 @@ fn a_silent_imu_does_not_block_output() {
     let config = EngineConfig::default();
     let mut engine = Engine::new(registry(&people), config).unwrap();
     let mut out = Vec::new();
-    let bound = config.latency_s() + config.silence_timeout_s + 0.1;
+    let bound = config.max_latency_s() + config.silence_timeout_s + 0.1;
     for m in &msgs {
         engine.push(m).unwrap();
         engine.poll(&mut out);
@@ -261,6 +261,69 @@ fn a_silent_imu_does_not_block_output() {
     assert!(engine.stats().num_windows_timed_out > 0);
     // Ana is still named; Ben, whose IMU died, is not given Ana's name.
     assert!(accuracy(&people[..1], &out, 8.0) > 0.98);
+}
+
+#[test]
+fn a_sessions_first_frames_wait_for_its_first_decisions_and_later_frames_do_not() {
+    let people = two_people();
+    let msgs = recording(&people, 12.0);
+    let first_s = msgs
+        .iter()
+        .find(|m| matches!(m, Message::Skeleton(_)))
+        .map(|m| m.t().as_secs_f64())
+        .unwrap();
+    // Every output with the stream time (the last pushed message's) at which it came out.
+    let run = |warmup_s: f64| {
+        let config = EngineConfig {
+            warmup_s,
+            ..EngineConfig::default()
+        };
+        let mut engine = Engine::new(registry(&people), config).unwrap();
+        let mut out = Vec::new();
+        let mut when = Vec::new();
+        for m in &msgs {
+            engine.push(m).unwrap();
+            let before = out.len();
+            engine.poll(&mut out);
+            when.extend(std::iter::repeat_n(m.t().as_secs_f64(), out.len() - before));
+        }
+        engine.finish(&mut out);
+        assert_eq!(out.len(), num_skeletons(&msgs));
+        (out, when, config)
+    };
+    let (cold, cold_when, _) = run(0.0);
+    let (warm, warm_when, config) = run(1.0);
+    let warm_end_s = first_s + config.warmup_s;
+    // Nothing comes out before its decision window, and nothing later than the bound.
+    for (m, now) in warm.iter().zip(&warm_when) {
+        let t = m.t().as_secs_f64();
+        let due = t.max(warm_end_s) + config.decision_delay_s;
+        assert!(*now >= due - 1e-6, "{t} s out at {now} s, due {due} s");
+        assert!(
+            *now <= t + config.max_latency_s() + 1e-6,
+            "{t} s out at {now} s"
+        );
+    }
+    // The warm-up's frames: mostly anonymous without it, named about twice as often with it
+    // (0.23 → 0.5 here), and never wrong.
+    let (cold_named, _) = named_before(&people, &cold, warm_end_s);
+    let (warm_named, wrong) = named_before(&people, &warm, warm_end_s);
+    assert!(
+        warm_named > cold_named + 0.2,
+        "{cold_named} -> {warm_named}"
+    );
+    assert_eq!(wrong, 0);
+    // Later frames: the same decisions, out at the same times.
+    let later = |out: &[Message], when: &[f64]| -> Vec<(Message, f64)> {
+        out.iter()
+            .zip(when)
+            .filter(|(m, _)| m.t().as_secs_f64() >= warm_end_s)
+            .map(|(m, w)| (m.clone(), *w))
+            .collect()
+    };
+    let (a, b) = (later(&cold, &cold_when), later(&warm, &warm_when));
+    assert!(a.len() > 500);
+    assert!(a == b);
 }
 
 /// The messages shuffled deterministically: sorted by t + u, u in [0, 0.2 s) from an LCG,
@@ -941,6 +1004,20 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
                 ..EngineConfig::default()
             },
         ),
+        (
+            "warmup_s",
+            EngineConfig {
+                warmup_s: -1.0,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "warmup_s",
+            EngineConfig {
+                warmup_s: f64::INFINITY,
+                ..EngineConfig::default()
+            },
+        ),
     ] {
         let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), config) else {
             panic!("{name} out of range was accepted");
@@ -1466,10 +1543,16 @@ fn a_networks_first_names_come_from_the_first_search_that_finds_peaks() {
             .fold(f64::INFINITY, f64::min);
         (first, accuracy(&people, &out, 4.0))
     };
-    let blind = first_named(&EngineConfig::default());
+    // Without the warm-up: it would give the first frames the decision due at its end, and
+    // both would be named from their first frame.
+    let no_warmup = EngineConfig {
+        warmup_s: 0.0,
+        ..EngineConfig::default()
+    };
+    let blind = first_named(&no_warmup);
     let paced = first_named(&EngineConfig {
         offset_search_while_blind: false,
-        ..EngineConfig::default()
+        ..no_warmup
     });
     assert!(
         blind.0 <= paced.0 - 0.45,
