@@ -17,20 +17,9 @@ pub const MIN_PEARSON_SAMPLES: usize = 3;
 /// if they differ). `None` with fewer than `min_samples` (at least 3) such pairs, or when either
 /// signal is constant over them (relative variance below 1e-12 of its mean square).
 pub fn pearson(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
-    let mut n = 0usize;
-    let (mut sx, mut sy) = (0.0, 0.0);
-    for (a, b) in x.iter().zip(y) {
-        if a.is_finite() && b.is_finite() {
-            n += 1;
-            sx += a;
-            sy += b;
-        }
-    }
-    if n < min_samples.max(MIN_PEARSON_SAMPLES) {
-        return None;
-    }
+    let (_, mx, my) = paired_means(x, y, min_samples)?;
     // Second pass: the sums about the exact means.
-    let mut sums = PearsonSums::new(sx / n as f64, sy / n as f64);
+    let mut sums = PearsonSums::new(mx, my);
     for (a, b) in x.iter().zip(y) {
         sums.push(*a, *b);
     }
@@ -43,19 +32,7 @@ pub fn pearson(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
 /// score low. `None` with fewer than `min_samples` (at least 3) such pairs or when both are
 /// constant.
 pub fn concordance(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
-    let mut n = 0usize;
-    let (mut sx, mut sy) = (0.0, 0.0);
-    for (a, b) in x.iter().zip(y) {
-        if a.is_finite() && b.is_finite() {
-            n += 1;
-            sx += a;
-            sy += b;
-        }
-    }
-    if n < min_samples.max(MIN_PEARSON_SAMPLES) {
-        return None;
-    }
-    let (mx, my) = (sx / n as f64, sy / n as f64);
+    let (n, mx, my) = paired_means(x, y, min_samples)?;
     let (mut vxx, mut vyy, mut vxy) = (0.0, 0.0, 0.0);
     for (a, b) in x.iter().zip(y) {
         if a.is_finite() && b.is_finite() {
@@ -68,6 +45,21 @@ pub fn concordance(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
     let nf = n as f64;
     let denominator = vxx / nf + vyy / nf + (mx - my) * (mx - my);
     (denominator > 0.0).then(|| 2.0 * vxy / nf / denominator)
+}
+
+/// The number of indices where both `x` and `y` are finite and the two means over them; `None`
+/// with fewer than `min_samples` (at least [`MIN_PEARSON_SAMPLES`]) such indices.
+fn paired_means(x: &[f64], y: &[f64], min_samples: usize) -> Option<(usize, f64, f64)> {
+    let mut n = 0usize;
+    let (mut sx, mut sy) = (0.0, 0.0);
+    for (a, b) in x.iter().zip(y) {
+        if a.is_finite() && b.is_finite() {
+            n += 1;
+            sx += a;
+            sy += b;
+        }
+    }
+    (n >= min_samples.max(MIN_PEARSON_SAMPLES)).then(|| (n, sx / n as f64, sy / n as f64))
 }
 
 /// A signal prepared for many correlations with others: its present (finite) values less their
