@@ -76,3 +76,15 @@ pub(crate) fn check_positive(name: &'static str, value: f64) -> Result<()> {
         })
     }
 }
+
+/// Returns an [`FilterError::InvalidParameter`] unless `value` is finite and not negative.
+pub(crate) fn check_non_negative(name: &'static str, value: f64) -> Result<()> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        Err(FilterError::InvalidParameter {
+            name,
+            reason: format!("must be finite and >= 0, got {value}"),
+        })
+    }
+}

@@ -24,7 +24,7 @@
 //! 6-state work; the first full `R` switches it to [`adskalman`] for good. Both paths agree to
 //! rounding (a test runs them side by side).
 
-use crate::error::{FilterError, Result, check_positive};
+use crate::error::{FilterError, Result, check_non_negative, check_positive};
 use adskalman::{
     CovarianceUpdateMethod, ObservationModel, StateAndCovariance, TransitionModelLinearNoControl,
 };
@@ -301,12 +301,7 @@ impl JointKalman {
     /// Propagates the estimate by `dt_s` seconds (`dt_s` ≥ 0 and finite). Does nothing before
     /// initialisation.
     pub fn predict(&mut self, dt_s: f64) -> Result<()> {
-        if !(dt_s.is_finite() && dt_s >= 0.0) {
-            return Err(FilterError::InvalidParameter {
-                name: "dt_s",
-                reason: format!("must be finite and >= 0, got {dt_s}"),
-            });
-        }
+        check_non_negative("dt_s", dt_s)?;
         match &mut self.estimate {
             Some(Estimate::Axes(axes)) => {
                 for a in axes {
@@ -455,12 +450,7 @@ pub struct JointSmoother {
 impl JointSmoother {
     /// A smoother over the last `lag_s` seconds (finite and ≥ 0; 0 gives the filter alone).
     pub fn new(config: ConstantVelocityConfig, lag_s: f64) -> Result<Self> {
-        if !(lag_s.is_finite() && lag_s >= 0.0) {
-            return Err(FilterError::InvalidParameter {
-                name: "lag_s",
-                reason: format!("must be finite and >= 0, got {lag_s}"),
-            });
-        }
+        check_non_negative("lag_s", lag_s)?;
         Ok(Self {
             filter: JointKalman::new(config)?,
             // Rounded to whole nanoseconds; lags are a fraction of a second.
