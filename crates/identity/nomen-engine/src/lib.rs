@@ -25,7 +25,9 @@
 //! track's first frame, from settled observations only: when another camera follows the new
 //! track's person, the predecessor is the ended track that this view followed when it ended
 //! ([`EngineConfig::stitch_across_cameras`]); otherwise the ended track (within
-//! [`EngineConfig::stitch_max_gap_s`]) within walking reach of where the new one starts.
+//! [`EngineConfig::stitch_max_gap_s`]) within walking reach of where the new one starts,
+//! reach measured from where the ended track's person was heading (its last walking velocity
+//! carried over the gap, [`EngineConfig::stitch_velocity_span_s`]).
 //! SDKs also swap the ids of two people who pass close to each other: when a track's
 //! observation jumps farther than a person moves in the time since its last one (0.25 m plus
 //! 2 m/s) onto within half that jump of where another track of the camera was last seen (both

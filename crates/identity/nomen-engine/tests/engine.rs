@@ -907,6 +907,13 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             },
         ),
         (
+            "stitch_velocity_span_s",
+            EngineConfig {
+                stitch_velocity_span_s: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
+        (
             "heading_min_coherence",
             EngineConfig {
                 heading_min_coherence: 1.5,
@@ -1273,6 +1280,68 @@ fn a_new_track_continues_the_track_another_camera_saw_its_person_on() {
     let ana = labels_of(&out, common::CAMERA, 11, 10.5, 16.0);
     assert!(
         ana.iter().filter(|l| l.as_deref() != Some("ana")).count() >= 10,
+        "{ana:?}"
+    );
+}
+
+#[test]
+fn a_new_track_continues_the_walker_who_was_heading_where_it_appears() {
+    // Ana walks towards the row at 1.2 m/s from 8 s; at 10 s the camera loses her and Ben for
+    // 0.8 s, during which she walks the last 0.96 m and stops 0.4 m from where Ben stands; both
+    // come back under new ids (Ana 11, Ben 12). Measured from where each was last seen, Ana's
+    // new track starts nearer Ben's old one (0.4 m) than her own (0.96 m), and walking reach
+    // would give it Ben's; measured from where each was heading, it starts on her own.
+    let mut people = vec![
+        Person::new(Some("ana"), 0.9, 0.0, 1),
+        Person::new(Some("ben"), 1.3, 0.4, 2),
+    ];
+    people[0].walk = Some((8.0, 10.8, 1.2));
+    let msgs: Vec<Message> = recording(&people, 16.0)
+        .into_iter()
+        .filter_map(|m| match m {
+            Message::Skeleton(mut s) => {
+                let t = s.t.as_secs_f64();
+                if (10.0..10.8).contains(&t) {
+                    return None;
+                }
+                if t >= 10.8 {
+                    s.track = TrackId(s.track.0 + 10);
+                }
+                Some(Message::Skeleton(s))
+            }
+            m => Some(m),
+        })
+        .collect();
+    // Unsmoothed joints: with the smoother, the band's evidence outvotes a wrong stitch within
+    // a window (see the test above).
+    let config = EngineConfig {
+        known_clock_offsets: true,
+        joint_smoother_lag_s: 0.0,
+        ..EngineConfig::default()
+    };
+    let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    assert_eq!(stats.num_stitched, 2, "{stats:?}");
+    let ana = labels_of(&out, common::CAMERA, 11, 10.8, 16.0);
+    let ben = labels_of(&out, common::CAMERA, 12, 10.8, 16.0);
+    assert!(
+        ana.len() > 150 && ana.iter().all(|l| l.as_deref() == Some("ana")),
+        "{ana:?}"
+    );
+    assert!(
+        ben.len() > 150 && ben.iter().all(|l| l.as_deref() == Some("ben")),
+        "{ben:?}"
+    );
+    // Measured from where each was last seen, Ana's new track continues Ben's old one and
+    // carries his name until her band's evidence outweighs what it inherited.
+    let from_last_seen = EngineConfig {
+        stitch_velocity_span_s: 0.0,
+        ..config
+    };
+    let (out, stats) = run_batch(&registry(&people), &msgs, &from_last_seen).unwrap();
+    assert_eq!(stats.num_stitched, 2, "{stats:?}");
+    let ana = labels_of(&out, common::CAMERA, 11, 10.8, 16.0);
+    assert!(
+        ana.iter().take(5).all(|l| l.as_deref() == Some("ben")),
         "{ana:?}"
     );
 }

@@ -9,6 +9,7 @@ use super::{
     TrackKey, TrackSample, TrackState, average_evidence, joint_centroid, sample_range,
     settle_track, smooth_track,
 };
+use crate::EngineConfig;
 use crate::config::ns;
 use nalgebra::Point3;
 use nomen_core::TrackId;
@@ -163,10 +164,14 @@ impl Engine {
     }
 
     /// The ended track of camera `c` (see [`Engine::ended_before`]) that a new track first
-    /// seen at `t` at `anchor` continues by walking reach: its last position within
-    /// `stitch_radius_m + stitch_max_speed_mps · gap`. When two are within reach, the nearer
-    /// (relative to its reach) must be at most half as far as the other; otherwise nothing is
-    /// stitched and evidence starts afresh.
+    /// seen at `t` at `anchor` continues by walking reach: where its person was heading
+    /// ([`heading_point`]: its last position moved on by its last walking velocity over the
+    /// gap) within `stitch_radius_m + stitch_max_speed_mps · gap`. When two are within reach,
+    /// the nearer (relative to its reach) must be at most half as far as the other; otherwise
+    /// nothing is stitched and evidence starts afresh. Measured from the last positions, a
+    /// walker's new track often lay nearer someone standing where the walker was heading than
+    /// to the walker's own old track
+    /// ([`EngineConfig::stitch_velocity_span_s`](crate::EngineConfig::stitch_velocity_span_s)).
     pub(super) fn stitch_candidate(
         &self,
         c: usize,
@@ -174,11 +179,11 @@ impl Engine {
         anchor: &Point3<f64>,
         end: i64,
     ) -> Option<TrackKey> {
-        let relative = self.ended_before(c, t, end).filter_map(|(k, _, last)| {
+        let relative = self.ended_before(c, t, end).filter_map(|(k, tr, last)| {
             let gap = t - last.t;
             let reach =
                 self.config.stitch_radius_m + self.config.stitch_max_speed_mps * gap as f64 * 1e-9;
-            let relative = (anchor - joint_centroid(&last.joints)?).norm() / reach;
+            let relative = (anchor - heading_point(tr, last, gap, &self.config)?).norm() / reach;
             // Out of reach is no rival either.
             (relative <= 1.0).then_some((k, relative))
         });
@@ -480,4 +485,33 @@ pub(super) fn unique_nearest(
     }
     let (key, v) = best?;
     (v <= limit && second >= 2.0 * v).then_some(key)
+}
+
+/// Where the person of an ended track `tr` would be `gap` ns after its `last` sample, walking on
+/// at the horizontal velocity of its joint centroid over the last `stitch_velocity_span_s`
+/// (capped at `stitch_max_speed_mps`): where it was last seen if it has no earlier sample in
+/// that span. `None` if the last sample has no joints.
+fn heading_point(
+    tr: &TrackState,
+    last: &TrackSample,
+    gap: i64,
+    config: &EngineConfig,
+) -> Option<Point3<f64>> {
+    let at_last = joint_centroid(&last.joints)?;
+    let from = last.t - ns(config.stitch_velocity_span_s);
+    let earlier = tr
+        .samples
+        .get(tr.samples.partition_point(|s| s.t < from))
+        .filter(|s| s.t < last.t)
+        .and_then(|s| Some((s.t, joint_centroid(&s.joints)?)));
+    let Some((t0, at_t0)) = earlier else {
+        return Some(at_last);
+    };
+    let mut velocity_mps = (at_last - at_t0) / ((last.t - t0) as f64 * 1e-9);
+    velocity_mps.z = 0.0;
+    let speed_mps = velocity_mps.norm();
+    if speed_mps > config.stitch_max_speed_mps {
+        velocity_mps *= config.stitch_max_speed_mps / speed_mps;
+    }
+    Some(at_last + velocity_mps * (gap as f64 * 1e-9))
 }

@@ -44,6 +44,9 @@ pub struct Person {
     /// `(time_s, y_m)`: the person's observations jump to another place along the row then
     /// (a tracking glitch).
     pub jump: Option<(f64, f64)>,
+    /// `(from_s, until_s, speed_mps)`: the person walks across the row (along world x) at this
+    /// speed between the two times, arriving at the row then; still before and after.
+    pub walk: Option<(f64, f64, f64)>,
     /// A second IMU, `<subject>_imu_right`, on the right wrist (same clock as the left one).
     pub right_wrist_imu: bool,
     /// The swing runs this late, s: a person with the same swing parameters and a shift moves
@@ -69,6 +72,7 @@ impl Person {
             imu_offset_s: 0.0,
             is_in_view: true,
             jump: None,
+            walk: None,
             imu_yaw_rad: 0.0,
             right_wrist_imu: false,
             time_shift_s: 0.0,
@@ -82,6 +86,14 @@ impl Person {
         match self.jump {
             Some((at, y)) if t >= at => y,
             _ => self.y_m,
+        }
+    }
+
+    /// Position across the row at `t`, m.
+    fn x_at(&self, t: f64) -> f64 {
+        match self.walk {
+            Some((from, until, speed)) => 1.0 + speed * (t.clamp(from, until) - until),
+            None => 1.0,
         }
     }
 
@@ -101,7 +113,7 @@ impl Person {
     }
 
     fn elbow(&self, t: f64, side: f64) -> Point3<f64> {
-        Point3::new(1.0, self.y_at(t) + 0.2 * side, 1.1)
+        Point3::new(self.x_at(t), self.y_at(t) + 0.2 * side, 1.1)
     }
 
     /// Left wrist at `t`: elbow + forearm at angle θ in the x–z plane.
@@ -172,7 +184,7 @@ pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
             .filter(|p| p.is_in_view && (p.in_view_from_s..p.in_view_until_s).contains(&t))
         {
             let mut joints = Joints::new();
-            let pelvis = Point3::new(1.0, p.y_at(t), 0.95);
+            let pelvis = Point3::new(p.x_at(t), p.y_at(t), 0.95);
             let mut put = |j, pw: Point3<f64>| {
                 joints.insert(j, JointObservation::tracked(camera_from_world * pw));
             };
