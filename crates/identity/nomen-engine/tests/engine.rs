@@ -1210,6 +1210,35 @@ fn labels_of(
         .collect()
 }
 
+/// `s` as the first camera reports it when it loses everyone from `from_s` to `to_s` and gives
+/// them new ids (the old ones + 10) after: `None` during the gap.
+fn lost_and_relabelled(
+    mut s: SkeletonObservation,
+    from_s: f64,
+    to_s: f64,
+) -> Option<SkeletonObservation> {
+    let t = s.t.as_secs_f64();
+    if (from_s..to_s).contains(&t) {
+        return None;
+    }
+    if t >= to_s {
+        s.track = TrackId(s.track.0 + 10);
+    }
+    Some(s)
+}
+
+/// Asserts that Ana's and Ben's new tracks (11 and 12, see [`lost_and_relabelled`]) carry their
+/// names in every frame from `from_s` to 16 s.
+fn assert_new_tracks_named(out: &[Message], from_s: f64) {
+    for (track, name) in [(11, "ana"), (12, "ben")] {
+        let labels = labels_of(out, common::CAMERA, track, from_s, 16.0);
+        assert!(
+            labels.len() > 150 && labels.iter().all(|l| l.as_deref() == Some(name)),
+            "{name}: {labels:?}"
+        );
+    }
+}
+
 #[test]
 fn a_new_track_continues_the_track_another_camera_saw_its_person_on() {
     // Ana and Ben, 1.5 m apart, are seen by two cameras. At 10 s the first camera loses both
@@ -1223,15 +1252,8 @@ fn a_new_track_continues_the_track_another_camera_saw_its_person_on() {
     let msgs: Vec<Message> = msgs
         .into_iter()
         .filter_map(|m| match m {
-            Message::Skeleton(mut s) if s.camera.as_str() == common::CAMERA => {
-                let t = s.t.as_secs_f64();
-                if (10.0..10.5).contains(&t) {
-                    return None;
-                }
-                if t >= 10.5 {
-                    s.track = TrackId(s.track.0 + 10);
-                }
-                Some(Message::Skeleton(s))
+            Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => {
+                lost_and_relabelled(s, 10.0, 10.5).map(Message::Skeleton)
             }
             // The second camera follows each person as one track.
             Message::Skeleton(mut s) => {
@@ -1247,16 +1269,7 @@ fn a_new_track_continues_the_track_another_camera_saw_its_person_on() {
     };
     let (out, stats) = run_batch(&registry, &msgs, &config).unwrap();
     assert_eq!(stats.num_stitched, 2, "{stats:?}");
-    let ana = labels_of(&out, common::CAMERA, 11, 10.5, 16.0);
-    let ben = labels_of(&out, common::CAMERA, 12, 10.5, 16.0);
-    assert!(
-        ana.len() > 150 && ana.iter().all(|l| l.as_deref() == Some("ana")),
-        "{ana:?}"
-    );
-    assert!(
-        ben.len() > 150 && ben.iter().all(|l| l.as_deref() == Some("ben")),
-        "{ben:?}"
-    );
+    assert_new_tracks_named(&out, 10.5);
     // Message order changes nothing: the predecessor is chosen from settled observations.
     let (reordered, _) = run_batch(&registry, &shuffled(&msgs), &config).unwrap();
     assert_eq!(reordered, out);
@@ -1301,16 +1314,7 @@ fn a_new_track_continues_the_walker_who_was_heading_where_it_appears() {
     let msgs: Vec<Message> = recording(&people, 16.0)
         .into_iter()
         .filter_map(|m| match m {
-            Message::Skeleton(mut s) => {
-                let t = s.t.as_secs_f64();
-                if (10.0..10.8).contains(&t) {
-                    return None;
-                }
-                if t >= 10.8 {
-                    s.track = TrackId(s.track.0 + 10);
-                }
-                Some(Message::Skeleton(s))
-            }
+            Message::Skeleton(s) => lost_and_relabelled(s, 10.0, 10.8).map(Message::Skeleton),
             m => Some(m),
         })
         .collect();
@@ -1323,16 +1327,7 @@ fn a_new_track_continues_the_walker_who_was_heading_where_it_appears() {
     };
     let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
     assert_eq!(stats.num_stitched, 2, "{stats:?}");
-    let ana = labels_of(&out, common::CAMERA, 11, 10.8, 16.0);
-    let ben = labels_of(&out, common::CAMERA, 12, 10.8, 16.0);
-    assert!(
-        ana.len() > 150 && ana.iter().all(|l| l.as_deref() == Some("ana")),
-        "{ana:?}"
-    );
-    assert!(
-        ben.len() > 150 && ben.iter().all(|l| l.as_deref() == Some("ben")),
-        "{ben:?}"
-    );
+    assert_new_tracks_named(&out, 10.8);
     // Measured from where each was last seen, Ana's new track continues Ben's old one and
     // carries his name until her band's evidence outweighs what it inherited.
     let from_last_seen = EngineConfig {

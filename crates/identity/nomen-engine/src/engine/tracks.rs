@@ -498,7 +498,7 @@ fn heading_point(
     config: &EngineConfig,
 ) -> Option<Point3<f64>> {
     let at_last = joint_centroid(&last.joints)?;
-    let from = last.t - ns(config.stitch_velocity_span_s);
+    let from = last.t.saturating_sub(ns(config.stitch_velocity_span_s));
     let earlier = tr
         .samples
         .get(tr.samples.partition_point(|s| s.t < from))
