@@ -1,8 +1,9 @@
 //! A first-order complementary filter: gyroscope integration corrected toward the
 //! accelerometer's tilt.
 
-use super::{check_initial, check_non_negative, is_finite3, is_valid_dt, to_unit, unit};
+use super::{check_initial, is_finite3, is_valid_dt, to_unit, unit};
 use crate::error::Result;
+use crate::error::check_non_negative;
 use nalgebra::{Unit, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 

@@ -1,10 +1,8 @@
 //! Mahony's explicit complementary filter on SO(3) with gyroscope-bias estimation
 //! (Mahony, Hamel & Pflimlin 2008), IMU and MARG.
 
-use super::{
-    check_initial, check_non_negative, is_finite3, is_valid_dt, normalized, to_unit, unit,
-};
-use crate::error::Result;
+use super::{check_initial, is_finite3, is_valid_dt, normalized, to_unit, unit};
+use crate::error::{Result, check_non_negative};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 

@@ -144,18 +144,6 @@ fn check_initial(world_from_sensor: &UnitQuaternion<f64>) -> Result<Quaternion<f
     }
 }
 
-/// `Ok` when `value` is finite and `>= 0`.
-fn check_non_negative(name: &'static str, value: f64) -> Result<()> {
-    if value.is_finite() && value >= 0.0 {
-        Ok(())
-    } else {
-        Err(FilterError::InvalidParameter {
-            name,
-            reason: format!("must be finite and >= 0, got {value}"),
-        })
-    }
-}
-
 /// Whether all three components are finite.
 fn is_finite3(v: &Vector3<f64>) -> bool {
     v.iter().all(|x| x.is_finite())
@@ -165,6 +153,33 @@ fn is_finite3(v: &Vector3<f64>) -> bool {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn negative_or_non_finite_gains_are_refused_by_name() {
+        let refused = |result: Result<()>| match result {
+            Err(FilterError::InvalidParameter { name, .. }) => Some(name),
+            _ => None,
+        };
+        for bad in [-0.1, f64::NAN, f64::INFINITY] {
+            let mahony = MahonyConfig { k_p: bad, k_i: 0.3 };
+            assert_eq!(refused(mahony.validate()), Some("k_p"));
+            let mahony = MahonyConfig { k_p: 1.0, k_i: bad };
+            assert_eq!(refused(mahony.validate()), Some("k_i"));
+            let complementary = ComplementaryConfig {
+                tilt_gain_per_s: bad,
+            };
+            assert_eq!(refused(complementary.validate()), Some("tilt_gain_per_s"));
+        }
+        // Zero is allowed: a filter that only integrates the gyroscope.
+        assert!(MahonyConfig { k_p: 0.0, k_i: 0.0 }.validate().is_ok());
+        assert!(
+            ComplementaryConfig {
+                tilt_gain_per_s: 0.0
+            }
+            .validate()
+            .is_ok()
+        );
+    }
 
     #[test]
     fn level_from_accel_maps_measured_up_to_world_z() {
