@@ -634,7 +634,7 @@ pub struct EngineConfig {
     /// Location-tag and RSSI evidence are inherited whole (their half-lives are short).
     pub stitch_evidence_weight: f64,
     /// Stitch through another camera: when a track of another camera follows a new track's
-    /// person (torso positions within `camera_pair_distance_m` on average, every other track
+    /// person (torso positions within `stitch_view_distance_m` on average, every other track
     /// at least twice as far), the new track continues the ended track of its camera that this
     /// view followed when it ended, or none if it followed none of them; walking reach
     /// (`stitch_max_speed_mps`, `stitch_radius_m`) decides only for people no other camera
@@ -646,17 +646,34 @@ pub struct EngineConfig {
     /// 76.81 %, within the spread that wrong early clock offsets give these scenes); with the
     /// true clock offsets, 96.53 → 97.11 % and 90.02 → 91.22 %.
     pub stitch_across_cameras: bool,
+    /// How close on average another camera's view of a new track's person must stay to it for
+    /// [`EngineConfig::stitch_across_cameras`] (the view that follows the new track, and the
+    /// ended track that view followed), m. Default 0.3 m. It is wider than
+    /// [`EngineConfig::camera_pair_distance_m`] because it is read at a new track's first
+    /// frames, where the joint filter has only just started. On the simulated 8-person scenes
+    /// (offsets searched; the full network seeds 1–15, one wrist IMU seeds 1–33), with pooling
+    /// at 0.2 m, stitching at 0.3 m gave 98.36 % and 97.66 % of frames right, at 0.2 m 98.35 %
+    /// and 97.55 %. 0 disables stitching through another camera.
+    pub stitch_view_distance_m: f64,
     /// Tracks of different cameras whose torso positions (the pelvis, else the first of chest,
     /// neck, head and hips that both views have at that time) stayed this close on average over the
     /// last two evidence windows show the same person: each decides on the evidence of all of them
     /// (weighted by how much each has), so a fresh track seen by another camera for a while is
     /// named at once, and a wrong stitch is outvoted, m. Both tracks must be each other's
-    /// nearest, the next candidate at least twice as far. Default 0.3 m: on the simulated
-    /// two-camera scenes the same person's pelvis is 5 cm apart between views (median, 26 cm at
-    /// p99) and two people rarely under 26 cm (1 % of frame pairs). Over the ten imu-table
-    /// scenes, seeds 1–9 (only the 8-person scenes have two cameras; 1 s evidence half-life):
-    /// 8 people, full network 83.0 % without pooling, 88.7 / 88.5 / 88.4 % at 0.2 / 0.3 /
-    /// 0.45 m; one wrist IMU 48.9 % without, 54.2 / 55.8 / 55.2 %. 0 disables.
+    /// nearest, the next candidate at least twice as far. Default 0.2 m. With the joint
+    /// smoother, the same person's two views are 2.2 cm apart on average over the two windows
+    /// (median; 3.7 cm at p95) on the simulated 8-person full-network scene, seeds 1–3 with the
+    /// true clock offsets; the rare wider ones (1 % beyond 0.2 m) are windows with an SDK id
+    /// swap or an inferred torso. Two people walking side by side 0.25 m apart, each hidden
+    /// from one camera by the other, passed 0.3 m: their evidence was pooled and one took the
+    /// other's name (Gia's front-camera track named Cleo for the first 2.5 s of every seed).
+    /// With the true clock offsets, 0.3 → 0.2 m took the 8-person scenes, seeds 1–9, from
+    /// 98.67 to 98.99 % (full network) and 97.95 to 98.18 % (one wrist IMU), all 18 runs
+    /// better; with offsets searched, from 98.14 to 98.36 % (full network, seeds 1–15) and
+    /// 97.68 to 97.66 % (one wrist IMU, seeds 1–33); 0.15 and 0.25 m were within 0.05 points
+    /// of 0.2 m. An earlier sweep, before the joint smoother and with a 1 s evidence
+    /// half-life, had given 88.7 / 88.5 / 88.4 % at 0.2 / 0.3 / 0.45 m (full network) and
+    /// 54.2 / 55.8 / 55.2 % (one wrist IMU). 0 disables.
     pub camera_pair_distance_m: f64,
     /// Two tracks of a camera closer than this across the line of sight are in a close
     /// encounter, after which their ids may have been swapped by the SDK (their evidence is
@@ -782,7 +799,8 @@ impl Default for EngineConfig {
             stitch_velocity_span_s: 0.5,
             stitch_evidence_weight: 0.5,
             stitch_across_cameras: true,
-            camera_pair_distance_m: 0.3,
+            stitch_view_distance_m: 0.3,
+            camera_pair_distance_m: 0.2,
             encounter_distance_m: 0.0,
             tag_sigma_horizontal_m: 0.3,
             tag_sigma_vertical_m: 0.5,
@@ -864,6 +882,7 @@ impl EngineConfig {
             ("stitch_velocity_span_s", self.stitch_velocity_span_s),
             ("encounter_distance_m", self.encounter_distance_m),
             ("camera_pair_distance_m", self.camera_pair_distance_m),
+            ("stitch_view_distance_m", self.stitch_view_distance_m),
             ("heading_min_windows", self.heading_min_windows),
         ];
         for (name, v) in positive {

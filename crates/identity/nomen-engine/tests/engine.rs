@@ -900,6 +900,13 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             },
         ),
         (
+            "stitch_view_distance_m",
+            EngineConfig {
+                stitch_view_distance_m: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
+        (
             "stitch_evidence_weight",
             EngineConfig {
                 stitch_evidence_weight: 1.5,
@@ -1186,6 +1193,68 @@ fn a_view_without_its_pelvis_is_still_matched_to_the_other_cameras_view() {
     let (named, wrong) = ana_in_cam2(&out);
     assert!(named > 0.9, "Ana's pelvis-less fragments named {named}");
     assert_eq!(wrong, 0);
+}
+
+#[test]
+fn two_people_side_by_side_each_seen_by_one_camera_keep_their_own_names() {
+    // Ana and Ben stand 0.25 m apart; the first camera sees only Ana, the second only Ben (each
+    // hides the other from one camera). Their torsos stay closer than the old 0.3-m pooling
+    // limit but farther than one person's two views ever are: pooled, both tracks would decide
+    // on the same mixed evidence and one would take the other's name.
+    let people = vec![
+        Person::new(Some("ana"), 0.9, 0.0, 1),
+        Person::new(Some("ben"), 1.3, 0.25, 2),
+    ];
+    let (registry, msgs) = with_second_camera(&people, &recording(&people, 20.0));
+    let msgs: Vec<Message> = msgs
+        .into_iter()
+        .filter(|m| match m {
+            Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => s.track == TrackId(1),
+            Message::Skeleton(s) => s.track == TrackId(102),
+            _ => true,
+        })
+        .collect();
+    // Of the frames after 8 s: (named right, named wrong, all) per camera's track.
+    let tally = |out: &[Message]| {
+        let mut tally = [(0, 0, 0); 2];
+        for m in out {
+            let Message::Identified(id) = m else { continue };
+            if id.t.as_secs_f64() <= 8.0 {
+                continue;
+            }
+            let (i, want) = if id.camera.as_str() == common::CAMERA {
+                (0, "ana")
+            } else {
+                (1, "ben")
+            };
+            let got = id.identity.subject().map(|s| s.as_str());
+            tally[i].0 += usize::from(got == Some(want));
+            tally[i].1 += usize::from(got.is_some_and(|s| s != want));
+            tally[i].2 += 1;
+        }
+        tally
+    };
+    let config = EngineConfig {
+        known_clock_offsets: true,
+        ..EngineConfig::default()
+    };
+    let (out, _) = run_batch(&registry, &msgs, &config).unwrap();
+    for (right, wrong, all) in tally(&out) {
+        assert!(all > 300, "{all} frames");
+        assert_eq!(wrong, 0);
+        assert!(right as f64 > 0.95 * all as f64, "{right} of {all} right");
+    }
+    // With the old limit the two views are taken for one person: a track takes the other's name.
+    let wide = EngineConfig {
+        camera_pair_distance_m: 0.3,
+        ..config
+    };
+    let (out, _) = run_batch(&registry, &msgs, &wide).unwrap();
+    let wrong: usize = tally(&out).iter().map(|t| t.1).sum();
+    assert!(
+        wrong > 100,
+        "{wrong} frames named wrong with pooling at 0.3 m"
+    );
 }
 
 /// Labels of camera `camera`'s track `track` between `from_s` and `to_s` (`None`: anonymous).

@@ -85,7 +85,7 @@ impl Engine {
 
     /// The track of another camera that shows the person of the new track `key` (first seen at
     /// `t0`): settled torso positions ([`anchor_path`]) from `t0` to `end` at most
-    /// [`EngineConfig::camera_pair_distance_m`](crate::EngineConfig::camera_pair_distance_m) apart
+    /// [`EngineConfig::stitch_view_distance_m`](crate::EngineConfig::stitch_view_distance_m) apart
     /// on average over at least `STITCH_VIEW_MIN_FRAMES` common frame times, and every other track
     /// at least twice as far.
     pub(super) fn view_from_other_camera(
@@ -94,7 +94,7 @@ impl Engine {
         t0: i64,
         end: i64,
     ) -> Option<TrackKey> {
-        let limit = self.config.camera_pair_distance_m;
+        let limit = self.config.stitch_view_distance_m;
         if limit <= 0.0 || self.cameras.len() < 2 {
             return None;
         }
@@ -115,7 +115,7 @@ impl Engine {
 
     /// The ended track of `key`'s camera (see [`Engine::ended_before`]) that `view`, a track of
     /// another camera, followed over its last `STITCH_VIEW_LOOKBACK_NS`: the torso paths at
-    /// most [`EngineConfig::camera_pair_distance_m`](crate::EngineConfig::camera_pair_distance_m)
+    /// most [`EngineConfig::stitch_view_distance_m`](crate::EngineConfig::stitch_view_distance_m)
     /// apart on average, every other ended track at least twice as far.
     pub(super) fn ended_track_followed_by(
         &self,
@@ -136,7 +136,7 @@ impl Engine {
                     mean_common_distance(&mine, &theirs, STITCH_VIEW_MIN_FRAMES)?,
                 ))
             });
-        unique_nearest(distances, self.config.camera_pair_distance_m)
+        unique_nearest(distances, self.config.stitch_view_distance_m)
     }
 
     /// The tracks of camera `c` that a track first seen at `t0` may continue, as the
