@@ -1534,10 +1534,13 @@ fn clear_best_track_peaks_in_a_row_settle_an_accepted_offset_and_keep_it() {
 }
 
 #[test]
-fn a_name_does_not_move_to_a_look_alike_on_a_narrow_margin_before_the_offset_is_known() {
+fn a_name_goes_to_neither_of_two_look_alikes_before_the_offset_is_known() {
     // Dan wears nothing and swings exactly like Ana, 0.2 s later. Until Ana's band offset is
-    // accepted, each track is scored at its own best lag, so both score almost alike and her
-    // name went back and forth between them.
+    // accepted, each track is scored at its own best lag, so both score almost alike: her name
+    // went back and forth between them, and who was named first was a coin toss (the two
+    // tracks score within 0.002 of each other at the first decision, 3.5 s; without the joint
+    // smoother Ana's own track won it, with it Dan's). Nothing here ever tells them apart (no
+    // offset is accepted), so neither is named, with or without the smoother.
     let ana = Person::new(Some("ana"), 0.9, 0.0, 1);
     let dan = Person {
         subject: None,
@@ -1550,34 +1553,36 @@ fn a_name_does_not_move_to_a_look_alike_on_a_narrow_margin_before_the_offset_is_
     let msgs = recording(&people, 20.0);
     let named = |config: &EngineConfig| {
         let (out, stats) = run_batch(&registry(&people), &msgs, config).unwrap();
-        let dan_named = out
-            .iter()
-            .filter(|m| {
-                matches!(m, Message::Identified(id)
-                    if id.track == TrackId(2) && id.identity != Identity::Anonymous)
-            })
-            .count();
-        (dan_named, accuracy(&people, &out, 0.0), stats)
+        let count = |track: u64| {
+            out.iter()
+                .filter(|m| {
+                    matches!(m, Message::Identified(id)
+                        if id.track == TrackId(track) && id.identity != Identity::Anonymous)
+                })
+                .count()
+        };
+        (count(1), count(2), stats)
     };
-    // The two tracks score within 0.002 of each other at the first decision (3.5 s), so which
-    // one is named first is a coin toss; without the joint smoother Ana's own track wins it,
-    // with it Dan's. The rule under test is what happens after, so the smoother is off here.
     let unsmoothed = EngineConfig {
         joint_smoother_lag_s: 0.0,
         ..EngineConfig::default()
     };
-    let (dan_named, acc, stats) = named(&unsmoothed);
-    assert!(stats.clock_offsets.is_empty(), "{stats:?}");
-    assert_eq!(dan_named, 0, "accuracy {acc}");
-    assert!(acc > 0.9, "accuracy {acc}");
-    let (dan_named, acc, _) = named(&EngineConfig {
-        unsynced_switch_margin: 0.0,
-        ..unsmoothed
-    });
-    assert!(
-        dan_named > 100 && acc < 0.8,
-        "{dan_named} frames named, accuracy {acc}"
-    );
+    for config in [EngineConfig::default(), unsmoothed] {
+        let (ana_named, dan_named, stats) = named(&config);
+        assert!(stats.clock_offsets.is_empty(), "{stats:?}");
+        assert_eq!((ana_named, dan_named), (0, 0));
+    }
+    // Without the margin the name moves between them: Dan is named in many frames.
+    for config in [EngineConfig::default(), unsmoothed] {
+        let (ana_named, dan_named, _) = named(&EngineConfig {
+            unsynced_switch_margin: 0.0,
+            ..config
+        });
+        assert!(
+            dan_named > 100 && ana_named + dan_named > 400,
+            "Ana named in {ana_named} frames, Dan in {dan_named}"
+        );
+    }
 }
 
 #[test]

@@ -303,12 +303,17 @@ impl Engine {
         })
     }
 
-    /// A subject none of whose IMUs has an accepted offset, about to move from the track
-    /// holding it to another track of the camera that coexists with it, goes to neither unless
-    /// the newcomer's score beats the holder's by
-    /// [`EngineConfig::unsynced_switch_margin`](crate::EngineConfig::unsynced_switch_margin): each
-    /// pair is scored at its own best lag until then, so two people walking alike are hard to tell
-    /// apart, and an early name is better withheld than moved on a narrow margin.
+    /// Two rules for a subject who wears IMUs none of which has an accepted offset (each pair
+    /// is then scored at its own best lag, so two people walking alike are hard to tell apart),
+    /// both with the margin
+    /// [`EngineConfig::unsynced_switch_margin`](crate::EngineConfig::unsynced_switch_margin):
+    /// - about to move from the track holding it to another track of the camera that coexists
+    ///   with it, the subject goes to neither unless the newcomer's score beats the holder's by
+    ///   the margin (an early name is better withheld than moved on a narrow margin);
+    /// - otherwise (named for the first time, or kept), the track must beat by the margin every
+    ///   coexisting track the assignment left without a name: a person who wears nothing and
+    ///   walks like the wearer scores almost as well at his own lag, and the name would be a
+    ///   coin toss between them.
     pub(super) fn hold_back_unsynced_switches(
         &self,
         keys: &[TrackKey],
@@ -326,6 +331,8 @@ impl Engine {
             .map(|k| self.tracks.get(k).and_then(|tr| tr.label.or(tr.held_back)))
             .collect();
         let score = |r: usize, s: usize| rows.get(r).and_then(|row| row.get(s)).copied().flatten();
+        // The tracks the assignment left without a name, before this rule withholds any.
+        let unnamed: Vec<bool> = labels.iter().map(Option::is_none).collect();
         for r in 0..labels.len() {
             let (Some(s), Some(mine)) = (
                 labels.get(r).copied().flatten(),
@@ -333,34 +340,51 @@ impl Engine {
             ) else {
                 continue;
             };
-            if holders.get(r).copied().flatten() == Some(s) {
-                continue;
-            }
             if self.is_synced(s) {
                 continue;
             }
-            // The coexisting tracks that held the subject until now, and the best of their
-            // scores (it carries the hysteresis bonus).
-            let holders_of: Vec<usize> = (0..keys.len())
-                .filter(|&q| q != r && holders.get(q).copied().flatten() == Some(s))
-                .filter(|&q| {
-                    spans
+            let coexists = |q: usize| {
+                q != r
+                    && spans
                         .get(q)
                         .copied()
                         .flatten()
                         .is_some_and(|theirs| spans_overlap(mine, theirs))
-                })
+            };
+            // The coexisting tracks that held the subject until now (other than this one), and
+            // the best of their scores (it carries the hysteresis bonus).
+            let holders_of: Vec<usize> = (0..keys.len())
+                .filter(|&q| coexists(q) && holders.get(q).copied().flatten() == Some(s))
                 .collect();
             let held = holders_of
                 .iter()
                 .filter_map(|&q| score(q, s))
                 .reduce(f64::max);
-            if let (Some(held), Some(new)) = (held, score(r, s))
-                && new - held < margin
+            let is_holder = holders.get(r).copied().flatten() == Some(s);
+            let rival = match held {
+                Some(held) if !is_holder => Some(held),
+                Some(_) => None,
+                // Nobody else held it: the best unnamed rival, for a subject with IMUs.
+                None if self
+                    .subject_imus
+                    .get(s)
+                    .is_some_and(|imus| !imus.is_empty()) =>
+                {
+                    (0..keys.len())
+                        .filter(|&q| coexists(q) && unnamed.get(q).copied().unwrap_or(false))
+                        .filter_map(|q| score(q, s))
+                        .reduce(f64::max)
+                }
+                None => None,
+            };
+            if let (Some(rival), Some(new)) = (rival, score(r, s))
+                && new - rival < margin
                 && let Some(label) = labels.get_mut(r)
             {
                 *label = None;
-                held_back.extend(holders_of.iter().map(|&q| (q, s)));
+                if held.is_some() {
+                    held_back.extend(holders_of.iter().map(|&q| (q, s)));
+                }
             }
         }
         held_back
