@@ -307,7 +307,7 @@ struct TrackState {
     device_evidence: BTreeMap<usize, Accumulator>,
     label: Option<usize>,
     /// A subject whose move from this track to a coexisting one was held back (see
-    /// [`Engine::hold_back_unsynced_switches`]): this track still holds it for that rule while
+    /// [`Engine::hold_back_unsynced_names`]): this track still holds it for that rule while
     /// it is anonymous, until its next named decision.
     held_back: Option<usize>,
     /// Scores per subject at the last decision (without the hysteresis bonus).

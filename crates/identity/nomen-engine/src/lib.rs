@@ -152,6 +152,9 @@
 //!    [`EngineConfig::unsynced_switch_margin`], or neither track holds her for that decision;
 //!    the track that held her then goes on holding her for this rule (anonymous) until its
 //!    next named decision, so the name does not pass to the look-alike one window later.
+//!    Named for the first time or kept (no other coexisting track held her), her name needs
+//!    the same margin over every coexisting track the assignment left without a name: an
+//!    intruder who walks like her scores almost as well at his own lag.
 //!
 //! # Output and latency
 //! Exactly one `Message::Identified` per accepted skeleton observation, with its `(t, camera,

@@ -165,7 +165,7 @@ impl Engine {
             let spans: Vec<Option<(i64, i64)>> =
                 keys.iter().map(|k| self.span_before(k, end)).collect();
             self.share_between_successive_tracks(&spans, &rows, &mut labels);
-            let held_back = self.hold_back_unsynced_switches(&keys, &spans, &rows, &mut labels);
+            let held_back = self.hold_back_unsynced_names(&keys, &spans, &rows, &mut labels);
             self.note_exclusions(&keys, &spans, &labels);
             for (key, new_label) in keys.iter().zip(labels) {
                 let Some(tr) = self.tracks.get_mut(key) else {
@@ -303,18 +303,18 @@ impl Engine {
         })
     }
 
-    /// Two rules for a subject who wears IMUs none of which has an accepted offset (each pair
-    /// is then scored at its own best lag, so two people walking alike are hard to tell apart),
-    /// both with the margin
+    /// Two rules for a subject none of whose IMUs has an accepted offset (each pair is then
+    /// scored at its own best lag, so two people walking alike are hard to tell apart), both
+    /// with the margin
     /// [`EngineConfig::unsynced_switch_margin`](crate::EngineConfig::unsynced_switch_margin):
     /// - about to move from the track holding it to another track of the camera that coexists
     ///   with it, the subject goes to neither unless the newcomer's score beats the holder's by
     ///   the margin (an early name is better withheld than moved on a narrow margin);
-    /// - otherwise (named for the first time, or kept), the track must beat by the margin every
-    ///   coexisting track the assignment left without a name: a person who wears nothing and
-    ///   walks like the wearer scores almost as well at his own lag, and the name would be a
-    ///   coin toss between them.
-    pub(super) fn hold_back_unsynced_switches(
+    /// - otherwise (named for the first time, or kept), for a subject who wears IMUs, the track
+    ///   must beat by the margin every coexisting track the assignment left without a name: a
+    ///   person who wears nothing and walks like the wearer scores almost as well at his own
+    ///   lag, and the name would be a coin toss between them.
+    pub(super) fn hold_back_unsynced_names(
         &self,
         keys: &[TrackKey],
         spans: &[Option<(i64, i64)>],
