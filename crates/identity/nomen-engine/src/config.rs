@@ -333,8 +333,9 @@ pub struct EngineConfig {
     /// seeds 1–72 of the Belmonte-Hernández episode with him, he stays anonymous in 99.17 % of
     /// his frames instead of 98.67 % (10 seeds better, none worse), and the episode's frames
     /// are 97.09 % right instead of 97.56 % (the wearer, too, waits while the two score within
-    /// the margin); on seeds 73–144, 98.06 % instead of 97.28 % and 96.43 % instead of 96.38 %.
-    /// The imu-table scenes do not move (the other tracks there hold names of their own).
+    /// the margin); on seeds 73–144, 98.06 % instead of 97.28 % and 96.43 % instead of 96.38 %
+    /// (all with `offset_margin` at 0.1; see [`EngineConfig::offset_margin`] for 0.125). The
+    /// imu-table scenes do not move (the other tracks there hold names of their own).
     pub unsynced_switch_margin: f64,
     /// A track that was seen alongside the track holding a subject may take that subject later
     /// (the holder left, or lost it) only while its own score for the subject stays within this
