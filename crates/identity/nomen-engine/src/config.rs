@@ -423,9 +423,8 @@ pub struct EngineConfig {
     /// over seeds 1–72 (episode 97.09 / 97.36 / 96.72 / 94.43 % right) and 98.06 / 99.23 /
     /// 99.23 / 99.19 % over seeds 73–144 (96.43 / 97.26 / 97.12 / 95.19 %): a wearer's band
     /// accepted at the lag of a non-wearer who walks like her was what remained. The imu-table
-    /// scenes barely move (120 runs at 0.125: +0.03 ± 0.06 points per run, three runs changed,
-    /// all one wrist IMU, 5 people; the 8-person scenes, the 180-s scenes and the UWB scene
-    /// not at all). Before that rule, 0.15 and 0.2 had named the intruder more (98.51 and
+    /// scenes barely move (120 runs at 0.125: +0.03 ± 0.06 points per run, four runs changed,
+    /// all with 5 people; the 8-person scenes, the 180-s scenes and the UWB scene not at all). Before that rule, 0.15 and 0.2 had named the intruder more (98.51 and
     /// 97.21 % over seeds 1–72, against 98.67 % at 0.1).
     pub offset_margin: f64,
     /// How much a subject's winning track's mean peak must beat every other subject's mean peak
