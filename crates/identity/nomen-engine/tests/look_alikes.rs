@@ -41,10 +41,9 @@ fn offset_error_s(sim: &SimOutput, stats: &EngineStats, device: &str) -> f64 {
     stats.clock_offsets[&DeviceId::new(device)].offset_ns as f64 * 1e-9 - truth.clock_offset_s
 }
 
-/// Fraction of truth skeleton frames whose decision names the person's subject.
-fn accuracy(sim: &SimOutput, out: &[Message]) -> f64 {
-    let decided: BTreeMap<(i64, String, TrackId), &Identity> = out
-        .iter()
+/// Each decision's identity by its `(t ns, camera, track)`.
+fn decisions(out: &[Message]) -> BTreeMap<(i64, String, TrackId), &Identity> {
+    out.iter()
         .filter_map(|m| match m {
             Message::Identified(id) => Some((
                 (id.t.as_ns(), id.camera.to_string(), id.track),
@@ -52,7 +51,12 @@ fn accuracy(sim: &SimOutput, out: &[Message]) -> f64 {
             )),
             _ => None,
         })
-        .collect();
+        .collect()
+}
+
+/// Fraction of truth skeleton frames whose decision names the person's subject.
+fn accuracy(sim: &SimOutput, out: &[Message]) -> f64 {
+    let decided = decisions(out);
     let (mut n, mut right) = (0usize, 0usize);
     for m in &sim.truth {
         let Message::TruthSkeleton(ts) = m else {
@@ -181,18 +185,14 @@ fn a_walker_without_a_band_is_not_named_while_the_wearers_offset_is_unknown() {
     };
     let registry = &sim.scene.registry;
     let intruder_named = |out: &[Message]| {
-        let decided: BTreeMap<(i64, TrackId), &Identity> = out
-            .iter()
-            .filter_map(|m| match m {
-                Message::Identified(id) => Some(((id.t.as_ns(), id.track), &id.identity)),
-                _ => None,
-            })
-            .collect();
+        let decided = decisions(out);
         sim.truth
             .iter()
             .filter(|m| {
                 matches!(m, Message::TruthSkeleton(ts) if ts.subject.is_none()
-                    && decided.get(&(ts.t.as_ns(), ts.track)).is_some_and(|i| i.subject().is_some()))
+                    && decided
+                        .get(&(ts.t.as_ns(), ts.camera.to_string(), ts.track))
+                        .is_some_and(|i| i.subject().is_some()))
             })
             .count()
     };

@@ -2,8 +2,7 @@
 //! accelerometer's tilt.
 
 use super::{check_initial, is_finite3, is_valid_dt, to_unit, unit};
-use crate::error::Result;
-use crate::error::check_non_negative;
+use crate::error::{Result, check_non_negative};
 use nalgebra::{Unit, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
