@@ -318,7 +318,8 @@ struct TrackState {
     outscored_by: BTreeMap<usize, f64>,
     /// Where the person was at the newest observation (mean of the observed joints), world, m.
     last_anchor_world_m: Option<Point3<f64>>,
-    /// A later track continues this one (stitched): it no longer takes part in decisions.
+    /// A later track continues this one (stitched): it no longer takes part in decisions,
+    /// unless it is seen again.
     is_superseded: bool,
     /// Whether this track may still be found to continue an ended one: it is new, and its
     /// predecessor is chosen at the first window end after its first observation

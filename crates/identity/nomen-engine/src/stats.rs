@@ -79,6 +79,9 @@ pub struct EngineStats {
     pub num_label_switches: u64,
     /// New camera tracks that continued an ended track's identity (stitching).
     pub num_stitched: u64,
+    /// Stitched tracks seen again after a new track was taken to continue them: they had only
+    /// been hidden, and take part in decisions again.
+    pub num_stitches_undone: u64,
     /// RSSI reads accepted.
     pub num_rssi_reads: u64,
     /// RSSI reads ignored because the engine has no RSSI model.

@@ -1413,6 +1413,46 @@ fn a_new_track_continues_the_walker_who_was_heading_where_it_appears() {
 }
 
 #[test]
+fn a_track_taken_for_ended_that_comes_back_is_named_again() {
+    // Ana is hidden from 1 s to 1.5 s, before anyone is named, and comes back under her own
+    // id. Meanwhile, at 1.2 s, the SDK gives Ben, 0.5 m from her, a new id: his new track
+    // appears within walking reach of where Ana was last seen while his old one was seen a
+    // frame before, so it is taken to continue Ana's. When her track comes back, it takes part
+    // in decisions again.
+    let mut people = vec![
+        Person::new(Some("ana"), 0.9, 0.0, 1),
+        Person::new(Some("ben"), 1.3, 0.5, 2),
+    ];
+    people[1].track_change = Some((1.2, 12));
+    let msgs: Vec<Message> = recording(&people, 20.0)
+        .into_iter()
+        .filter(|m| match m {
+            Message::Skeleton(s) => {
+                s.track != TrackId(1) || !(1.0..1.5).contains(&s.t.as_secs_f64())
+            }
+            _ => true,
+        })
+        .collect();
+    let config = EngineConfig {
+        known_clock_offsets: true,
+        ..EngineConfig::default()
+    };
+    let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    assert_eq!(stats.num_stitched, 1, "{stats:?}");
+    assert_eq!(stats.num_stitches_undone, 1, "{stats:?}");
+    let ana = labels_of(&out, common::CAMERA, 1, 4.0, 20.0);
+    assert!(
+        ana.len() > 400 && ana.iter().all(|l| l.as_deref() == Some("ana")),
+        "{ana:?}"
+    );
+    let ben = labels_of(&out, common::CAMERA, 12, 4.0, 20.0);
+    assert!(
+        ben.len() > 400 && ben.iter().all(|l| l.as_deref() == Some("ben")),
+        "{ben:?}"
+    );
+}
+
+#[test]
 fn a_sessions_first_tracks_are_named_before_they_are_long_enough_for_the_offset_search() {
     // Clock offsets unknown (Ana's band runs 0.3 s behind): a track is an offset candidate
     // after 2.5 s; before that, while no subject has such a track, each is scored at its own

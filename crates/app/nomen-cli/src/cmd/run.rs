@@ -319,9 +319,10 @@ pub fn run_file(
     writer.finish()?;
     let stats = reader.into_stats();
     let mut summary = format!(
-        "{}: {stats}; engine rejected {num_rejected} messages, stitched {} tracks, undid {} id swaps, estimated {} clock offsets (moved {}, withdrawn {}, settled {}); wrote {num_out} decisions to {}",
+        "{}: {stats}; engine rejected {num_rejected} messages, stitched {} tracks ({} of them seen again), undid {} id swaps, estimated {} clock offsets (moved {}, withdrawn {}, settled {}); wrote {num_out} decisions to {}",
         crate::io::source_name(recording),
         engine.stats().num_stitched,
+        engine.stats().num_stitches_undone,
         engine.stats().num_swaps,
         engine.stats().clock_offsets.len(),
         engine.stats().num_offsets_moved,

@@ -331,6 +331,14 @@ impl Engine {
                 self.tracks.insert((c, id), mine);
             }
             if let Some(tr) = self.tracks.get_mut(&(c, id)) {
+                // Taken for ended and continued by a new track, yet seen again: it had only
+                // been hidden, and it takes part in decisions again (otherwise it would keep
+                // whatever label it had, or none, to its end). The new track keeps what it
+                // inherited; its own evidence decides from then on.
+                if tr.is_superseded {
+                    tr.is_superseded = false;
+                    self.stats.num_stitches_undone += 1;
+                }
                 settle_track(tr, t + 1, &self.config, noise);
                 if let Some(x) = anchor {
                     tr.return_from_gap = match tr.settled_anchor_world_m {
