@@ -180,15 +180,22 @@ pub struct EngineConfig {
     pub decision_delay_s: f64,
     /// A session's warm-up, s: an observation within `warmup_s` of the session's first skeleton
     /// is labelled with the decision of the first window ending at or after
-    /// `first + warmup_s + decision_delay_s`, as if it had been observed at the warm-up's end.
-    /// Until the first windows have filled, nobody can be named, so without it a session's
-    /// first frames come out anonymous whatever follows; with it they wait for the first
-    /// decisions, at most `warmup_s` longer (see [`EngineConfig::max_latency_s`]); later
-    /// observations are not affected. Default 1.0 s. Over the 138 simulated runs of the engine
-    /// README, 1 / 2 / 3 s gained 0.66 / 0.81 / 0.90 points per run (every run better or the
-    /// same at 1 s); at 2 and 3 s the Belmonte-Hernández intruder's first frames came out named
-    /// more often (anonymous in 98.67 → 98.38 / 98.48 % of his frames over seeds 1–72, the same
-    /// at 1 s). `0` turns it off.
+    /// `first + warmup_s + decision_delay_s`, as if it had been observed at the warm-up's end;
+    /// when that decision leaves its track anonymous, with the latest earlier one that named the
+    /// track, from the observation's own due time `t + decision_delay_s` on. Until the first
+    /// windows have filled and the first clock offsets are known, few people can be named, so
+    /// without it a session's first frames come out anonymous whatever follows; with it they
+    /// wait for the decisions that can name them, at most `warmup_s` longer (see
+    /// [`EngineConfig::max_latency_s`]); later observations are not affected. Default 2.0 s.
+    /// Over the 138 simulated runs of the engine README, 1 / 2 / 3 s gained 0.66 / 0.81 / 0.90
+    /// points per run against none (every run better or the same at 1 s). Against 1 s, over
+    /// the 120 runs of the engine README, 2 s gained 0.127 ± 0.029 points per run (61 better,
+    /// 16 worse) and, with the earlier decisions it may fall back on, 0.130 ± 0.028; without
+    /// them the Belmonte-Hernández wearer, named at the first decision, came out anonymous in
+    /// her first 2 s once the man without a band walked in (episode 97.36 → 96.64 % over seeds
+    /// 1–72; 97.36 % with them). The cost is the man's first frames named more often:
+    /// anonymous in 99.74 → 99.68 % of his frames over seeds 1–72, 99.23 → 99.05 % over seeds
+    /// 73–144; at 3 s, 99.52 and 98.56 %. `0` turns it off.
     pub warmup_s: f64,
     /// Fraction of the window a track must cover (first to last sample) to be scored. Default 0.5.
     pub min_window_coverage: f64,
@@ -748,7 +755,7 @@ impl Default for EngineConfig {
             reorder_window_s: 0.25,
             silence_timeout_s: 1.0,
             decision_delay_s: 1.5,
-            warmup_s: 1.0,
+            warmup_s: 2.0,
             min_window_coverage: 0.5,
             fusion: Fusion::Max,
             motion_score: MotionScore::Nomen,

@@ -321,6 +321,9 @@ struct TrackState {
     /// A later track continues this one (stitched): it no longer takes part in decisions,
     /// unless it is seen again.
     is_superseded: bool,
+    /// The decisions naming this track while the warm-up's observations wait for theirs:
+    /// (window end, subject, score without the hysteresis bonus); see [`Engine::emit`].
+    warm_labels: Vec<(i64, usize, f64)>,
     /// Whether this track may still be found to continue an ended one: it is new, and its
     /// predecessor is chosen at the first window end after its first observation
     /// ([`Engine::stitch_new_tracks`]).
@@ -811,6 +814,7 @@ impl Engine {
                 outscored_by: BTreeMap::new(),
                 last_anchor_world_m: anchor,
                 is_superseded: false,
+                warm_labels: Vec::new(),
                 is_stitch_pending: true,
                 settled_t: i64::MIN,
                 settled_anchor_world_m: None,
@@ -951,7 +955,19 @@ impl Engine {
         t.max(warm_end).saturating_add(self.delay_ns)
     }
 
+    /// Whether the warm-up's observations still wait for the decision of a window ending at
+    /// `end` (the last one they wait for included).
+    fn is_warming_up(&self, end: i64) -> bool {
+        self.warmup_ns > 0
+            && self
+                .first_frame_t
+                .is_some_and(|f| end - self.hop_ns < f + self.warmup_ns + self.delay_ns)
+    }
+
     /// Emits every observation whose decision window is `end` or earlier ([`Engine::due_at`]).
+    /// An observation of the warm-up whose track this decision leaves anonymous takes the
+    /// latest decision that named it since the observation's own due time, `t +
+    /// decision_delay_s` (see [`EngineConfig::warmup_s`]).
     fn emit(&mut self, end: i64) {
         self.emit_corrections(end);
         let due: Vec<(i64, usize, TrackId)> = self
@@ -968,7 +984,18 @@ impl Engine {
             };
             let tr = self.tracks.get(&(c, self.person_track(c, track, t)));
             let (identity, confidence, evidence) = match tr {
-                Some(tr) => self.identity_of(tr),
+                Some(tr) => {
+                    let earlier = tr.label.is_none().then(|| {
+                        tr.warm_labels
+                            .iter()
+                            .rev()
+                            .find(|(at, _, _)| *at >= t.saturating_add(self.delay_ns))
+                    });
+                    match earlier.flatten() {
+                        Some(&(_, s, score)) => self.identity_as(tr, Some((s, score))),
+                        None => self.identity_of(tr),
+                    }
+                }
                 None => (Identity::Anonymous, 0.0, Vec::new()),
             };
             if identity != Identity::Anonymous {
@@ -1034,14 +1061,25 @@ impl Engine {
     /// Confidence: the subject's accumulated score for a labelled track; for an anonymous
     /// track, one minus the best candidate's score (0 without any evidence).
     fn identity_of(&self, tr: &TrackState) -> (Identity, f64, Vec<Evidence>) {
+        let label = tr
+            .label
+            .map(|s| (s, tr.subject_scores.get(&s).copied().unwrap_or(0.0)));
+        self.identity_as(tr, label)
+    }
+
+    /// As [`Engine::identity_of`], with the track labelled `label` (subject and score).
+    fn identity_as(
+        &self,
+        tr: &TrackState,
+        label: Option<(usize, f64)>,
+    ) -> (Identity, f64, Vec<Evidence>) {
         let best = tr
             .subject_scores
             .iter()
             .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
             .map(|(s, v)| (*s, *v));
-        let (identity, confidence, shown) = match (tr.label, best) {
-            (Some(s), _) => {
-                let score = tr.subject_scores.get(&s).copied().unwrap_or(0.0);
+        let (identity, confidence, shown) = match (label, best) {
+            (Some((s, score)), _) => {
                 let id = self
                     .subjects
                     .get(s)

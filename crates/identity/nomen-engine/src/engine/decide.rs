@@ -167,6 +167,7 @@ impl Engine {
             self.share_between_successive_tracks(&spans, &rows, &mut labels);
             let held_back = self.hold_back_unsynced_names(&keys, &spans, &rows, &mut labels);
             self.note_exclusions(&keys, &spans, &labels);
+            let is_warming_up = self.is_warming_up(end);
             for (key, new_label) in keys.iter().zip(labels) {
                 let Some(tr) = self.tracks.get_mut(key) else {
                     continue;
@@ -177,6 +178,10 @@ impl Engine {
                 tr.label = new_label;
                 if new_label.is_some() {
                     tr.held_back = None;
+                }
+                if is_warming_up && let Some(s) = new_label {
+                    let score = tr.subject_scores.get(&s).copied().unwrap_or(0.0);
+                    tr.warm_labels.push((end, s, score));
                 }
             }
             for (q, subject) in held_back {

@@ -470,6 +470,7 @@ pub(super) fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.settled_t, &mut b.settled_t);
     std::mem::swap(&mut a.settled_anchor_world_m, &mut b.settled_anchor_world_m);
     std::mem::swap(&mut a.is_stitch_pending, &mut b.is_stitch_pending);
+    std::mem::swap(&mut a.warm_labels, &mut b.warm_labels);
 }
 
 /// The key with the smallest value when that value is at most `limit` and every other value is
