@@ -391,10 +391,10 @@ pub struct EngineConfig {
     /// read up to the window's end, not where the search's buffer stops 0.6 s earlier: a track
     /// seen since the session's start is scored at the window ending at 1.5 s, not 2.5 s (ten
     /// scenes 92.42 → 93.33 %; the engine README has the details). The lag curve itself needs
-    /// [`GeometricConfig::min_samples`] (30) of the track's
-    /// samples at the search's 15 Hz, so at 30 Hz a track is in practice scored from about 2 s of
-    /// frames; counting 1 s instead named the Belmonte-Hernández intruder from his first frames
-    /// in five seeds of 73–144 (the engine README, "A session's first two seconds").
+    /// [`GeometricConfig::min_samples`] (30) of the track's samples at the search's 15 Hz, so at
+    /// 30 Hz a track is in practice scored from about 2 s of frames; counting 1 s instead named
+    /// the Belmonte-Hernández intruder from his first frames in five seeds of 73–144 (the engine
+    /// README, "A session's first two seconds").
     pub offset_short_track_s: f64,
     /// How often a device without an accepted offset is searched again, s. Default 1 s.
     pub offset_search_interval_s: f64,
