@@ -558,9 +558,14 @@ pub struct EngineConfig {
     /// → 85.59 % at 16–33, 77.59 → 78.90 % at 10–15; 5 people 81.37 → 80.76 %, 72.89 → 74.68 %
     /// at 16–33). Unlike the labelled-track curves, the IMU's own labels do not enter that sum,
     /// so a wrong early label cannot confirm the offset it came from (a wrong label naming
-    /// someone else on the wearer's track hides that track, though); it is slow (on twelve 4- to
-    /// 8-person scenes its peak was right for 58 % of IMUs after 20 s, 85 % after 60 s), so it
-    /// only decides late, and only on clear peaks. Default 7 (at 3 s). Over the ten imu-table
+    /// someone else on the wearer's track hides that track, though). They only veto a move: an
+    /// accepted offset stays while the wearer's named tracks of the pass fit it at least as
+    /// well as the new peak. In the Belmonte-Hernández episode at seed 105, the man without a
+    /// band walks her clip half a second out of phase; his track moved her band's offset from
+    /// the right lag to his for 9 s, and took her name meanwhile (his frames anonymous 77.2 →
+    /// 97.4 % with the veto); no other run of the engine README's sets changed. The path is
+    /// slow (on twelve 4- to 8-person scenes its peak was right for 58 % of IMUs after 20 s,
+    /// 85 % after 60 s), so it only decides late, and only on clear peaks. Default 7 (at 3 s). Over the ten imu-table
     /// scenes, mean accuracy on seeds 1–6 was 74.9 % without this path and 77.3 % with the
     /// defaults; on held-out seeds 7–9, 77.8 % and 80.1 %. The defaults were chosen on seeds
     /// 1–6 with a variant that cut the IMU's buffer at its current offset (77.0 / 77.5 / 76.8 %

@@ -82,11 +82,12 @@
 //!    withdraws one at which that sum stays below [`EngineConfig::offset_withdraw_below`] while
 //!    another lag does better (the IMU is then searched for again). A third path uses no
 //!    decision at all: every [`EngineConfig::offset_best_track_interval_s`] each IMU's lag
-//!    curve is taken against every candidate track at every other coarse lag (80 ms), the best
-//!    value at each lag is summed, and after [`EngineConfig::offset_best_track_curves`] passes a
-//!    peak standing [`EngineConfig::offset_best_track_margin`] above every lag more than 0.15 s
-//!    away accepts the offset or moves an accepted one (a wrong early label cannot confirm
-//!    itself there); [`EngineConfig::offset_settle_passes`] such peaks in a row at an accepted
+//!    curve is taken against every candidate track at every coarse lag (40 ms), the best value
+//!    at each lag is summed, and after [`EngineConfig::offset_best_track_curves`] passes a peak
+//!    standing [`EngineConfig::offset_best_track_margin`] above every lag more than 0.15 s away
+//!    accepts the offset (a wrong early label cannot confirm itself there) or moves an accepted
+//!    one, unless the wearer's own named tracks of that pass fit the accepted offset at least as
+//!    well as the new one; [`EngineConfig::offset_settle_passes`] such peaks in a row at an accepted
 //!    offset settle it, and the pass stops reading that IMU while it stays there. At the same
 //!    passes, a single-IMU subject's accepted offset is compared with the clear peaks of its
 //!    lag curves on tracks nobody else explains (another subject explains a track as well as

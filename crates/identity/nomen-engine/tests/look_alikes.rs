@@ -260,3 +260,37 @@ fn the_warm_ups_frames_keep_an_earlier_name_that_a_later_decision_withholds() {
         "{after:?}"
     );
 }
+
+#[test]
+fn a_look_alikes_track_does_not_move_an_offset_the_wearers_own_track_still_fits() {
+    // The default scene of `nomen demo` at this seed: the man without a band walks Ana's clip
+    // half a second out of phase, so her band also peaks on his track, at another lag. Her
+    // band's offset is accepted right at 17.5 s; for a while her own track fits it less well
+    // than his fits his lag, and the best-track sum moved her offset to his lag at 21.5 s
+    // (back at 30.5 s), naming him Ana meanwhile (259 of his frames). Her own named track
+    // still fitted the accepted offset better, which now vetoes the move.
+    let Some(sim) = simulated("scenarios/belmonte_one_without_band.toml", 105) else {
+        return;
+    };
+    let (out, stats) = run_batch(
+        &sim.scene.registry,
+        &sim.recording,
+        &EngineConfig::default(),
+    )
+    .unwrap();
+    assert_eq!(stats.num_offsets_moved, 0, "{stats:?}");
+    let error_s = offset_error_s(&sim, &stats, "ana_band");
+    assert!(error_s.abs() < 0.03, "{error_s}");
+    let decided = decisions(&out);
+    let his_named = sim
+        .truth
+        .iter()
+        .filter(|m| {
+            matches!(m, Message::TruthSkeleton(ts) if ts.subject.is_none()
+                && decided
+                    .get(&(ts.t.as_ns(), ts.camera.to_string(), ts.track))
+                    .is_some_and(|i| i.subject().is_some()))
+        })
+        .count();
+    assert!(his_named < 60, "{his_named}");
+}

@@ -560,6 +560,7 @@ impl Engine {
         {
             self.last_best_track_end = end;
             let mut best = Vec::new();
+            let mut own = Vec::new();
             let mut grid = Vec::new();
             let best_grid_len = coarse.len();
             for i in 0..self.imus.len() {
@@ -588,6 +589,9 @@ impl Engine {
                 // missed the registry's lag itself, and a periodic swing's alias half a period
                 // away that fell on it won (the engine test of a track-id change).
                 grid.extend(coarse.iter().map(|o| o + cut));
+                // The curves of the tracks named after this IMU's wearer, summed per lag.
+                own.clear();
+                own.resize(best_grid_len, (0.0, 0usize));
                 if let Some(imu_sig) = imu_cache.signals(i, imu, cut, lag_memos, &self.config) {
                     for key in candidates.iter() {
                         // A track named after someone else with an accepted offset is
@@ -611,6 +615,14 @@ impl Engine {
                         // labelled-track sum may read it next.
                         let curve =
                             scratch.coarse_curve(i, cut, *key, imu_sig, sig, &grid, min_samples);
+                        if self.tracks.get(key).and_then(|tr| tr.label) == Some(imu.subject) {
+                            for (o, v) in own.iter_mut().zip(curve) {
+                                if v.is_finite() {
+                                    o.0 += v;
+                                    o.1 += 1;
+                                }
+                            }
+                        }
                         for (b, v) in best.iter_mut().zip(curve) {
                             // `NaN` (nothing yet) loses to any finite value.
                             if v.is_finite() {
@@ -665,6 +677,22 @@ impl Engine {
                     continue;
                 }
                 imu.num_best_track_agreements = 0;
+                // A move away from an accepted offset needs the wearer's own named tracks, when
+                // any is long enough to say, to fit the new lag better than the accepted one: a
+                // person walking the wearer's gait half a stride off peaks at another lag on his
+                // own track, and the sum took it once her track fitted worse for a while.
+                if imu.is_offset_known {
+                    let at = |o: i64| {
+                        let k = nearest_index(&grid, o)?;
+                        let (sum, n) = own.get(k).copied()?;
+                        (n > 0).then(|| sum / n as f64)
+                    };
+                    if let (Some(now), Some(new)) = (at(imu.offset_ns), at(offset))
+                        && now >= new
+                    {
+                        continue;
+                    }
+                }
                 if imu.is_offset_known {
                     self.stats.num_offsets_moved += 1;
                 }
