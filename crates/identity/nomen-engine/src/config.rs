@@ -567,9 +567,9 @@ pub struct EngineConfig {
     /// slow (on twelve 4- to 8-person scenes its peak was right for 58 % of IMUs after 20 s,
     /// 85 % after 60 s), so it only decides late, and only on clear peaks. Default 7 (at 3 s).
     /// Over the ten imu-table scenes, mean accuracy on seeds 1–6 was 74.9 % without this path
-    /// and 77.3 % with the defaults; on held-out seeds 7–9, 77.8 % and 80.1 %. The defaults were chosen on seeds
-    /// 1–6 with a variant that cut the IMU's buffer at its current offset (77.0 / 77.5 / 76.8 %
-    /// at 6 / 7 / 8 passes).
+    /// and 77.3 % with the defaults; on held-out seeds 7–9, 77.8 % and 80.1 %. The defaults
+    /// were chosen on seeds 1–6 with a variant that cut the IMU's buffer at its current offset
+    /// (77.0 / 77.5 / 76.8 % at 6 / 7 / 8 passes).
     pub offset_best_track_curves: usize,
     /// How often the best-track lag curve gains a pass, s. Default 3 s: every pass correlates
     /// every IMU with every candidate track over the whole offset buffer, and at 1 s (20
