@@ -87,8 +87,8 @@
 //!    standing [`EngineConfig::offset_best_track_margin`] above every lag more than 0.15 s away
 //!    accepts the offset (a wrong early label cannot confirm itself there) or moves an accepted
 //!    one, unless the wearer's own named tracks of that pass fit the accepted offset at least as
-//!    well as the new one; [`EngineConfig::offset_settle_passes`] such peaks in a row at an accepted
-//!    offset settle it, and the pass stops reading that IMU while it stays there. At the same
+//!    well as the new one; [`EngineConfig::offset_settle_passes`] such peaks in a row at an
+//!    accepted offset settle it, and the pass stops reading that IMU while it stays there. At the same
 //!    passes, a single-IMU subject's accepted offset is compared with the clear peaks of its
 //!    lag curves on tracks nobody else explains (another subject explains a track as well as
 //!    its accepted IMUs correlate there, at their offsets): while the IMU's refinement finds no
