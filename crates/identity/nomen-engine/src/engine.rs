@@ -985,13 +985,13 @@ impl Engine {
             let tr = self.tracks.get(&(c, self.person_track(c, track, t)));
             let (identity, confidence, evidence) = match tr {
                 Some(tr) => {
-                    let earlier = tr.label.is_none().then(|| {
-                        tr.warm_labels
-                            .iter()
-                            .rev()
-                            .find(|(at, _, _)| *at >= t.saturating_add(self.delay_ns))
-                    });
-                    match earlier.flatten() {
+                    let earlier = tr
+                        .warm_labels
+                        .iter()
+                        .rev()
+                        .find(|(at, _, _)| *at >= t.saturating_add(self.delay_ns))
+                        .filter(|_| tr.label.is_none());
+                    match earlier {
                         Some(&(_, s, score)) => self.identity_as(tr, Some((s, score))),
                         None => self.identity_of(tr),
                     }

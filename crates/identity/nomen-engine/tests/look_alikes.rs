@@ -30,6 +30,16 @@ fn simulated(path: &str, seed: u64) -> Option<SimOutput> {
     Some(sim)
 }
 
+/// The engine's decisions and stats on `sim`'s recording, default configuration.
+fn run_default(sim: &SimOutput) -> (Vec<Message>, EngineStats) {
+    run_batch(
+        &sim.scene.registry,
+        &sim.recording,
+        &EngineConfig::default(),
+    )
+    .unwrap()
+}
+
 /// Estimated minus true clock offset of `device`, s.
 fn offset_error_s(sim: &SimOutput, stats: &EngineStats, device: &str) -> f64 {
     let truth = sim
@@ -197,10 +207,9 @@ fn a_walker_without_a_band_is_not_named_while_the_wearers_offset_is_unknown() {
     let Some(sim) = simulated("scenarios/belmonte_one_without_band.toml", 1) else {
         return;
     };
-    let registry = &sim.scene.registry;
-    let (out, _) = run_batch(registry, &sim.recording, &EngineConfig::default()).unwrap();
+    let (out, _) = run_default(&sim);
     let (out_without, _) = run_batch(
-        registry,
+        &sim.scene.registry,
         &sim.recording,
         &EngineConfig {
             unsynced_switch_margin: 0.0,
@@ -225,12 +234,7 @@ fn the_warm_ups_frames_keep_an_earlier_name_that_a_later_decision_withholds() {
     let Some(sim) = simulated("scenarios/belmonte_one_without_band.toml", 14) else {
         return;
     };
-    let (out, _) = run_batch(
-        &sim.scene.registry,
-        &sim.recording,
-        &EngineConfig::default(),
-    )
-    .unwrap();
+    let (out, _) = run_default(&sim);
     let decided = decisions(&out);
     // Ana's decisions (true if named Ana) before and after the warm-up's end, 2 s in.
     let ana = |from_s: f64, to_s: f64| -> Vec<bool> {
@@ -274,12 +278,7 @@ fn a_look_alikes_track_does_not_move_an_offset_the_wearers_own_track_still_fits(
     let Some(sim) = simulated("scenarios/belmonte_one_without_band.toml", 105) else {
         return;
     };
-    let (out, stats) = run_batch(
-        &sim.scene.registry,
-        &sim.recording,
-        &EngineConfig::default(),
-    )
-    .unwrap();
+    let (out, stats) = run_default(&sim);
     assert_eq!(stats.num_offsets_moved, 0, "{stats:?}");
     let error_s = offset_error_s(&sim, &stats, "ana_band");
     assert!(error_s.abs() < 0.03, "{error_s}");

@@ -598,11 +598,9 @@ impl Engine {
                         // explained by that person's IMU: a look-alike's track (the same gait
                         // a fraction of a stride off, the same turns for a while) would
                         // otherwise give this IMU a second peak in every pass.
-                        let is_explained = self
-                            .tracks
-                            .get(key)
-                            .and_then(|tr| tr.label)
-                            .is_some_and(|l| l != imu.subject && self.is_synced(l));
+                        let label = self.tracks.get(key).and_then(|tr| tr.label);
+                        let is_explained =
+                            label.is_some_and(|l| l != imu.subject && self.is_synced(l));
                         if is_explained {
                             continue;
                         }
@@ -615,7 +613,8 @@ impl Engine {
                         // labelled-track sum may read it next.
                         let curve =
                             scratch.coarse_curve(i, cut, *key, imu_sig, sig, &grid, min_samples);
-                        if self.tracks.get(key).and_then(|tr| tr.label) == Some(imu.subject) {
+                        // Read only to veto moving an accepted offset (below).
+                        if imu.is_offset_known && label == Some(imu.subject) {
                             for (o, v) in own.iter_mut().zip(curve) {
                                 if v.is_finite() {
                                     o.0 += v;
