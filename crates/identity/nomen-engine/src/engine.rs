@@ -57,6 +57,9 @@ const CAMERA_PAIR_LOOKBACK_WINDOWS: i64 = 2;
 /// frames at 30 Hz).
 const ALIVE_AT_END_NS: i64 = 100_000_000;
 
+/// Longest chain of stitched tracks [`Engine::emit`] follows for an anonymous track's name.
+const MAX_SUCCESSORS: usize = 16;
+
 /// A search for an unknown offset first steps this many [`LAG_STEP_NS`] at a time (40 ms: ten
 /// points per 0.4–0.5 s stride period, so the coarse curve still shows every stride peak), then
 /// refines around its peak at [`LAG_STEP_NS`].
@@ -318,9 +321,10 @@ struct TrackState {
     outscored_by: BTreeMap<usize, f64>,
     /// Where the person was at the newest observation (mean of the observed joints), world, m.
     last_anchor_world_m: Option<Point3<f64>>,
-    /// A later track continues this one (stitched): it no longer takes part in decisions,
-    /// unless it is seen again.
-    is_superseded: bool,
+    /// The later track that continues this one (stitched): this one no longer takes part in
+    /// decisions, unless it is seen again, and while anonymous its observations still waiting
+    /// to be sent take the name of the first named track of that chain (see [`Engine::emit`]).
+    superseded_by: Option<TrackKey>,
     /// The decisions naming this track while the warm-up's observations wait for theirs:
     /// (window end, subject, score without the hysteresis bonus); see [`Engine::emit`].
     warm_labels: Vec<(i64, usize, f64)>,
@@ -813,7 +817,7 @@ impl Engine {
                 subject_scores: BTreeMap::new(),
                 outscored_by: BTreeMap::new(),
                 last_anchor_world_m: anchor,
-                is_superseded: false,
+                superseded_by: None,
                 warm_labels: Vec::new(),
                 is_stitch_pending: true,
                 settled_t: i64::MIN,
@@ -955,6 +959,27 @@ impl Engine {
         t.max(warm_end).saturating_add(self.delay_ns)
     }
 
+    /// For an anonymous track that a later one continues (stitched), the name of the first
+    /// named track down that chain and its score there: the stitch took them for one person,
+    /// and the later track was named while this one's observations still waited to be sent.
+    /// `None` for a named track, one not continued, or a chain without a name.
+    fn successors_name(&self, tr: &TrackState) -> Option<(usize, f64)> {
+        if tr.label.is_some() {
+            return None;
+        }
+        let mut next = tr.superseded_by;
+        // A chain is short (each link needs a track to end and a new one to start); the bound
+        // only guards against a cycle.
+        for _ in 0..MAX_SUCCESSORS {
+            let later = self.tracks.get(&next?)?;
+            if let Some(s) = later.label {
+                return Some((s, later.subject_scores.get(&s).copied().unwrap_or(0.0)));
+            }
+            next = later.superseded_by;
+        }
+        None
+    }
+
     /// Whether the warm-up's observations still wait for the decision of a window ending at
     /// `end` (the last one they wait for included).
     fn is_warming_up(&self, end: i64) -> bool {
@@ -967,7 +992,9 @@ impl Engine {
     /// Emits every observation whose decision window is `end` or earlier ([`Engine::due_at`]).
     /// An observation of the warm-up whose track this decision leaves anonymous takes the
     /// latest decision that named it since the observation's own due time, `t +
-    /// decision_delay_s` (see [`EngineConfig::warmup_s`]).
+    /// decision_delay_s` (see [`EngineConfig::warmup_s`]). Otherwise, an observation of an
+    /// anonymous track that a later track continues takes that track's name, if it has one by
+    /// now ([`Engine::successors_name`]).
     fn emit(&mut self, end: i64) {
         self.emit_corrections(end);
         let due: Vec<(i64, usize, TrackId)> = self
@@ -990,9 +1017,11 @@ impl Engine {
                         .iter()
                         .rev()
                         .find(|(at, _, _)| *at >= t.saturating_add(self.delay_ns))
-                        .filter(|_| tr.label.is_none());
+                        .filter(|_| tr.label.is_none())
+                        .map(|&(_, s, score)| (s, score))
+                        .or_else(|| self.successors_name(tr));
                     match earlier {
-                        Some(&(_, s, score)) => self.identity_as(tr, Some((s, score))),
+                        Some(named) => self.identity_as(tr, Some(named)),
                         None => self.identity_of(tr),
                     }
                 }

@@ -27,7 +27,9 @@
 //! ([`EngineConfig::stitch_across_cameras`]); otherwise the ended track (within
 //! [`EngineConfig::stitch_max_gap_s`]) within walking reach of where the new one starts,
 //! reach measured from where the ended track's person was heading (its last walking velocity
-//! carried over the gap, [`EngineConfig::stitch_velocity_span_s`]).
+//! carried over the gap, [`EngineConfig::stitch_velocity_span_s`]). The stitch also works
+//! backwards for names: an anonymous ended track's observations still waiting to be sent take
+//! the name of the first named track of its chain of successors.
 //! SDKs also swap the ids of two people who pass close to each other: when a track's
 //! observation jumps farther than a person moves in the time since its last one (0.25 m plus
 //! 2 m/s) onto within half that jump of where another track of the camera was last seen (both
@@ -163,7 +165,7 @@
 //! `t + decision_delay_s`. While all sources send, an observation is emitted at most
 //! `decision_delay_s + hop_s + reorder_window_s` (default 2.25 s) of stream time after `t`
 //! ([`EngineConfig::latency_s`]); a silent source adds at most `silence_timeout_s`. The
-//! exception is the session's warm-up ([`EngineConfig::warmup_s`], 1 s): observations within
+//! exception is the session's warm-up ([`EngineConfig::warmup_s`], 2 s): observations within
 //! it wait for the decision due at its end, up to `warmup_s` longer
 //! ([`EngineConfig::max_latency_s`]), since before the first windows fill nobody can be named.
 //! Every settled tag fix comes back once as a `Message::TagCorrection` on the same schedule:

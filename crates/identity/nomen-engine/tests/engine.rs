@@ -1453,6 +1453,42 @@ fn a_track_taken_for_ended_that_comes_back_is_named_again() {
 }
 
 #[test]
+fn a_track_too_short_to_be_named_takes_the_name_of_the_track_that_continues_it() {
+    // Ana's first track lasts 0.6 s, too little of a window to be scored; she is hidden until
+    // 1 s and comes back under a new id, which continues her old track (stitched). The new
+    // track is named before the old one's observations are due (the warm-up's end plus the
+    // decision delay, 3.5 s), and they take its name.
+    let mut people = vec![
+        Person::new(Some("ana"), 0.9, 0.0, 1),
+        Person::new(Some("ben"), 1.3, 0.5, 2),
+    ];
+    people[0].track_change = Some((1.0, 11));
+    let msgs: Vec<Message> = recording(&people, 12.0)
+        .into_iter()
+        .filter(|m| match m {
+            Message::Skeleton(s) => s.track != TrackId(1) || s.t.as_secs_f64() < 0.6,
+            _ => true,
+        })
+        .collect();
+    let config = EngineConfig {
+        known_clock_offsets: true,
+        ..EngineConfig::default()
+    };
+    let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    assert_eq!(stats.num_stitched, 1, "{stats:?}");
+    let first = labels_of(&out, common::CAMERA, 1, 0.0, 1.0);
+    assert!(
+        first.len() >= 15 && first.iter().all(|l| l.as_deref() == Some("ana")),
+        "{first:?}"
+    );
+    let ben = labels_of(&out, common::CAMERA, 2, 4.0, 12.0);
+    assert!(
+        ben.len() > 200 && ben.iter().all(|l| l.as_deref() == Some("ben")),
+        "{ben:?}"
+    );
+}
+
+#[test]
 fn a_sessions_first_tracks_are_named_before_they_are_long_enough_for_the_offset_search() {
     // Clock offsets unknown (Ana's band runs 0.3 s behind): a track is an offset candidate
     // after 2.5 s; before that, while no subject has such a track, each is scored at its own

@@ -87,7 +87,7 @@ impl Engine {
         let active: Vec<TrackKey> = self
             .tracks
             .iter()
-            .filter(|(_, tr)| tr.last_t >= active_since && !tr.is_superseded)
+            .filter(|(_, tr)| tr.last_t >= active_since && tr.superseded_by.is_none())
             .map(|(k, _)| *k)
             .collect();
         let partners = self.camera_partners(&active, end);

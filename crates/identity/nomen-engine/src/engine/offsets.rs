@@ -916,7 +916,7 @@ impl Engine {
                 for (key, tr) in self
                     .tracks
                     .iter()
-                    .filter(|(_, tr)| tr.label == Some(subject) && !tr.is_superseded)
+                    .filter(|(_, tr)| tr.label == Some(subject) && tr.superseded_by.is_none())
                 {
                     if covered_span(tr, lo, hi) < label_min {
                         continue;

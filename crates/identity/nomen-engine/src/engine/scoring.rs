@@ -75,7 +75,7 @@ impl Engine {
                 .tracks
                 .iter()
                 .filter(|(k, tr)| {
-                    k.0 == c && !tr.is_superseded && {
+                    k.0 == c && tr.superseded_by.is_none() && {
                         let (a, b) = sample_range(tr, start, end);
                         b >= a + 3
                     }

@@ -37,7 +37,7 @@ impl Engine {
             let Some(old) = prev.and_then(|p| self.tracks.get_mut(&p)) else {
                 continue;
             };
-            old.is_superseded = true;
+            old.superseded_by = Some(key);
             let mut evidence = old.evidence.clone();
             // Continued, but at a discount: the stitch may have picked the wrong person.
             for acc in evidence.values_mut() {
@@ -152,7 +152,7 @@ impl Engine {
         self.tracks
             .range((c, TrackId(0))..)
             .take_while(move |(k, _)| k.0 == c)
-            .filter(|(_, tr)| !tr.is_superseded)
+            .filter(|(_, tr)| tr.superseded_by.is_none())
             .filter_map(move |(k, tr)| {
                 let (_, b) = sample_range(tr, i64::MIN, end);
                 let last = tr.samples.get(b.checked_sub(1)?)?;
@@ -225,7 +225,7 @@ impl Engine {
             self.tracks
                 .range((c, TrackId(0))..)
                 .take_while(|(k, _)| k.0 == c)
-                .filter(|(k, tr)| k.1 != track && !tr.is_superseded)
+                .filter(|(k, tr)| k.1 != track && tr.superseded_by.is_none())
         };
         let onto_last = others()
             .filter_map(|(k, tr)| {
@@ -335,8 +335,8 @@ impl Engine {
                 // been hidden, and it takes part in decisions again (otherwise it would keep
                 // whatever label it had, or none, to its end). The new track keeps what it
                 // inherited; its own evidence decides from then on.
-                if tr.is_superseded {
-                    tr.is_superseded = false;
+                if tr.superseded_by.is_some() {
+                    tr.superseded_by = None;
                     self.stats.num_stitches_undone += 1;
                 }
                 settle_track(tr, t + 1, &self.config, noise);
@@ -403,7 +403,7 @@ impl Engine {
         };
         let mut separated = Vec::new();
         for (key, tr) in self.tracks.range((c, TrackId(0))..) {
-            if key.0 != c || key.1 == track || tr.is_superseded {
+            if key.0 != c || key.1 == track || tr.superseded_by.is_some() {
                 continue;
             }
             let pair = (c, key.1.min(track), key.1.max(track));
