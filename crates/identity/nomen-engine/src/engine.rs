@@ -57,7 +57,7 @@ const CAMERA_PAIR_LOOKBACK_WINDOWS: i64 = 2;
 /// frames at 30 Hz).
 const ALIVE_AT_END_NS: i64 = 100_000_000;
 
-/// Longest chain of stitched tracks [`Engine::emit`] follows for an anonymous track's name.
+/// Longest chain of stitched tracks [`Engine::successors_name`] follows for a name.
 const MAX_SUCCESSORS: usize = 16;
 
 /// A search for an unknown offset first steps this many [`LAG_STEP_NS`] at a time (40 ms: ten
@@ -325,6 +325,9 @@ struct TrackState {
     /// decisions, unless it is seen again, and while anonymous its observations still waiting
     /// to be sent take the name of the first named track of that chain (see [`Engine::emit`]).
     superseded_by: Option<TrackKey>,
+    /// Other cameras' tracks showing this track's person at the latest decision it took part
+    /// in ([`Engine::camera_partners`]); see [`Engine::name_from_elsewhere`].
+    views: Vec<TrackKey>,
     /// The decisions naming this track while the warm-up's observations wait for theirs:
     /// (window end, subject, score without the hysteresis bonus); see [`Engine::emit`].
     warm_labels: Vec<(i64, usize, f64)>,
@@ -818,6 +821,7 @@ impl Engine {
                 outscored_by: BTreeMap::new(),
                 last_anchor_world_m: anchor,
                 superseded_by: None,
+                views: Vec::new(),
                 warm_labels: Vec::new(),
                 is_stitch_pending: true,
                 settled_t: i64::MIN,
@@ -980,6 +984,46 @@ impl Engine {
         None
     }
 
+    /// A name for an observation at `t` (session ns) of the anonymous track `key` that its own
+    /// latest decision did not give, in this order: the latest earlier decision that named the
+    /// track, from the observation's due time on (the warm-up's observations only, see
+    /// [`EngineConfig::warmup_s`]); the name of the track that continues it
+    /// ([`Engine::successors_name`]); the name of another camera's view of its person at its
+    /// latest decision (or of that view's successor), unless another track of this camera seen
+    /// over a span that holds `t` carries that name now: the per-camera assignment gives a
+    /// subject one track at a time, and a view's name must not undo that. `None` for a named
+    /// track, and where no rule gives a name.
+    fn name_from_elsewhere(&self, key: TrackKey, tr: &TrackState, t: i64) -> Option<(usize, f64)> {
+        if tr.label.is_some() {
+            return None;
+        }
+        let warm = tr
+            .warm_labels
+            .iter()
+            .rev()
+            .find(|(at, _, _)| *at >= t.saturating_add(self.delay_ns))
+            .map(|&(_, s, score)| (s, score));
+        warm.or_else(|| self.successors_name(tr)).or_else(|| {
+            let (s, score) = tr
+                .views
+                .iter()
+                .filter_map(|k| self.tracks.get(k))
+                .find_map(|view| {
+                    view.label
+                        .map(|s| (s, view.subject_scores.get(&s).copied().unwrap_or(0.0)))
+                        .or_else(|| self.successors_name(view))
+                })?;
+            let is_held_here = self.tracks.iter().any(|(k, other)| {
+                k.0 == key.0
+                    && *k != key
+                    && other.label == Some(s)
+                    && other.first_t <= t
+                    && t <= other.last_t
+            });
+            (!is_held_here).then_some((s, score))
+        })
+    }
+
     /// Whether the warm-up's observations still wait for the decision of a window ending at
     /// `end` (the last one they wait for included).
     fn is_warming_up(&self, end: i64) -> bool {
@@ -992,9 +1036,9 @@ impl Engine {
     /// Emits every observation whose decision window is `end` or earlier ([`Engine::due_at`]).
     /// An observation of the warm-up whose track this decision leaves anonymous takes the
     /// latest decision that named it since the observation's own due time, `t +
-    /// decision_delay_s` (see [`EngineConfig::warmup_s`]). Otherwise, an observation of an
-    /// anonymous track that a later track continues takes that track's name, if it has one by
-    /// now ([`Engine::successors_name`]).
+    /// decision_delay_s` (see [`EngineConfig::warmup_s`]); other anonymous tracks may take the
+    /// name of the track that continues them or of another camera's view of their person
+    /// ([`Engine::name_from_elsewhere`]).
     fn emit(&mut self, end: i64) {
         self.emit_corrections(end);
         let due: Vec<(i64, usize, TrackId)> = self
@@ -1009,22 +1053,12 @@ impl Engine {
             let Some(camera) = self.cameras.get(c).map(|cam| cam.id.clone()) else {
                 continue;
             };
-            let tr = self.tracks.get(&(c, self.person_track(c, track, t)));
-            let (identity, confidence, evidence) = match tr {
-                Some(tr) => {
-                    let earlier = tr
-                        .warm_labels
-                        .iter()
-                        .rev()
-                        .find(|(at, _, _)| *at >= t.saturating_add(self.delay_ns))
-                        .filter(|_| tr.label.is_none())
-                        .map(|&(_, s, score)| (s, score))
-                        .or_else(|| self.successors_name(tr));
-                    match earlier {
-                        Some(named) => self.identity_as(tr, Some(named)),
-                        None => self.identity_of(tr),
-                    }
-                }
+            let key = (c, self.person_track(c, track, t));
+            let (identity, confidence, evidence) = match self.tracks.get(&key) {
+                Some(tr) => match self.name_from_elsewhere(key, tr, t) {
+                    Some(named) => self.identity_as(tr, Some(named)),
+                    None => self.identity_of(tr),
+                },
                 None => (Identity::Anonymous, 0.0, Vec::new()),
             };
             if identity != Identity::Anonymous {

@@ -91,6 +91,11 @@ impl Engine {
             .map(|(k, _)| *k)
             .collect();
         let partners = self.camera_partners(&active, end);
+        for key in &active {
+            if let Some(tr) = self.tracks.get_mut(key) {
+                tr.views = partners.get(key).cloned().unwrap_or_default();
+            }
+        }
         for c in 0..self.cameras.len() {
             let keys: Vec<TrackKey> = active.iter().filter(|k| k.0 == c).copied().collect();
             if keys.is_empty() || self.subjects.is_empty() {

@@ -319,6 +319,16 @@ impl Engine {
                             imu.pair_offsets.insert((c, id), o);
                         }
                     }
+                    // Links to either track name its person: they follow the person.
+                    for tr in self.tracks.values_mut() {
+                        for link in tr.superseded_by.iter_mut().chain(tr.views.iter_mut()) {
+                            if *link == (c, id) {
+                                *link = other;
+                            } else if *link == other {
+                                *link = (c, id);
+                            }
+                        }
+                    }
                     // Both at one time, or the walk in `person_track` would bounce back. This
                     // track had no frame between the other's return and now.
                     self.swaps
@@ -471,6 +481,7 @@ pub(super) fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.settled_anchor_world_m, &mut b.settled_anchor_world_m);
     std::mem::swap(&mut a.is_stitch_pending, &mut b.is_stitch_pending);
     std::mem::swap(&mut a.warm_labels, &mut b.warm_labels);
+    std::mem::swap(&mut a.views, &mut b.views);
 }
 
 /// The key with the smallest value when that value is at most `limit` and every other value is
