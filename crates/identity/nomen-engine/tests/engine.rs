@@ -1353,8 +1353,20 @@ fn a_new_track_continues_the_track_another_camera_saw_its_person_on() {
     let (out, _) = run_batch(&registry, &msgs, &unsmoothed).unwrap();
     let ana = labels_of(&out, common::CAMERA, 11, 10.5, 16.0);
     assert!(ana.iter().all(|l| l.as_deref() == Some("ana")), "{ana:?}");
+    // Stitching by walking reach only, Ana's new track still takes Ben's old one, but the
+    // second camera's view of her names its frames while its own decisions hold back.
+    let reach_stitch = EngineConfig {
+        stitch_across_cameras: false,
+        ..unsmoothed
+    };
+    let (out, stats) = run_batch(&registry, &msgs, &reach_stitch).unwrap();
+    assert_eq!(stats.num_stitched, 1, "{stats:?}");
+    let ana = labels_of(&out, common::CAMERA, 11, 10.5, 16.0);
+    assert!(ana.iter().all(|l| l.as_deref() == Some("ana")), "{ana:?}");
+    // Without the other camera (neither to stitch through nor to name a view from).
     let reach_only = EngineConfig {
         stitch_across_cameras: false,
+        camera_pair_distance_m: 0.0,
         ..unsmoothed
     };
     let (out, stats) = run_batch(&registry, &msgs, &reach_only).unwrap();
