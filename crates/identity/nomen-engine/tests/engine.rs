@@ -1431,37 +1431,14 @@ fn a_track_taken_for_ended_that_comes_back_is_named_again() {
     // appears within walking reach of where Ana was last seen while his old one was seen a
     // frame before, so it is taken to continue Ana's. When her track comes back, it takes part
     // in decisions again.
-    let mut people = vec![
-        Person::new(Some("ana"), 0.9, 0.0, 1),
-        Person::new(Some("ben"), 1.3, 0.5, 2),
-    ];
+    let mut people = ana_beside_ben();
     people[1].track_change = Some((1.2, 12));
-    let msgs: Vec<Message> = recording(&people, 20.0)
-        .into_iter()
-        .filter(|m| match m {
-            Message::Skeleton(s) => {
-                s.track != TrackId(1) || !(1.0..1.5).contains(&s.t.as_secs_f64())
-            }
-            _ => true,
-        })
-        .collect();
-    let config = EngineConfig {
-        known_clock_offsets: true,
-        ..EngineConfig::default()
-    };
-    let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    let msgs = with_anas_first_track_hidden(&people, 20.0, |t| (1.0..1.5).contains(&t));
+    let (out, stats) = run_batch(&registry(&people), &msgs, &known_offsets()).unwrap();
     assert_eq!(stats.num_stitched, 1, "{stats:?}");
     assert_eq!(stats.num_stitches_undone, 1, "{stats:?}");
-    let ana = labels_of(&out, common::CAMERA, 1, 4.0, 20.0);
-    assert!(
-        ana.len() > 400 && ana.iter().all(|l| l.as_deref() == Some("ana")),
-        "{ana:?}"
-    );
-    let ben = labels_of(&out, common::CAMERA, 12, 4.0, 20.0);
-    assert!(
-        ben.len() > 400 && ben.iter().all(|l| l.as_deref() == Some("ben")),
-        "{ben:?}"
-    );
+    assert_all_named(&out, 1, (4.0, 20.0), 400, "ana");
+    assert_all_named(&out, 12, (4.0, 20.0), 400, "ben");
 }
 
 #[test]
@@ -1470,33 +1447,60 @@ fn a_track_too_short_to_be_named_takes_the_name_of_the_track_that_continues_it()
     // 1 s and comes back under a new id, which continues her old track (stitched). The new
     // track is named before the old one's observations are due (the warm-up's end plus the
     // decision delay, 3.5 s), and they take its name.
-    let mut people = vec![
+    let mut people = ana_beside_ben();
+    people[0].track_change = Some((1.0, 11));
+    let msgs = with_anas_first_track_hidden(&people, 12.0, |t| t >= 0.6);
+    let (out, stats) = run_batch(&registry(&people), &msgs, &known_offsets()).unwrap();
+    assert_eq!(stats.num_stitched, 1, "{stats:?}");
+    assert_all_named(&out, 1, (0.0, 1.0), 14, "ana");
+    assert_all_named(&out, 2, (4.0, 12.0), 200, "ben");
+}
+
+/// Ana (track 1) and Ben (track 2), 0.5 m apart, each with a left-wrist IMU.
+fn ana_beside_ben() -> Vec<Person> {
+    vec![
         Person::new(Some("ana"), 0.9, 0.0, 1),
         Person::new(Some("ben"), 1.3, 0.5, 2),
-    ];
-    people[0].track_change = Some((1.0, 11));
-    let msgs: Vec<Message> = recording(&people, 12.0)
+    ]
+}
+
+/// `people`'s recording over `duration_s`, without the frames of track 1 at the times (s)
+/// where `is_hidden`.
+fn with_anas_first_track_hidden(
+    people: &[Person],
+    duration_s: f64,
+    is_hidden: impl Fn(f64) -> bool,
+) -> Vec<Message> {
+    recording(people, duration_s)
         .into_iter()
         .filter(|m| match m {
-            Message::Skeleton(s) => s.track != TrackId(1) || s.t.as_secs_f64() < 0.6,
+            Message::Skeleton(s) => s.track != TrackId(1) || !is_hidden(s.t.as_secs_f64()),
             _ => true,
         })
-        .collect();
-    let config = EngineConfig {
+        .collect()
+}
+
+/// The default configuration with every clock offset known.
+fn known_offsets() -> EngineConfig {
+    EngineConfig {
         known_clock_offsets: true,
         ..EngineConfig::default()
-    };
-    let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
-    assert_eq!(stats.num_stitched, 1, "{stats:?}");
-    let first = labels_of(&out, common::CAMERA, 1, 0.0, 1.0);
+    }
+}
+
+/// Asserts that the first camera's decisions for `track` in `[from, to)` s number more than
+/// `min` and all name `subject`.
+fn assert_all_named(
+    out: &[Message],
+    track: u64,
+    (from, to): (f64, f64),
+    min: usize,
+    subject: &str,
+) {
+    let labels = labels_of(out, common::CAMERA, track, from, to);
     assert!(
-        first.len() >= 15 && first.iter().all(|l| l.as_deref() == Some("ana")),
-        "{first:?}"
-    );
-    let ben = labels_of(&out, common::CAMERA, 2, 4.0, 12.0);
-    assert!(
-        ben.len() > 200 && ben.iter().all(|l| l.as_deref() == Some("ben")),
-        "{ben:?}"
+        labels.len() > min && labels.iter().all(|l| l.as_deref() == Some(subject)),
+        "track {track}: {labels:?}"
     );
 }
 

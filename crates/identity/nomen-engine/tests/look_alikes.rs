@@ -64,6 +64,32 @@ fn decisions(out: &[Message]) -> BTreeMap<(i64, String, TrackId), &Identity> {
         .collect()
 }
 
+/// The subject each decision names on the frames of `subject` in `[from, to)` s (of one
+/// camera, or of all), in truth order.
+fn names_on(
+    sim: &SimOutput,
+    out: &[Message],
+    subject: &str,
+    camera: Option<&str>,
+    (from_s, to_s): (f64, f64),
+) -> Vec<Option<String>> {
+    let decided = decisions(out);
+    sim.truth
+        .iter()
+        .filter_map(|m| match m {
+            Message::TruthSkeleton(ts)
+                if ts.subject.as_ref().is_some_and(|s| s.as_str() == subject)
+                    && camera.is_none_or(|c| ts.camera.as_str() == c)
+                    && (from_s..to_s).contains(&ts.t.as_secs_f64()) =>
+            {
+                let got = decided.get(&(ts.t.as_ns(), ts.camera.to_string(), ts.track));
+                Some(got.and_then(|i| i.subject()).map(|s| s.as_str().to_owned()))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 /// How many frames of people without a subject a decision names.
 fn intruder_named(sim: &SimOutput, out: &[Message]) -> usize {
     let decided = decisions(out);
@@ -235,24 +261,11 @@ fn the_warm_ups_frames_keep_an_earlier_name_that_a_later_decision_withholds() {
         return;
     };
     let (out, _) = run_default(&sim);
-    let decided = decisions(&out);
     // Ana's decisions (true if named Ana) before and after the warm-up's end, 2 s in.
     let ana = |from_s: f64, to_s: f64| -> Vec<bool> {
-        sim.truth
+        names_on(&sim, &out, "ana", None, (from_s, to_s))
             .iter()
-            .filter_map(|m| match m {
-                Message::TruthSkeleton(ts)
-                    if ts.subject.as_ref().is_some_and(|s| s.as_str() == "ana")
-                        && (from_s..to_s).contains(&ts.t.as_secs_f64()) =>
-                {
-                    let got = decided.get(&(ts.t.as_ns(), ts.camera.to_string(), ts.track));
-                    Some(
-                        got.and_then(|i| i.subject())
-                            .is_some_and(|s| s.as_str() == "ana"),
-                    )
-                }
-                _ => None,
-            })
+            .map(|got| got.as_deref() == Some("ana"))
             .collect()
     };
     let warm = ana(0.0, 2.0);
@@ -297,29 +310,10 @@ fn a_view_left_anonymous_by_its_own_camera_takes_the_other_cameras_name() {
         return;
     };
     let (out, _) = run_default(&sim);
-    let decided = decisions(&out);
-    let (mut gia, mut named, mut wrong) = (0, 0, 0);
-    for m in &sim.truth {
-        let Message::TruthSkeleton(ts) = m else {
-            continue;
-        };
-        let t = ts.t.as_secs_f64();
-        if ts.camera.as_str() != "kinect_back"
-            || ts.subject.as_ref().map(|s| s.as_str()) != Some("gia")
-            || !(38.7..40.0).contains(&t)
-        {
-            continue;
-        }
-        gia += 1;
-        let got = decided
-            .get(&(ts.t.as_ns(), ts.camera.to_string(), ts.track))
-            .and_then(|i| i.subject());
-        match got.map(|s| s.as_str()) {
-            Some("gia") => named += 1,
-            Some(_) => wrong += 1,
-            None => {}
-        }
-    }
+    let got = names_on(&sim, &out, "gia", Some("kinect_back"), (38.7, 40.0));
+    let gia = got.len();
+    let named = got.iter().filter(|g| g.as_deref() == Some("gia")).count();
+    let wrong = got.iter().flatten().filter(|g| g.as_str() != "gia").count();
     assert!(gia >= 30, "{gia} back-camera frames of Gia");
     assert!(
         named * 10 >= gia * 9 && wrong == 0,
