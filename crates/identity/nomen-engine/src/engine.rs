@@ -323,7 +323,8 @@ struct TrackState {
     last_anchor_world_m: Option<Point3<f64>>,
     /// The later track that continues this one (stitched): this one no longer takes part in
     /// decisions, unless it is seen again, and while anonymous its observations still waiting
-    /// to be sent take the name of the first named track of that chain (see [`Engine::emit`]).
+    /// to be sent take the name of the first named track of that chain
+    /// ([`Engine::successors_name`]).
     superseded_by: Option<TrackKey>,
     /// Other cameras' tracks showing this track's person at the latest decision it took part
     /// in ([`Engine::camera_partners`]); see [`Engine::name_from_elsewhere`].
