@@ -1,5 +1,5 @@
-//! Clock offsets and look-alikes' tracks, on simulated scenes (needs the motion capture in
-//! `../shared/data`; skipped with a message without it).
+//! Clock offsets, look-alikes' tracks and names across cameras, on simulated scenes (needs the
+//! motion capture in `../shared/data`; skipped with a message without it).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use nomen_core::{DeviceId, Identity, Message, TrackId};
