@@ -346,6 +346,15 @@ struct TrackState {
     return_from_gap: Option<GapReturn>,
 }
 
+impl TrackState {
+    /// Its label, with that subject's score at the latest decision (without the hysteresis
+    /// bonus).
+    fn named(&self) -> Option<(usize, f64)> {
+        self.label
+            .map(|s| (s, self.subject_scores.get(&s).copied().unwrap_or(0.0)))
+    }
+}
+
 /// The streaming identity engine. See the crate documentation for the pipeline and latency.
 pub struct Engine {
     config: EngineConfig,
@@ -964,21 +973,18 @@ impl Engine {
         t.max(warm_end).saturating_add(self.delay_ns)
     }
 
-    /// For an anonymous track that a later one continues (stitched), the name of the first
-    /// named track down that chain and its score there: the stitch took them for one person,
-    /// and the later track was named while this one's observations still waited to be sent.
-    /// `None` for a named track, one not continued, or a chain without a name.
+    /// For a track that a later one continues (stitched), the name of the first named track
+    /// down that chain and its score there: the stitch took them for one person, and the later
+    /// track may be named while this one's observations still wait to be sent. `None` for a
+    /// track not continued, or a chain without a name.
     fn successors_name(&self, tr: &TrackState) -> Option<(usize, f64)> {
-        if tr.label.is_some() {
-            return None;
-        }
         let mut next = tr.superseded_by;
         // A chain is short (each link needs a track to end and a new one to start); the bound
         // only guards against a cycle.
         for _ in 0..MAX_SUCCESSORS {
             let later = self.tracks.get(&next?)?;
-            if let Some(s) = later.label {
-                return Some((s, later.subject_scores.get(&s).copied().unwrap_or(0.0)));
+            if let Some(named) = later.named() {
+                return Some(named);
             }
             next = later.superseded_by;
         }
@@ -1009,11 +1015,7 @@ impl Engine {
                 .views
                 .iter()
                 .filter_map(|k| self.tracks.get(k))
-                .find_map(|view| {
-                    view.label
-                        .map(|s| (s, view.subject_scores.get(&s).copied().unwrap_or(0.0)))
-                        .or_else(|| self.successors_name(view))
-                })?;
+                .find_map(|view| view.named().or_else(|| self.successors_name(view)))?;
             let is_held_here = self.tracks.iter().any(|(k, other)| {
                 k.0 == key.0
                     && *k != key
@@ -1056,10 +1058,10 @@ impl Engine {
             };
             let key = (c, self.person_track(c, track, t));
             let (identity, confidence, evidence) = match self.tracks.get(&key) {
-                Some(tr) => match self.name_from_elsewhere(key, tr, t) {
-                    Some(named) => self.identity_as(tr, Some(named)),
-                    None => self.identity_of(tr),
-                },
+                Some(tr) => {
+                    let name = tr.named().or_else(|| self.name_from_elsewhere(key, tr, t));
+                    self.identity_as(tr, name)
+                }
                 None => (Identity::Anonymous, 0.0, Vec::new()),
             };
             if identity != Identity::Anonymous {
@@ -1120,29 +1122,22 @@ impl Engine {
         }
     }
 
-    /// The track's current identity, a confidence in `0..=1` and the evidence behind it.
+    /// The identity of a track named `name` (subject and score, or anonymous), a confidence in
+    /// `0..=1` and the evidence behind it.
     ///
-    /// Confidence: the subject's accumulated score for a labelled track; for an anonymous
-    /// track, one minus the best candidate's score (0 without any evidence).
-    fn identity_of(&self, tr: &TrackState) -> (Identity, f64, Vec<Evidence>) {
-        let label = tr
-            .label
-            .map(|s| (s, tr.subject_scores.get(&s).copied().unwrap_or(0.0)));
-        self.identity_as(tr, label)
-    }
-
-    /// As [`Engine::identity_of`], with the track labelled `label` (subject and score).
+    /// Confidence: the subject's score for a named track; for an anonymous track, one minus the
+    /// best candidate's score (0 without any evidence).
     fn identity_as(
         &self,
         tr: &TrackState,
-        label: Option<(usize, f64)>,
+        name: Option<(usize, f64)>,
     ) -> (Identity, f64, Vec<Evidence>) {
         let best = tr
             .subject_scores
             .iter()
             .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
             .map(|(s, v)| (*s, *v));
-        let (identity, confidence, shown) = match (label, best) {
+        let (identity, confidence, shown) = match (name, best) {
             (Some((s, score)), _) => {
                 let id = self
                     .subjects

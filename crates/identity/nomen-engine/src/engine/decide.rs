@@ -184,8 +184,7 @@ impl Engine {
                 if new_label.is_some() {
                     tr.held_back = None;
                 }
-                if is_warming_up && let Some(s) = new_label {
-                    let score = tr.subject_scores.get(&s).copied().unwrap_or(0.0);
+                if is_warming_up && let Some((s, score)) = tr.named() {
                     tr.warm_labels.push((end, s, score));
                 }
             }
