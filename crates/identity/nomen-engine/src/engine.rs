@@ -329,6 +329,14 @@ struct TrackState {
     /// Other cameras' tracks showing this track's person at the latest decision it took part
     /// in ([`Engine::camera_partners`]); see [`Engine::name_from_elsewhere`].
     views: Vec<TrackKey>,
+    /// Another camera's track that showed this track's person when the track was new (found
+    /// for stitching, [`Engine::view_from_other_camera`]): it may name this track's observations
+    /// before [`Engine::camera_partners`] has enough common frames to compare the two, and is
+    /// dropped once it has (see [`Engine::name_from_elsewhere`]). `None` unless cameras' views
+    /// are paired ([`EngineConfig::camera_pair_distance_m`]). On the simulated 8-person scenes,
+    /// a person's fresh 12-frame track was seen by the other camera for only 4 of its frames
+    /// (Hugo's at 9.03 s, every seed).
+    first_view: Option<TrackKey>,
     /// The decisions naming this track while the warm-up's observations wait for theirs:
     /// (window end, subject, score without the hysteresis bonus); see [`Engine::emit`].
     warm_labels: Vec<(i64, usize, f64)>,
@@ -832,6 +840,7 @@ impl Engine {
                 last_anchor_world_m: anchor,
                 superseded_by: None,
                 views: Vec::new(),
+                first_view: None,
                 warm_labels: Vec::new(),
                 is_stitch_pending: true,
                 settled_t: i64::MIN,
@@ -996,8 +1005,9 @@ impl Engine {
     /// track, from the observation's due time on (the warm-up's observations only, see
     /// [`EngineConfig::warmup_s`]); the name of the track that continues it
     /// ([`Engine::successors_name`]); the name of another camera's view of its person at its
-    /// latest decision (or of that view's successor), unless another track of this camera seen
-    /// over a span that holds `t` carries that name now: the per-camera assignment gives a
+    /// latest decision, or else of the view found when it was new (`TrackState::first_view`),
+    /// or of that view's successor, unless another track of this camera seen over a span that
+    /// holds `t` carries that name now: the per-camera assignment gives a
     /// subject one track at a time, and a view's name must not undo that. `None` for a named
     /// track, and where no rule gives a name.
     fn name_from_elsewhere(&self, key: TrackKey, tr: &TrackState, t: i64) -> Option<(usize, f64)> {
@@ -1014,6 +1024,7 @@ impl Engine {
             let (s, score) = tr
                 .views
                 .iter()
+                .chain(&tr.first_view)
                 .filter_map(|k| self.tracks.get(k))
                 .find_map(|view| view.named().or_else(|| self.successors_name(view)))?;
             let is_held_here = self.tracks.iter().any(|(k, other)| {

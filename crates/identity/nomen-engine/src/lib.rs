@@ -30,8 +30,9 @@
 //! carried over the gap, [`EngineConfig::stitch_velocity_span_s`]). The stitch also works
 //! backwards for names: an anonymous ended track's observations still waiting to be sent take
 //! the name of the first named track of its chain of successors. Failing that, they take the
-//! name of another camera's view of the track's person, unless a track of their own camera
-//! seen at their time carries it.
+//! name of another camera's view of the track's person (paired by the decisions, or else the
+//! view found when the track was new, until the two can be compared), unless a track of their
+//! own camera seen at their time carries it.
 //! SDKs also swap the ids of two people who pass close to each other: when a track's
 //! observation jumps farther than a person moves in the time since its last one (0.25 m plus
 //! 2 m/s) onto within half that jump of where another track of the camera was last seen (both
@@ -152,6 +153,10 @@
 //!    spans overlap) keeps the holder's score for it: it may take that subject later only
 //!    while its own score is within [`EngineConfig::exclusion_margin`] of that score, so a
 //!    companion who merely moved like the wearer does not inherit her name when she leaves.
+//!    Across cameras, a subject named on a track far from this one (torsos farther apart than
+//!    [`EngineConfig::camera_exclusion_distance_m`] on average over the last two windows) is
+//!    kept off it unless its score is within the same margin of that track's: one person is not
+//!    in two places.
 //!    While none of a subject's IMUs has an accepted offset, a move of her name from one
 //!    track to another that coexists with it must beat the holder's score by
 //!    [`EngineConfig::unsynced_switch_margin`], or neither track holds her for that decision;

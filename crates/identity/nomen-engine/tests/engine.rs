@@ -1196,6 +1196,91 @@ fn a_view_without_its_pelvis_is_still_matched_to_the_other_cameras_view() {
 }
 
 #[test]
+fn a_track_too_short_to_be_paired_is_named_from_the_view_found_when_it_was_new() {
+    // The second camera sees Ana only in flashes of 4 frames (0.13 s), one every 0.9 s:
+    // fewer common frames than pairing the two cameras' views takes, and too short to score.
+    // The view found when each flash was new (where stitching looks for the person's old
+    // track) names them.
+    let people = two_people();
+    let (registry, mut msgs) = with_second_camera(&people, &recording(&people, 24.0));
+    msgs.retain(|m| match m {
+        Message::Skeleton(s) if s.camera.as_str() == "cam2" && s.track.0 >= 1000 => {
+            let t = s.t.as_secs_f64();
+            t - 0.9 * (t / 0.9).floor() < 3.5 / 30.0
+        }
+        _ => true,
+    });
+    let config = known_offsets();
+    let (out, _) = run_batch(&registry, &msgs, &config).unwrap();
+    let (named, wrong) = ana_in_cam2(&out);
+    assert!(named > 0.7, "Ana's flashes named {named}");
+    assert_eq!(wrong, 0);
+    let (reordered, _) = run_batch(&registry, &shuffled(&msgs), &config).unwrap();
+    assert_eq!(reordered, out);
+    // Pairing alone never names them.
+    let no_first_view = EngineConfig {
+        stitch_view_distance_m: 0.0,
+        ..config
+    };
+    let (out, _) = run_batch(&registry, &msgs, &no_first_view).unwrap();
+    let (named, _) = ana_in_cam2(&out);
+    assert!(
+        named < 0.05,
+        "Ana's flashes named {named} without their first views"
+    );
+}
+
+#[test]
+fn a_subject_named_by_one_camera_is_kept_off_a_track_of_the_other_camera_far_from_her() {
+    // Ana wears a band and is seen by the first camera only; Dan, 1.5 m away, wears nothing,
+    // swings much like her (1.0 Hz against her 0.9, 0.1 s behind) and is seen by the second
+    // camera only. The second camera's assignment alone gives him Ana, whom it never sees.
+    let ana = Person::new(Some("ana"), 0.9, 0.0, 1);
+    let dan = Person {
+        subject: None,
+        phase_rad: ana.phase_rad - 2.0 * std::f64::consts::PI * ana.freq_hz * 0.1,
+        freq_hz: 1.0,
+        mod_hz: 0.23,
+        y_m: 1.5,
+        track: 2,
+        ..ana.clone()
+    };
+    let people = vec![ana, dan];
+    let (registry, msgs) = with_second_camera(&people, &recording(&people, 20.0));
+    let msgs: Vec<Message> = msgs
+        .into_iter()
+        .filter(|m| match m {
+            Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => s.track == TrackId(1),
+            Message::Skeleton(s) => s.track == TrackId(102),
+            _ => true,
+        })
+        .collect();
+    let config = known_offsets();
+    let dan_named = |config: &EngineConfig| {
+        let (out, _) = run_batch(&registry, &msgs, config).unwrap();
+        let ana = labels_of(&out, common::CAMERA, 1, 6.0, 20.0);
+        assert!(
+            ana.len() > 300 && ana.iter().all(|l| l.as_deref() == Some("ana")),
+            "{ana:?}"
+        );
+        labels_of(&out, "cam2", 102, 6.0, 20.0)
+            .iter()
+            .filter(|l| l.is_some())
+            .count()
+    };
+    assert_eq!(dan_named(&config), 0);
+    let no_exclusion = EngineConfig {
+        camera_exclusion_distance_m: 0.0,
+        ..config
+    };
+    let named = dan_named(&no_exclusion);
+    assert!(
+        named > 100,
+        "Dan named in {named} frames without the exclusion"
+    );
+}
+
+#[test]
 fn two_people_side_by_side_each_seen_by_one_camera_keep_their_own_names() {
     // Ana and Ben stand 0.25 m apart; the first camera sees only Ana, the second only Ben (each
     // hides the other from one camera). Their torsos stay closer than the old 0.3-m pooling

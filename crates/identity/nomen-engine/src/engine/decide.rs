@@ -19,15 +19,14 @@ impl Engine {
     /// needs `CAMERA_PAIR_MIN_FRAMES` of them and a mean distance within the limit, and every track
     /// seen at the same time as either of the two in its camera must be at least twice as far from
     /// the other one.
-    pub(super) fn camera_partners(
-        &self,
-        active: &[TrackKey],
-        end: i64,
-    ) -> BTreeMap<TrackKey, Vec<TrackKey>> {
+    pub(super) fn camera_partners(&self, active: &[TrackKey], end: i64) -> CameraPairs {
         let mut partners: BTreeMap<TrackKey, Vec<TrackKey>> = BTreeMap::new();
         let limit = self.config.camera_pair_distance_m;
         if limit <= 0.0 || self.cameras.len() < 2 {
-            return partners;
+            return CameraPairs {
+                partners,
+                distance: BTreeMap::new(),
+            };
         }
         let start = end - CAMERA_PAIR_LOOKBACK_WINDOWS * self.window_ns;
         let paths: Vec<(TrackKey, AnchorPath)> = active
@@ -75,7 +74,7 @@ impl Engine {
                 partners.entry(*a).or_default().push(*b);
             }
         }
-        partners
+        CameraPairs { partners, distance }
     }
 
     /// Assigns subjects to the active tracks of each camera.
@@ -90,12 +89,21 @@ impl Engine {
             .filter(|(_, tr)| tr.last_t >= active_since && tr.superseded_by.is_none())
             .map(|(k, _)| *k)
             .collect();
-        let partners = self.camera_partners(&active, end);
+        let CameraPairs { partners, distance } = self.camera_partners(&active, end);
         for key in &active {
             if let Some(tr) = self.tracks.get_mut(key) {
                 tr.views = partners.get(key).cloned().unwrap_or_default();
+                // Once the two tracks have enough common frames to be compared, that
+                // comparison (in `views` or not) replaces the stitch's.
+                if tr
+                    .first_view
+                    .is_some_and(|v| distance.contains_key(&(*key, v)))
+                {
+                    tr.first_view = None;
+                }
             }
         }
+        let far_m = self.config.camera_exclusion_distance_m;
         for c in 0..self.cameras.len() {
             let keys: Vec<TrackKey> = active.iter().filter(|k| k.0 == c).copied().collect();
             if keys.is_empty() || self.subjects.is_empty() {
@@ -110,6 +118,18 @@ impl Engine {
                     .collect();
                 let label = self.tracks.get(key).and_then(|tr| tr.label);
                 let outscored_by = self.tracks.get(key).map(|tr| &tr.outscored_by);
+                // The subjects named on other cameras' tracks far from this one (one person
+                // cannot be in both places), with their scores there.
+                let held_far: Vec<(usize, f64)> = if far_m > 0.0 {
+                    distance
+                        .range((*key, (0, TrackId(0)))..)
+                        .take_while(|((a, _), _)| a == key)
+                        .filter(|(_, d)| **d > far_m)
+                        .filter_map(|((_, other), _)| self.tracks.get(other)?.named())
+                        .collect()
+                } else {
+                    Vec::new()
+                };
                 let mut scores = BTreeMap::new();
                 let mut row = vec![None; self.subjects.len()];
                 for s in 0..self.subjects.len() {
@@ -138,7 +158,14 @@ impl Engine {
                         && outscored_by
                             .and_then(|m| m.get(&s))
                             .is_some_and(|&held| mean < held - self.config.exclusion_margin);
-                    if !is_excluded && let Some(cell) = row.get_mut(s) {
+                    let is_held_far = self.config.exclusion_margin >= 0.0
+                        && held_far
+                            .iter()
+                            .any(|&(h, held)| h == s && mean < held - self.config.exclusion_margin);
+                    if !is_excluded
+                        && !is_held_far
+                        && let Some(cell) = row.get_mut(s)
+                    {
                         *cell = Some(mean + bonus);
                     }
                 }
@@ -457,4 +484,13 @@ pub(super) fn anchor_path(tr: &TrackState, lo: i64, hi: i64) -> AnchorPath {
                 .then_some((s.t, anchors))
         })
         .collect()
+}
+
+/// What [`Engine::camera_partners`] found.
+pub(super) struct CameraPairs {
+    /// Each active track's views of its person in other cameras.
+    pub(super) partners: BTreeMap<TrackKey, Vec<TrackKey>>,
+    /// The mean torso distance (m) of every pair of active tracks of different cameras with
+    /// enough common frames to be compared, both ways round.
+    pub(super) distance: BTreeMap<(TrackKey, TrackKey), f64>,
 }

@@ -19,7 +19,9 @@ impl Engine {
     /// `end` and not yet considered (in order of first observation) may continue an ended track
     /// of its camera, whose person the SDK re-labelled after an occlusion or on re-entry; it
     /// then takes over that track's label and evidence, the motion evidence at
-    /// `stitch_evidence_weight`. See [`Engine::predecessor`] for the choice.
+    /// `stitch_evidence_weight`. See [`Engine::predecessor`] for the choice. Each such track
+    /// also keeps the other camera's view of its person found then, which may name it before
+    /// the decisions can pair the two (`TrackState::first_view`).
     pub(super) fn stitch_new_tracks(&mut self, end: i64) {
         let mut new: Vec<(i64, TrackKey)> = self
             .tracks
@@ -29,10 +31,15 @@ impl Engine {
             .filter(|(t, _)| *t < end)
             .collect();
         new.sort_unstable();
-        for (_, key) in new {
-            let prev = self.predecessor(key, end);
+        for (t0, key) in new {
+            let view = self.view_from_other_camera(key, t0, end);
+            let prev = self.predecessor(key, view, end);
+            // A stand-in for the views the decisions pair (see `TrackState::first_view`),
+            // only where they are paired at all.
+            let pairs_views = self.config.camera_pair_distance_m > 0.0;
             if let Some(tr) = self.tracks.get_mut(&key) {
                 tr.is_stitch_pending = false;
+                tr.first_view = view.filter(|_| pairs_views);
             }
             let Some(old) = prev.and_then(|p| self.tracks.get_mut(&p)) else {
                 continue;
@@ -63,20 +70,25 @@ impl Engine {
 
     /// The ended track of its camera that the new track `key` continues, from the observations
     /// before `end`. Another camera decides first: when one of its tracks follows the new
-    /// track's person ([`Engine::view_from_other_camera`]), the predecessor is the ended track
-    /// that this view followed when it ended, and there is none if the view followed no ended
-    /// track (the person was not seen by this camera just before). Without such a view, the
-    /// predecessor is the ended track within walking reach ([`Engine::stitch_candidate`]). On
-    /// the simulated 8-person scenes, where people hide each other from one camera while the
-    /// other still sees them, walking reach alone chose the wrong person in 4 stitches of 10.
-    pub(super) fn predecessor(&self, key: TrackKey, end: i64) -> Option<TrackKey> {
+    /// track's person (`view`, see [`Engine::view_from_other_camera`]), the predecessor is the
+    /// ended track that this view followed when it ended, and there is none if the view
+    /// followed no ended track (the person was not seen by this camera just before). Without
+    /// such a view, the predecessor is the ended track within walking reach
+    /// ([`Engine::stitch_candidate`]). On the simulated 8-person scenes, where people hide each
+    /// other from one camera while the other still sees them, walking reach alone chose the
+    /// wrong person in 4 stitches of 10.
+    pub(super) fn predecessor(
+        &self,
+        key: TrackKey,
+        view: Option<TrackKey>,
+        end: i64,
+    ) -> Option<TrackKey> {
         if self.config.stitch_max_gap_s <= 0.0 {
             return None;
         }
-        let tr = self.tracks.get(&key)?;
-        let first = tr.samples.front()?;
+        let first = self.tracks.get(&key)?.samples.front()?;
         if self.config.stitch_across_cameras
-            && let Some(view) = self.view_from_other_camera(key, first.t, end)
+            && let Some(view) = view
         {
             return self.ended_track_followed_by(key, view, first.t, end);
         }
@@ -321,7 +333,8 @@ impl Engine {
                     }
                     // Links to either track name its person: they follow the person.
                     for tr in self.tracks.values_mut() {
-                        for link in tr.superseded_by.iter_mut().chain(tr.views.iter_mut()) {
+                        let links = tr.superseded_by.iter_mut().chain(tr.first_view.iter_mut());
+                        for link in links.chain(tr.views.iter_mut()) {
                             if *link == (c, id) {
                                 *link = other;
                             } else if *link == other {
@@ -482,6 +495,7 @@ pub(super) fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.is_stitch_pending, &mut b.is_stitch_pending);
     std::mem::swap(&mut a.warm_labels, &mut b.warm_labels);
     std::mem::swap(&mut a.views, &mut b.views);
+    std::mem::swap(&mut a.first_view, &mut b.first_view);
 }
 
 /// The key with the smallest value when that value is at most `limit` and every other value is
