@@ -30,9 +30,10 @@
 //! carried over the gap, [`EngineConfig::stitch_velocity_span_s`]). The stitch also works
 //! backwards for names: an anonymous ended track's observations still waiting to be sent take
 //! the name of the first named track of its chain of successors. Failing that, they take the
-//! name of another camera's view of the track's person (paired by the decisions, or else the
-//! view found when the track was new, until the two can be compared), unless a track of their
-//! own camera seen at their time carries it.
+//! name of another camera's view of the track's person (paired by the decisions, or found
+//! earlier and not compared since: the view found when the track was new, or one that ended;
+//! up to 1 s past the view's end), unless a track of their own camera seen at their time
+//! carries it.
 //! SDKs also swap the ids of two people who pass close to each other: when a track's
 //! observation jumps farther than a person moves in the time since its last one (0.25 m plus
 //! 2 m/s) onto within half that jump of where another track of the camera was last seen (both

@@ -1218,16 +1218,47 @@ fn a_track_too_short_to_be_paired_is_named_from_the_view_found_when_it_was_new()
     let (reordered, _) = run_batch(&registry, &shuffled(&msgs), &config).unwrap();
     assert_eq!(reordered, out);
     // Pairing alone never names them.
-    let no_first_view = EngineConfig {
+    let pairing_only = EngineConfig {
         stitch_view_distance_m: 0.0,
         ..config
     };
-    let (out, _) = run_batch(&registry, &msgs, &no_first_view).unwrap();
+    let (out, _) = run_batch(&registry, &msgs, &pairing_only).unwrap();
     let (named, _) = ana_in_cam2(&out);
     assert!(
         named < 0.05,
         "Ana's flashes named {named} without their first views"
     );
+}
+
+#[test]
+fn a_track_keeps_a_view_that_ended_and_takes_the_name_of_the_track_continuing_it() {
+    // At the session's start both cameras see Ana for 0.8 s (too short to be named), paired
+    // with each other; the first camera then loses her for good, the second for 0.4 s, after
+    // which its new track continues the old one and is named. When the first camera's frames
+    // are sent (at the warm-up's end), their view has ended and been continued: it still
+    // names them, through its successor.
+    let people = two_people();
+    let (registry, msgs) = with_second_camera(&people, &recording(&people, 10.0));
+    let msgs: Vec<Message> = msgs
+        .into_iter()
+        .filter_map(|m| match m {
+            Message::Skeleton(mut s) if s.track.0 >= 1000 => {
+                let t = s.t.as_secs_f64();
+                s.track = TrackId(if t < 0.8 { 1000 } else { 1001 });
+                (!(0.8..1.2).contains(&t)).then_some(Message::Skeleton(s))
+            }
+            Message::Skeleton(s) if s.track == TrackId(1) && s.t.as_secs_f64() >= 0.8 => None,
+            m => Some(m),
+        })
+        .collect();
+    let (out, stats) = run_batch(&registry, &msgs, &known_offsets()).unwrap();
+    assert_eq!(stats.num_stitched, 1, "{stats:?}");
+    let later = labels_of(&out, "cam2", 1001, 4.0, 10.0);
+    assert!(
+        later.len() > 100 && later.iter().all(|l| l.as_deref() == Some("ana")),
+        "{later:?}"
+    );
+    assert_all_named(&out, 1, (0.0, 0.8), 20, "ana");
 }
 
 #[test]

@@ -92,15 +92,14 @@ impl Engine {
         let CameraPairs { partners, distance } = self.camera_partners(&active, end);
         for key in &active {
             if let Some(tr) = self.tracks.get_mut(key) {
-                tr.views = partners.get(key).cloned().unwrap_or_default();
-                // Once the two tracks have enough common frames to be compared, that
-                // comparison (in `views` or not) replaces the stitch's.
-                if tr
-                    .first_view
-                    .is_some_and(|v| distance.contains_key(&(*key, v)))
-                {
-                    tr.first_view = None;
+                // This decision's pairs, then the earlier views it could not compare.
+                let mut views = partners.get(key).cloned().unwrap_or_default();
+                for v in &tr.views {
+                    if !distance.contains_key(&(*key, *v)) && !views.contains(v) {
+                        views.push(*v);
+                    }
                 }
+                tr.views = views;
             }
         }
         let far_m = self.config.camera_exclusion_distance_m;

@@ -21,7 +21,7 @@ impl Engine {
     /// then takes over that track's label and evidence, the motion evidence at
     /// `stitch_evidence_weight`. See [`Engine::predecessor`] for the choice. Each such track
     /// also keeps the other camera's view of its person found then, which may name it before
-    /// the decisions can pair the two (`TrackState::first_view`).
+    /// the decisions can compare the two (`TrackState::views`).
     pub(super) fn stitch_new_tracks(&mut self, end: i64) {
         let mut new: Vec<(i64, TrackKey)> = self
             .tracks
@@ -34,12 +34,14 @@ impl Engine {
         for (t0, key) in new {
             let view = self.view_from_other_camera(key, t0, end);
             let prev = self.predecessor(key, view, end);
-            // A stand-in for the views the decisions pair (see `TrackState::first_view`),
-            // only where they are paired at all.
+            // Kept until the decisions compare the two (see `TrackState::views`), only where
+            // they pair views at all.
             let pairs_views = self.config.camera_pair_distance_m > 0.0;
             if let Some(tr) = self.tracks.get_mut(&key) {
                 tr.is_stitch_pending = false;
-                tr.first_view = view.filter(|_| pairs_views);
+                if let Some(view) = view.filter(|v| pairs_views && !tr.views.contains(v)) {
+                    tr.views.push(view);
+                }
             }
             let Some(old) = prev.and_then(|p| self.tracks.get_mut(&p)) else {
                 continue;
@@ -333,8 +335,7 @@ impl Engine {
                     }
                     // Links to either track name its person: they follow the person.
                     for tr in self.tracks.values_mut() {
-                        let links = tr.superseded_by.iter_mut().chain(tr.first_view.iter_mut());
-                        for link in links.chain(tr.views.iter_mut()) {
+                        for link in tr.superseded_by.iter_mut().chain(tr.views.iter_mut()) {
                             if *link == (c, id) {
                                 *link = other;
                             } else if *link == other {
@@ -495,7 +496,6 @@ pub(super) fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.is_stitch_pending, &mut b.is_stitch_pending);
     std::mem::swap(&mut a.warm_labels, &mut b.warm_labels);
     std::mem::swap(&mut a.views, &mut b.views);
-    std::mem::swap(&mut a.first_view, &mut b.first_view);
 }
 
 /// The key with the smallest value when that value is at most `limit` and every other value is
