@@ -716,8 +716,9 @@ pub struct EngineConfig {
     /// [`EngineConfig::exclusion_margin`] of the holder's. One camera's assignment gives a
     /// subject to one track at a time; this carries that across cameras, where a person whose
     /// band has no known clock offset yet may fit someone else's track seen only by the other
-    /// camera. Default 1 m. 0 disables. Over the 120 simulated runs of the engine README,
-    /// +0.031 ± 0.010 points per run (28 better, 9 worse); 0.6 m and 1.5 m gained less.
+    /// camera. Default 1 m. 0 disables (so does a negative `exclusion_margin`). Over the 120
+    /// simulated runs of the engine README, +0.031 ± 0.010 points per run (28 better, 9
+    /// worse); 0.6 m and 1.5 m gained less.
     pub camera_exclusion_distance_m: f64,
     /// Two tracks of a camera closer than this across the line of sight are in a close
     /// encounter, after which their ids may have been swapped by the SDK (their evidence is

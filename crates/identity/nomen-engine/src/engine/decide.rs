@@ -5,7 +5,7 @@
 use super::{
     ALIVE_AT_END_NS, Accumulator, AnchorPath, AnchorSample, CAMERA_PAIR_LOOKBACK_WINDOWS,
     CAMERA_PAIR_MAX_DT_NS, CAMERA_PAIR_MIN_FRAMES, Engine, TORSO_ANCHORS, TrackKey, TrackState,
-    sample_range, spans_overlap,
+    VIEW_NAMES_AFTER_END_NS, sample_range, spans_overlap,
 };
 use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
 use nomen_core::TrackId;
@@ -90,15 +90,24 @@ impl Engine {
             .map(|(k, _)| *k)
             .collect();
         let CameraPairs { partners, distance } = self.camera_partners(&active, end);
+        // No observation older than this is still to be sent: a view that ended more than
+        // `VIEW_NAMES_AFTER_END_NS` before it can name nothing any more.
+        let oldest_unsent = self.pending_out.first().map_or(i64::MAX, |(t, _, _)| *t);
         for key in &active {
-            if let Some(tr) = self.tracks.get_mut(key) {
-                // This decision's pairs, then the earlier views it could not compare.
-                let mut views = partners.get(key).cloned().unwrap_or_default();
-                for v in &tr.views {
-                    if !distance.contains_key(&(*key, *v)) && !views.contains(v) {
-                        views.push(*v);
-                    }
+            let Some(tr) = self.tracks.get(key) else {
+                continue;
+            };
+            // This decision's pairs, then the earlier views it could not compare.
+            let mut views = partners.get(key).cloned().unwrap_or_default();
+            for v in &tr.views {
+                let may_name = self.tracks.get(v).is_some_and(|view| {
+                    view.last_t.saturating_add(VIEW_NAMES_AFTER_END_NS) >= oldest_unsent
+                });
+                if may_name && !distance.contains_key(&(*key, *v)) && !views.contains(v) {
+                    views.push(*v);
                 }
+            }
+            if let Some(tr) = self.tracks.get_mut(key) {
                 tr.views = views;
             }
         }
