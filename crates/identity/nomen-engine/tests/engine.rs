@@ -1143,7 +1143,7 @@ fn a_track_too_short_to_score_is_named_from_another_cameras_view_of_its_person()
     // Without the other camera's view, no fragment is ever named.
     let alone = EngineConfig {
         camera_pair_distance_m: 0.0,
-        ..config.clone()
+        ..config
     };
     let out = assert_anas_fragments_named(&registry, &msgs, &config, 0.9, &alone);
     // The first camera is as right as before.
@@ -1228,7 +1228,7 @@ fn a_track_too_short_to_be_paired_is_named_from_the_view_found_when_it_was_new()
     // Pairing alone never names them.
     let pairing_only = EngineConfig {
         stitch_view_distance_m: 0.0,
-        ..config.clone()
+        ..config
     };
     assert_anas_fragments_named(&registry, &msgs, &config, 0.7, &pairing_only);
 }
