@@ -182,23 +182,29 @@ fn an_intruder_stays_anonymous() {
     assert!(accuracy(&people, &out, 8.0) > 0.98);
 }
 
-#[test]
-fn a_companion_moving_like_the_wearer_stays_anonymous_when_the_wearer_leaves() {
-    // Dan stands beside Ana, wears nothing and swings much like her (1.0 Hz against her 0.9,
-    // 0.1 s behind); Ana walks out of view at 12 s while her band keeps sending. His track
-    // correlates with her band well enough to clear the rejection threshold, but far less than
-    // hers did while both were in view: he must not inherit her name.
+/// Ana (wrist band, track 1) and Dan (nothing worn, track 2, `y_m` along the row), who swings
+/// much like her: 1.0 Hz against her 0.9, 0.1 s behind.
+fn ana_and_her_look_alike(y_m: f64) -> Vec<Person> {
     let ana = Person::new(Some("ana"), 0.9, 0.0, 1);
     let dan = Person {
         subject: None,
         phase_rad: ana.phase_rad - 2.0 * std::f64::consts::PI * ana.freq_hz * 0.1,
         freq_hz: 1.0,
         mod_hz: 0.23,
-        y_m: 0.8,
+        y_m,
         track: 2,
         ..ana.clone()
     };
-    let people = vec![ana, dan];
+    vec![ana, dan]
+}
+
+#[test]
+fn a_companion_moving_like_the_wearer_stays_anonymous_when_the_wearer_leaves() {
+    // Dan stands beside Ana, wears nothing and swings much like her (1.0 Hz against her 0.9,
+    // 0.1 s behind); Ana walks out of view at 12 s while her band keeps sending. His track
+    // correlates with her band well enough to clear the rejection threshold, but far less than
+    // hers did while both were in view: he must not inherit her name.
+    let people = ana_and_her_look_alike(0.8);
     let left_s = 12.0;
     let mut msgs = recording(&people, 20.0);
     msgs.retain(|m| {
@@ -1264,24 +1270,11 @@ fn a_track_keeps_a_view_that_ended_and_takes_the_name_of_the_track_continuing_it
     assert_all_named(&out, 1, (0.0, 0.8), 20, "ana");
 }
 
-#[test]
-fn a_subject_named_by_one_camera_is_kept_off_a_track_of_the_other_camera_far_from_her() {
-    // Ana wears a band and is seen by the first camera only; Dan, 1.5 m away, wears nothing,
-    // swings much like her (1.0 Hz against her 0.9, 0.1 s behind) and is seen by the second
-    // camera only. The second camera's assignment alone gives him Ana, whom it never sees.
-    let ana = Person::new(Some("ana"), 0.9, 0.0, 1);
-    let dan = Person {
-        subject: None,
-        phase_rad: ana.phase_rad - 2.0 * std::f64::consts::PI * ana.freq_hz * 0.1,
-        freq_hz: 1.0,
-        mod_hz: 0.23,
-        y_m: 1.5,
-        track: 2,
-        ..ana.clone()
-    };
-    let people = vec![ana, dan];
-    let (registry, msgs) = with_second_camera(&people, &recording(&people, 20.0));
-    let msgs: Vec<Message> = msgs
+/// Two people's recording over `duration_s` where the first camera sees only the first person
+/// (track 1) and the second camera only the second (track 102).
+fn each_seen_by_one_camera(people: &[Person], duration_s: f64) -> (Registry, Vec<Message>) {
+    let (registry, msgs) = with_second_camera(people, &recording(people, duration_s));
+    let msgs = msgs
         .into_iter()
         .filter(|m| match m {
             Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => s.track == TrackId(1),
@@ -1289,6 +1282,16 @@ fn a_subject_named_by_one_camera_is_kept_off_a_track_of_the_other_camera_far_fro
             _ => true,
         })
         .collect();
+    (registry, msgs)
+}
+
+#[test]
+fn a_subject_named_by_one_camera_is_kept_off_a_track_of_the_other_camera_far_from_her() {
+    // Ana wears a band and is seen by the first camera only; Dan, 1.5 m away, wears nothing,
+    // swings much like her (1.0 Hz against her 0.9, 0.1 s behind) and is seen by the second
+    // camera only. The second camera's assignment alone gives him Ana, whom it never sees.
+    let people = ana_and_her_look_alike(1.5);
+    let (registry, msgs) = each_seen_by_one_camera(&people, 20.0);
     let config = known_offsets();
     let dan_named = |config: &EngineConfig| {
         let (out, _) = run_batch(&registry, &msgs, config).unwrap();
@@ -1324,15 +1327,7 @@ fn two_people_side_by_side_each_seen_by_one_camera_keep_their_own_names() {
         Person::new(Some("ana"), 0.9, 0.0, 1),
         Person::new(Some("ben"), 1.3, 0.25, 2),
     ];
-    let (registry, msgs) = with_second_camera(&people, &recording(&people, 20.0));
-    let msgs: Vec<Message> = msgs
-        .into_iter()
-        .filter(|m| match m {
-            Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => s.track == TrackId(1),
-            Message::Skeleton(s) => s.track == TrackId(102),
-            _ => true,
-        })
-        .collect();
+    let (registry, msgs) = each_seen_by_one_camera(&people, 20.0);
     // Of the frames after 8 s: (named right, named wrong, all) per camera's track.
     let tally = |out: &[Message]| {
         let mut tally = [(0, 0, 0); 2];
