@@ -1031,13 +1031,13 @@ impl Engine {
                 .filter_map(|k| self.tracks.get(k))
                 .filter(|view| t <= view.last_t.saturating_add(VIEW_NAMES_AFTER_END_NS))
                 .find_map(|view| view.named().or_else(|| self.successors_name(view)))?;
-            let is_held_here = self.tracks.iter().any(|(k, other)| {
-                k.0 == key.0
-                    && *k != key
-                    && other.label == Some(s)
-                    && other.first_t <= t
-                    && t <= other.last_t
-            });
+            let is_held_here = self
+                .tracks
+                .range((key.0, TrackId(0))..)
+                .take_while(|(k, _)| k.0 == key.0)
+                .any(|(k, other)| {
+                    *k != key && other.label == Some(s) && other.first_t <= t && t <= other.last_t
+                });
             (!is_held_here).then_some((s, score))
         })
     }

@@ -31,12 +31,16 @@ impl Engine {
             .filter(|(t, _)| *t < end)
             .collect();
         new.sort_unstable();
+        // The view is kept until the decisions compare the two (see `TrackState::views`), only
+        // where they pair views at all; stitching through it needs it too.
+        let pairs_views = self.config.camera_pair_distance_m > 0.0;
+        let wants_view = pairs_views
+            || (self.config.stitch_across_cameras && self.config.stitch_max_gap_s > 0.0);
         for (t0, key) in new {
-            let view = self.view_from_other_camera(key, t0, end);
+            let view = wants_view
+                .then(|| self.view_from_other_camera(key, t0, end))
+                .flatten();
             let prev = self.predecessor(key, view, end);
-            // Kept until the decisions compare the two (see `TrackState::views`), only where
-            // they pair views at all.
-            let pairs_views = self.config.camera_pair_distance_m > 0.0;
             if let Some(tr) = self.tracks.get_mut(&key) {
                 tr.is_stitch_pending = false;
                 if let Some(view) = view.filter(|v| pairs_views && !tr.views.contains(v)) {
