@@ -906,6 +906,13 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             },
         ),
         (
+            "camera_exclusion_distance_m",
+            EngineConfig {
+                camera_exclusion_distance_m: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
+        (
             "stitch_view_distance_m",
             EngineConfig {
                 stitch_view_distance_m: f64::NAN,
