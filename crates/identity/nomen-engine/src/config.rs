@@ -298,6 +298,19 @@ pub struct EngineConfig {
     /// 59.0, 59.2, 60.8 %). An earlier sweep, before pooling and with 3 s windows, had favoured
     /// 0.5–1 s.
     pub evidence_half_life_s: f64,
+    /// Half-life of the same evidence for a subject wearing a body-area network (more than one
+    /// IMU) once one of its IMUs' clock offsets is accepted, s. Default 1 s. A network's window
+    /// score is then the mean of several IMUs' correlations at their own clocks, steadier than
+    /// one IMU's, so less of the past is needed to outweigh a bad window, and a shorter memory
+    /// lets a track follow sooner when the camera's tracker hands it to another person. Before
+    /// that, scores at unconfirmed lags are noisy and keep `evidence_half_life_s`. Measured over
+    /// the full-network imu-table scenes (2–8 people, seeds 1–9; 3–5 people also at seeds
+    /// 10–15; 8 people also at 10–15; the 180-s 8-person scene at 1–3), per run against 2 s:
+    /// +0.14 points (46 better, 2 worse: −0.29, −0.02); 0.75 s +0.10 (10 worse), 1.25 s
+    /// +0.07; the same 1 s from the first window +0.17 but 6 worse (the warm-up's few noisy
+    /// windows decided alone). The one-wrist scenes of 2–5 people lost 0.2–0.5 points at
+    /// 1.5 s, so a single IMU keeps the longer half-life.
+    pub network_evidence_half_life_s: f64,
     /// Lowest accumulated score at which a track may be given a subject; below it the track stays
     /// anonymous. In the window score's units: a mean correlation for [`MotionScore::Nomen`]
     /// and the correlation fusions, a vote share for the voting fusions, a similarity for
@@ -799,6 +812,7 @@ impl Default for EngineConfig {
             madgwick: MadgwickConfig::default(),
             gravity_mps2: 9.81,
             evidence_half_life_s: 2.0,
+            network_evidence_half_life_s: 1.0,
             rejection_threshold: 0.15,
             switch_margin: 0.02,
             unsynced_switch_margin: 0.1,
@@ -874,6 +888,10 @@ impl EngineConfig {
             ("joint_noise_std_m", self.joint_noise_std_m),
             ("gravity_mps2", self.gravity_mps2),
             ("evidence_half_life_s", self.evidence_half_life_s),
+            (
+                "network_evidence_half_life_s",
+                self.network_evidence_half_life_s,
+            ),
             (
                 "offset_estimation_window_s",
                 self.offset_estimation_window_s,

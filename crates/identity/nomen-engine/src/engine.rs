@@ -376,6 +376,9 @@ pub struct Engine {
     silence_ns: i64,
     delay_ns: i64,
     decay_per_hop: f64,
+    /// Per-hop decay of the motion evidence of a subject wearing several IMUs
+    /// ([`EngineConfig::network_evidence_half_life_s`]).
+    network_decay_per_hop: f64,
     tag_decay_per_hop: f64,
     rssi_decay_per_hop: f64,
     tag_window_ns: i64,
@@ -516,6 +519,7 @@ impl Engine {
             silence_ns: ns(config.silence_timeout_s),
             delay_ns: ns(config.decision_delay_s),
             decay_per_hop: 0.5f64.powf(config.hop_s / config.evidence_half_life_s),
+            network_decay_per_hop: 0.5f64.powf(config.hop_s / config.network_evidence_half_life_s),
             tag_decay_per_hop: 0.5f64.powf(config.hop_s / config.tag_evidence_half_life_s),
             rssi_decay_per_hop: 0.5f64.powf(config.hop_s / config.rssi_evidence_half_life_s),
             tag_window_ns: ns(config.tag_window_s.min(config.window_s)),

@@ -136,8 +136,11 @@
 //!    tag's key joint over the last [`EngineConfig::tag_window_s`]; RSSI by the likelihood of
 //!    the filtered reads at the person's position against the background. Each modality is
 //!    accumulated per (track, subject) by an exponentially weighted mean with its own half-life
-//!    (a subject none of whose IMUs sent anything in the window loses her motion evidence on
-//!    every track seen more than half a second after her IMUs' last sample: the wearer left);
+//!    (motion: [`EngineConfig::evidence_half_life_s`], or the shorter
+//!    [`EngineConfig::network_evidence_half_life_s`] for a body-area network once one of its
+//!    clock offsets is accepted; a subject none of whose IMUs sent anything in the window
+//!    loses her motion evidence on every track seen more than half a second after her IMUs'
+//!    last sample: the wearer left);
 //! 3. **identity**: per camera, the mean of the modalities a subject has evidence from gives the
 //!    track × subject matrix, solved by `nomen_assign::solve` with
 //!    [`EngineConfig::rejection_threshold`]; the track's current label gets

@@ -101,7 +101,17 @@ impl Engine {
                 device_scores,
                 nomen_sums,
             } = self.score_camera_pairs(&mut window, &keys, &frame_times);
-            let decay = self.decay_per_hop;
+            // Each subject's motion evidence decays at its own rate: a network's faster once
+            // one of its offsets is accepted.
+            let decay: Vec<f64> = (0..self.subjects.len())
+                .map(|b| {
+                    if self.is_network(b) && self.is_synced(b) {
+                        self.network_decay_per_hop
+                    } else {
+                        self.decay_per_hop
+                    }
+                })
+                .collect();
             let tag_decay = self.tag_decay_per_hop;
             let rssi_decay = self.rssi_decay_per_hop;
             let matrix = match self.config.motion_score {
@@ -153,7 +163,9 @@ impl Engine {
                             .filter(|(_, w)| *w > 0.0)
                             .map(|(sum, w)| sum / w),
                     };
-                    if let Some(v) = imu_score {
+                    if let Some(v) = imu_score
+                        && let Some(&decay) = decay.get(b)
+                    {
                         accumulate(tr.evidence.entry(b).or_default(), v, decay);
                     }
                     if let Some(v) = tag_score {
@@ -165,6 +177,12 @@ impl Engine {
                 }
             }
             for (key, i, v) in device_scores {
+                let decay = self
+                    .imus
+                    .get(i)
+                    .and_then(|imu| decay.get(imu.subject))
+                    .copied()
+                    .unwrap_or(self.decay_per_hop);
                 if let Some(tr) = self.tracks.get_mut(&key) {
                     accumulate(tr.device_evidence.entry(i).or_default(), v, decay);
                 }
