@@ -376,8 +376,8 @@ pub struct Engine {
     silence_ns: i64,
     delay_ns: i64,
     decay_per_hop: f64,
-    /// Per-hop decay of the motion evidence of a subject wearing several IMUs
-    /// ([`EngineConfig::network_evidence_half_life_s`]).
+    /// Per-hop decay of the motion evidence of a subject wearing several IMUs once one of their
+    /// clock offsets is accepted ([`EngineConfig::network_evidence_half_life_s`]).
     network_decay_per_hop: f64,
     tag_decay_per_hop: f64,
     rssi_decay_per_hop: f64,
