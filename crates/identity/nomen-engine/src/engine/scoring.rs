@@ -57,6 +57,17 @@ impl Engine {
         // tracks labelled with its wearer, added after every camera is scored.
         let headings: Vec<Option<[f64; 2]>> =
             self.imus.iter().map(|m| m.heading(&self.config)).collect();
+        // Each subject's motion evidence decays at its own rate, a network's faster once one of
+        // its offsets is accepted (no offset changes while the cameras are scored).
+        let decay: Vec<f64> = (0..self.subjects.len())
+            .map(|b| {
+                if self.is_network(b) && self.is_synced(b) {
+                    self.network_decay_per_hop
+                } else {
+                    self.decay_per_hop
+                }
+            })
+            .collect();
         let mut window = WindowScoring {
             start,
             end,
@@ -101,17 +112,6 @@ impl Engine {
                 device_scores,
                 nomen_sums,
             } = self.score_camera_pairs(&mut window, &keys, &frame_times);
-            // Each subject's motion evidence decays at its own rate: a network's faster once
-            // one of its offsets is accepted.
-            let decay: Vec<f64> = (0..self.subjects.len())
-                .map(|b| {
-                    if self.is_network(b) && self.is_synced(b) {
-                        self.network_decay_per_hop
-                    } else {
-                        self.decay_per_hop
-                    }
-                })
-                .collect();
             let tag_decay = self.tag_decay_per_hop;
             let rssi_decay = self.rssi_decay_per_hop;
             let matrix = match self.config.motion_score {
