@@ -341,9 +341,11 @@ struct TrackState {
     /// was new. A view the decisions compared and did not pair is dropped. See
     /// [`Engine::name_from_elsewhere`].
     views: Vec<TrackKey>,
-    /// The decisions naming this track while the warm-up's observations wait for theirs:
-    /// (window end, subject, score without the hysteresis bonus); see [`Engine::emit`].
-    warm_labels: Vec<(i64, usize, f64)>,
+    /// This track's decisions while the warm-up's observations wait for theirs: window end,
+    /// name (subject, score without the hysteresis bonus) and whether the decision is final
+    /// (anonymous, or named after someone whose clock is known: [`Engine::is_name_final`]); see
+    /// [`Engine::emit`] and [`EngineConfig::warmup_sync_s`].
+    warm_labels: Vec<WarmDecision>,
     /// Whether this track may still be found to continue an ended one: it is new, and its
     /// predecessor is chosen at the first window end after its first observation
     /// ([`Engine::stitch_new_tracks`]).
@@ -356,6 +358,14 @@ struct TrackState {
     /// `SWAP_RETURN_GAP_NS` or more: `(its time, the settled anchor before the gap, that
     /// anchor's time)`. An id swap can hide in such a return (see [`Engine::swapped_with`]).
     return_from_gap: Option<GapReturn>,
+}
+
+/// A track's decision during the warm-up (see [`TrackState::warm_labels`]).
+#[derive(Debug, Clone, Copy)]
+struct WarmDecision {
+    end: i64,
+    name: Option<(usize, f64)>,
+    is_final: bool,
 }
 
 impl TrackState {
@@ -410,6 +420,10 @@ pub struct Engine {
     first_frame_t: Option<i64>,
     /// [`EngineConfig::warmup_s`], ns.
     warmup_ns: i64,
+    /// [`EngineConfig::warmup_sync_s`], ns.
+    warmup_sync_ns: i64,
+    /// The window end at which the warm-up's observations were sent, once reached.
+    warm_release: Option<i64>,
     next_end: Option<i64>,
     global_max: Option<i64>,
     ready: Vec<Message>,
@@ -543,6 +557,8 @@ impl Engine {
             pending_out: BTreeSet::new(),
             first_frame_t: None,
             warmup_ns: ns(config.warmup_s),
+            warmup_sync_ns: ns(config.warmup_sync_s),
+            warm_release: None,
             next_end: None,
             global_max: None,
             ready: Vec::new(),
@@ -975,18 +991,74 @@ impl Engine {
         self.update_offsets(end);
         self.score_window(end);
         self.decide(end);
+        self.end_warmup(end);
         self.emit(end);
         self.forget(end);
     }
 
-    /// When an output for time `t` is due: `t + decision_delay`, or for the session's first
-    /// observations (and tag fixes) the warm-up's end plus the delay. Non-decreasing in `t`, so
-    /// the output stays in time order.
-    fn due_at(&self, t: i64) -> i64 {
+    /// When an output for time `t` would be due without waiting for known clocks
+    /// ([`EngineConfig::warmup_sync_s`]): `t + decision_delay`, or for the session's first
+    /// observations (and tag fixes) the warm-up's end plus the delay.
+    fn base_due_at(&self, t: i64) -> i64 {
         let warm_end = self
             .first_frame_t
             .map_or(t, |f| f.saturating_add(self.warmup_ns));
         t.max(warm_end).saturating_add(self.delay_ns)
+    }
+
+    /// When an output for time `t` is due: [`Engine::base_due_at`], and no earlier than the
+    /// window that ends the warm-up ([`Engine::end_warmup`]; until it is known, its latest
+    /// time). Non-decreasing in `t`, so the output stays in time order.
+    fn due_at(&self, t: i64) -> i64 {
+        let due = self.base_due_at(t);
+        let Some(first) = self.first_frame_t.filter(|_| self.warmup_ns > 0) else {
+            return due;
+        };
+        let release = self.warm_release.unwrap_or_else(|| {
+            first
+                .saturating_add(self.warmup_ns)
+                .saturating_add(self.delay_ns)
+                .saturating_add(self.warmup_sync_ns)
+        });
+        due.max(release)
+    }
+
+    /// Ends the warm-up at the window `end` if it is due ([`EngineConfig::warmup_sync_s`]): the
+    /// fixed warm-up is over, and every track with observations waiting is anonymous or its name
+    /// is final ([`Engine::is_name_final`]), or the longest wait is reached.
+    fn end_warmup(&mut self, end: i64) {
+        if self.warm_release.is_some() || self.warmup_ns == 0 {
+            return;
+        }
+        let Some(first) = self.first_frame_t else {
+            return;
+        };
+        let base_end = first
+            .saturating_add(self.warmup_ns)
+            .saturating_add(self.delay_ns);
+        if end < base_end {
+            return;
+        }
+        let is_due = end >= base_end.saturating_add(self.warmup_sync_ns) || {
+            let mut waiting: Vec<TrackKey> = self
+                .pending_out
+                .iter()
+                .take_while(|(t, _, _)| self.base_due_at(*t) <= end)
+                .map(|&(t, c, track)| (c, self.person_track(c, track, t)))
+                .collect();
+            waiting.sort_unstable();
+            waiting.dedup();
+            waiting.iter().all(|key| {
+                self.tracks
+                    .get(key)
+                    .and_then(|tr| tr.label)
+                    .is_none_or(|s| self.is_name_final(s))
+            })
+        };
+        if is_due {
+            self.warm_release = Some(end);
+            self.stats.warmup_release_s = Some(end.saturating_sub(first) as f64 * 1e-9);
+        }
     }
 
     /// For a track that a later one continues (stitched), the name of the first named track
@@ -1007,27 +1079,30 @@ impl Engine {
         None
     }
 
-    /// A name for an observation at `t` (session ns) of the anonymous track `key` that its own
-    /// latest decision did not give, in this order: the latest earlier decision that named the
-    /// track, from the observation's due time on (the warm-up's observations only, see
-    /// [`EngineConfig::warmup_s`]); the name of the track that continues it
-    /// ([`Engine::successors_name`]); the name of another camera's view of its person at its
+    /// A name for an observation at `t` (session ns) of the track `key` that its own decision
+    /// (left anonymous) did not give, in this order: the latest earlier decision that named the
+    /// track, from the observation's due time `t + decision_delay_s` to `warm_until` (the
+    /// warm-up's observations only, see [`EngineConfig::warmup_s`]); the name of the track
+    /// that continues it ([`Engine::successors_name`]); the name of another camera's view of its person at its
     /// latest decision, or else of an earlier view the decisions could not compare with it since
     /// (`TrackState::views`), seen until `VIEW_NAMES_AFTER_END_NS` before `t` at the latest, or
     /// of that view's successor, unless another track of this camera seen over a span that
     /// holds `t` carries that name now: the per-camera assignment gives a
-    /// subject one track at a time, and a view's name must not undo that. `None` for a named
-    /// track, and where no rule gives a name.
-    fn name_from_elsewhere(&self, key: TrackKey, tr: &TrackState, t: i64) -> Option<(usize, f64)> {
-        if tr.label.is_some() {
-            return None;
-        }
+    /// subject one track at a time, and a view's name must not undo that. `None` where no rule
+    /// gives a name.
+    fn name_from_elsewhere(
+        &self,
+        key: TrackKey,
+        tr: &TrackState,
+        t: i64,
+        warm_until: i64,
+    ) -> Option<(usize, f64)> {
         let warm = tr
             .warm_labels
             .iter()
             .rev()
-            .find(|(at, _, _)| *at >= t.saturating_add(self.delay_ns))
-            .map(|&(_, s, score)| (s, score));
+            .filter(|d| d.end <= warm_until && d.end >= t.saturating_add(self.delay_ns))
+            .find_map(|d| d.name);
         warm.or_else(|| self.successors_name(tr)).or_else(|| {
             let (s, score) = tr
                 .views
@@ -1046,13 +1121,12 @@ impl Engine {
         })
     }
 
-    /// Whether the warm-up's observations still wait for the decision of a window ending at
-    /// `end` (the last one they wait for included).
+    /// Whether the warm-up's observations may still wait for the decision of a window ending
+    /// at `end` (the last one they wait for included).
     fn is_warming_up(&self, end: i64) -> bool {
         self.warmup_ns > 0
-            && self
-                .first_frame_t
-                .is_some_and(|f| end - self.hop_ns < f + self.warmup_ns + self.delay_ns)
+            && self.first_frame_t.is_some()
+            && self.warm_release.is_none_or(|release| end <= release)
     }
 
     /// Emits every observation whose decision window is `end` or earlier ([`Engine::due_at`]).
@@ -1078,7 +1152,18 @@ impl Engine {
             let key = (c, self.person_track(c, track, t));
             let (identity, confidence, evidence) = match self.tracks.get(&key) {
                 Some(tr) => {
-                    let name = tr.named().or_else(|| self.name_from_elsewhere(key, tr, t));
+                    // An observation that waited for the warm-up's end takes its track's first
+                    // final decision from its own due time on, if there was one.
+                    let due = self.base_due_at(t);
+                    let warm = tr.warm_labels.iter().find(|d| d.end >= due && d.is_final);
+                    let name = match warm {
+                        Some(d) => d
+                            .name
+                            .or_else(|| self.name_from_elsewhere(key, tr, t, d.end)),
+                        None => tr
+                            .named()
+                            .or_else(|| self.name_from_elsewhere(key, tr, t, i64::MAX)),
+                    };
                     self.identity_as(tr, name)
                 }
                 None => (Identity::Anonymous, 0.0, Vec::new()),

@@ -177,8 +177,11 @@
 //! `decision_delay_s + hop_s + reorder_window_s` (default 2.25 s) of stream time after `t`
 //! ([`EngineConfig::latency_s`]); a silent source adds at most `silence_timeout_s`. The
 //! exception is the session's warm-up ([`EngineConfig::warmup_s`], 2 s): observations within
-//! it wait for the decision due at its end, up to `warmup_s` longer
-//! ([`EngineConfig::max_latency_s`]), since before the first windows fill nobody can be named.
+//! it wait for the decision due at its end, up to `warmup_s` longer, since before the first
+//! windows fill nobody can be named; and while no clock offset is known the warm-up may last
+//! up to [`EngineConfig::warmup_sync_s`] (3 s) more, for decisions at known clocks (every
+//! observation then due waits with it). The bound is [`EngineConfig::max_latency_s`] (7.25 s
+//! by default).
 //! Every settled tag fix comes back once as a `Message::TagCorrection` on the same schedule:
 //! blended with the key joint of the track labelled with the tag's wearer, raw otherwise.
 //! Rejected messages produce no output.

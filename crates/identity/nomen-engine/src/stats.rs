@@ -106,6 +106,11 @@ pub struct EngineStats {
     /// Accepted clock offsets withdrawn because the wearer's labelled tracks hardly correlate at
     /// them and better at another lag (see `EngineConfig::offset_withdraw_below`).
     pub num_offsets_withdrawn: u64,
+    /// Time from the session's first skeleton to the window whose decisions sent the warm-up's
+    /// observations, s (`EngineConfig::warmup_s` plus the decision delay, and up to
+    /// `EngineConfig::warmup_sync_s` more while clocks are unknown); `None` until then, and
+    /// without a warm-up.
+    pub warmup_release_s: Option<f64>,
     /// Clock offset estimates per IMU, once made; an estimate that is withdrawn is removed until
     /// the IMU's offset is found again.
     pub clock_offsets: BTreeMap<DeviceId, ClockOffsetEstimate>,

@@ -279,9 +279,13 @@ fn a_sessions_first_frames_wait_for_its_first_decisions_and_later_frames_do_not(
         .map(|m| m.t().as_secs_f64())
         .unwrap();
     // Every output with the stream time (the last pushed message's) at which it came out.
-    let run = |warmup_s: f64| {
+    // The fixed warm-up (`warmup_sync_s` 0): with it, frames after the warm-up's end may
+    // wait too, for decisions at known clocks (see `look_alikes.rs`); only the bound is
+    // checked for it here.
+    let run = |warmup_s: f64, warmup_sync_s: f64| {
         let config = EngineConfig {
             warmup_s,
+            warmup_sync_s,
             ..EngineConfig::default()
         };
         let mut engine = Engine::new(registry(&people), config).unwrap();
@@ -297,18 +301,24 @@ fn a_sessions_first_frames_wait_for_its_first_decisions_and_later_frames_do_not(
         assert_eq!(out.len(), num_skeletons(&msgs));
         (out, when, config)
     };
-    let (cold, cold_when, _) = run(0.0);
-    let (warm, warm_when, config) = run(1.0);
+    let (cold, cold_when, _) = run(0.0, 0.0);
+    let (warm, warm_when, config) = run(1.0, 0.0);
+    let (synced, synced_when, synced_config) = run(1.0, EngineConfig::default().warmup_sync_s);
     let warm_end_s = first_s + config.warmup_s;
     // Nothing comes out before its decision window, and nothing later than the bound.
-    for (m, now) in warm.iter().zip(&warm_when) {
-        let t = m.t().as_secs_f64();
-        let due = t.max(warm_end_s) + config.decision_delay_s;
-        assert!(*now >= due - 1e-6, "{t} s out at {now} s, due {due} s");
-        assert!(
-            *now <= t + config.max_latency_s() + 1e-6,
-            "{t} s out at {now} s"
-        );
+    for (out, when, config) in [
+        (&warm, &warm_when, &config),
+        (&synced, &synced_when, &synced_config),
+    ] {
+        for (m, now) in out.iter().zip(when) {
+            let t = m.t().as_secs_f64();
+            let due = t.max(warm_end_s) + config.decision_delay_s;
+            assert!(*now >= due - 1e-6, "{t} s out at {now} s, due {due} s");
+            assert!(
+                *now <= t + config.max_latency_s() + 1e-6,
+                "{t} s out at {now} s"
+            );
+        }
     }
     // The warm-up's frames: mostly anonymous without it, named about twice as often with it
     // (0.23 → 0.5 here), and never wrong.
@@ -1049,6 +1059,20 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             "warmup_s",
             EngineConfig {
                 warmup_s: f64::INFINITY,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "warmup_sync_s",
+            EngineConfig {
+                warmup_sync_s: -0.5,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "warmup_sync_s",
+            EngineConfig {
+                warmup_sync_s: f64::NAN,
                 ..EngineConfig::default()
             },
         ),

@@ -333,6 +333,11 @@ pub fn run_file(
     if let Some(first) = first_rejection {
         summary.push_str(&format!(" (first rejection: {first})"));
     }
+    if let Some(release_s) = engine.stats().warmup_release_s {
+        summary.push_str(&format!(
+            "; the warm-up's first decisions were sent {release_s:.1} s after the first skeleton"
+        ));
+    }
     if let Some(r) = &refinement {
         summary.push_str(&format!("; estimated {} occluded joints", r.num_estimated));
     }

@@ -5,7 +5,7 @@
 use super::{
     ALIVE_AT_END_NS, Accumulator, AnchorPath, AnchorSample, CAMERA_PAIR_LOOKBACK_WINDOWS,
     CAMERA_PAIR_MAX_DT_NS, CAMERA_PAIR_MIN_FRAMES, Engine, TORSO_ANCHORS, TrackKey, TrackState,
-    VIEW_NAMES_AFTER_END_NS, sample_range, spans_overlap,
+    VIEW_NAMES_AFTER_END_NS, WarmDecision, sample_range, spans_overlap,
 };
 use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
 use nomen_core::TrackId;
@@ -209,6 +209,7 @@ impl Engine {
             self.note_exclusions(&keys, &spans, &labels);
             let is_warming_up = self.is_warming_up(end);
             for (key, new_label) in keys.iter().zip(labels) {
+                let is_final = new_label.is_none_or(|s| self.is_name_final(s));
                 let Some(tr) = self.tracks.get_mut(key) else {
                     continue;
                 };
@@ -219,8 +220,12 @@ impl Engine {
                 if new_label.is_some() {
                     tr.held_back = None;
                 }
-                if is_warming_up && let Some((s, score)) = tr.named() {
-                    tr.warm_labels.push((end, s, score));
+                if is_warming_up {
+                    tr.warm_labels.push(WarmDecision {
+                        end,
+                        name: tr.named(),
+                        is_final,
+                    });
                 }
             }
             for (q, subject) in held_back {
@@ -337,6 +342,16 @@ impl Engine {
         self.subject_imus
             .get(subject)
             .is_some_and(|imus| imus.len() > 1)
+    }
+
+    /// Whether a decision naming `subject` is final for the warm-up
+    /// ([`EngineConfig::warmup_sync_s`](crate::EngineConfig::warmup_sync_s)): the subject wears
+    /// no IMU (no clock to wait for), or one of its IMUs has an accepted offset.
+    pub(super) fn is_name_final(&self, subject: usize) -> bool {
+        self.subject_imus
+            .get(subject)
+            .is_none_or(|imus| imus.is_empty())
+            || self.is_synced(subject)
     }
 
     /// Whether any of `subject`'s IMUs has an accepted clock offset.
