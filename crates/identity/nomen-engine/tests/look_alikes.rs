@@ -236,6 +236,35 @@ fn the_warm_ups_frames_wait_for_decisions_at_known_clocks_when_look_alikes_share
 }
 
 #[test]
+fn a_longer_warm_up_does_not_name_the_walker_without_a_band_after_the_camera_swaps_ids() {
+    // The default scene of `nomen demo` at this seed: the camera swaps the wearer's and the
+    // man's track ids 4.1 s in. A warm-up 3 s longer for everyone (5 s) sends his first 3 s
+    // (82 frames) with the decision after the swap, which names his track Ana. Waiting for
+    // known clocks (`warmup_sync_s`) does not wait for a track left anonymous: here every
+    // track is anonymous at the fixed warm-up's end, so nothing waits and he is named only
+    // where the fixed warm-up names him too (15 frames after it, at 2.5-3 s).
+    let Some(sim) = simulated("scenarios/belmonte_one_without_band.toml", 106) else {
+        return;
+    };
+    let registry = &sim.scene.registry;
+    let fixed = EngineConfig {
+        warmup_sync_s: 0.0,
+        ..EngineConfig::default()
+    };
+    let longer = EngineConfig {
+        warmup_s: fixed.warmup_s + 3.0,
+        ..fixed
+    };
+    let (out_longer, _) = run_batch(registry, &sim.recording, &longer).unwrap();
+    let (out_fixed, stats_fixed) = run_batch(registry, &sim.recording, &fixed).unwrap();
+    let (out, stats) = run_default(&sim);
+    assert!(intruder_named(&sim, &out_longer) > 50);
+    assert!(intruder_named(&sim, &out) < 20);
+    assert_eq!(intruder_named(&sim, &out), intruder_named(&sim, &out_fixed));
+    assert_eq!(stats.warmup_release_s, stats_fixed.warmup_release_s);
+}
+
+#[test]
 fn a_networks_first_offsets_wait_until_its_labelled_tracks_fit_the_whole_network() {
     // Five people, full body-area networks; Ana, Cleo and Eva walk the same clip at phases
     // 0, 0.74 and 1.48 s. At this seed the early labels put Ana on her look-alikes' tracks,
