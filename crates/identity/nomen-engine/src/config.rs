@@ -206,25 +206,30 @@ pub struct EngineConfig {
     /// end can name them in a ring (on the 5-person scene at seed 2: Eva's track Ana, Ana's
     /// Dan, Dan's Ben, Ben's Eva). So the warm-up ends at the first decision, from
     /// `first + warmup_s + decision_delay_s` on, at which every track with observations still
-    /// waiting is anonymous or named after someone whose clock is known (one of their IMUs has
-    /// an accepted offset, or they wear none), or `warmup_sync_s` later at the latest. Each
-    /// waiting observation takes its track's first such decision from its own due time on (an
-    /// anonymous one falls back as `warmup_s` says), or the track's decision at the warm-up's
-    /// end when there was none. A track left anonymous is not waited for: after a camera has
-    /// swapped two people's ids, a later decision can name the wearer's new track while the
-    /// observations waiting on it are the other person's (the Belmonte-Hernández man without a
-    /// band, named in his first 3 s when the whole warm-up waited 3 s more).
+    /// waiting has a final decision, or `warmup_sync_s` later at the latest. A decision is
+    /// final when it names someone whose clock is known (one of their IMUs has an accepted
+    /// offset, or they wear none), or leaves the track anonymous, unless the track holds a name
+    /// withheld from another track for unknown clocks
+    /// ([`EngineConfig::unsynced_switch_margin`]). Each waiting observation takes its track's
+    /// first final decision from its own due time on (an anonymous one falls back as
+    /// `warmup_s` says), or the track's decision at the warm-up's end when there was none.
+    /// A track left anonymous otherwise is not waited for: after a camera has swapped two
+    /// people's ids, a later decision can name the wearer's new track while the observations
+    /// waiting on it are the other person's (the Belmonte-Hernández man without a band, named
+    /// in his first 3 s when the whole warm-up waited 3 s more).
     ///
-    /// Default 3.0 s: over the 162 simulated runs of the engine README, +0.35 ± 0.05 points per
+    /// Default 3.0 s: over the 162 simulated runs of the engine README, +0.36 ± 0.05 points per
     /// run against 0 (98 better, 3 worse: the one-wrist 5-person scene, by up to 1.6 points);
     /// 8 people, full network 99.10 → 99.32 % (seeds 1–27), one wrist IMU 98.18 → 98.63 %
-    /// (seeds 1–33), 5 people, full network 95.88 → 97.07 % (seeds 1–15); on 42 runs simulated
-    /// afterwards +0.31 ± 0.09 (32 better, 4 worse). Given the true offsets, and on the
-    /// Belmonte-Hernández episodes, no decision changed. Against 3 s: 2 s −0.03 per run (8
-    /// worse), 4 s +0.00, 5 s +0.08 (64 better, 6 worse) for two seconds more. On the IMU
-    /// scenes the bound is usually reached: the warm-up's decisions then come from the window
-    /// ending about 6.8 s after the session's first skeleton, and no observation waits longer
-    /// than [`EngineConfig::max_latency_s`] (7.25 s by default). `0` keeps the fixed warm-up.
+    /// (seeds 1–33), 5 people, full network 95.88 → 97.18 % (seeds 1–15); on 42 runs simulated
+    /// afterwards +0.35 ± 0.10 (32 better, 4 worse); the Belmonte-Hernández wearer beside the
+    /// man without a band 97.36 → 97.73 % (seeds 1–72) and 97.50 → 97.91 % (73–144), the man
+    /// as anonymous as before. Given the true offsets no decision changed. Against 3 s
+    /// (measured before withheld names counted): 2 s −0.03 per run (8 worse), 4 s +0.00, 5 s
+    /// +0.08 (64 better, 6 worse) for two seconds more. On the IMU scenes of 3 people or more
+    /// the bound is usually reached: the warm-up's decisions then come from the window ending
+    /// about 6.8 s after the session's first skeleton, and no observation waits longer than
+    /// [`EngineConfig::max_latency_s`] (7.25 s by default). `0` keeps the fixed warm-up.
     pub warmup_sync_s: f64,
     /// Fraction of the window a track must cover (first to last sample) to be scored. Default 0.5.
     pub min_window_coverage: f64,

@@ -343,8 +343,9 @@ struct TrackState {
     views: Vec<TrackKey>,
     /// This track's decisions while the warm-up's observations wait for theirs: window end,
     /// name (subject, score without the hysteresis bonus) and whether the decision is final
-    /// (anonymous, or named after someone whose clock is known: [`Engine::is_name_final`]); see
-    /// [`Engine::emit`] and [`EngineConfig::warmup_sync_s`].
+    /// (named after someone whose clock is known, [`Engine::is_name_final`], or anonymous
+    /// without holding a withheld name); see [`Engine::emit`] and
+    /// [`EngineConfig::warmup_sync_s`].
     warm_labels: Vec<WarmDecision>,
     /// Whether this track may still be found to continue an ended one: it is new, and its
     /// predecessor is chosen at the first window end after its first observation
@@ -1024,8 +1025,9 @@ impl Engine {
     }
 
     /// Ends the warm-up at the window `end` if it is due ([`EngineConfig::warmup_sync_s`]): the
-    /// fixed warm-up is over, and every track with observations waiting is anonymous or its name
-    /// is final ([`Engine::is_name_final`]), or the longest wait is reached.
+    /// fixed warm-up is over, and every track with observations waiting has a final decision
+    /// at `end` (see [`TrackState::warm_labels`]; a track not decided at `end` by its latest
+    /// label), or the longest wait is reached.
     fn end_warmup(&mut self, end: i64) {
         if self.warm_release.is_some() || self.warmup_ns == 0 {
             return;
@@ -1049,10 +1051,12 @@ impl Engine {
             waiting.sort_unstable();
             waiting.dedup();
             waiting.iter().all(|key| {
-                self.tracks
-                    .get(key)
-                    .and_then(|tr| tr.label)
-                    .is_none_or(|s| self.is_name_final(s))
+                self.tracks.get(key).is_none_or(|tr| {
+                    match tr.warm_labels.last().filter(|d| d.end == end) {
+                        Some(d) => d.is_final,
+                        None => tr.label.is_none_or(|s| self.is_name_final(s)),
+                    }
+                })
             })
         };
         if is_due {

@@ -208,8 +208,13 @@ impl Engine {
             let held_back = self.hold_back_unsynced_names(&keys, &spans, &rows, &mut labels);
             self.note_exclusions(&keys, &spans, &labels);
             let is_warming_up = self.is_warming_up(end);
-            for (key, new_label) in keys.iter().zip(labels) {
-                let is_final = new_label.is_none_or(|s| self.is_name_final(s));
+            for (q, (key, new_label)) in keys.iter().zip(labels).enumerate() {
+                // Final for the warm-up: named after someone whose clock is known, or anonymous
+                // for another reason than a name withheld for unknown clocks.
+                let is_final = match new_label {
+                    Some(s) => self.is_name_final(s),
+                    None => !held_back.iter().any(|&(h, _)| h == q),
+                };
                 let Some(tr) = self.tracks.get_mut(key) else {
                     continue;
                 };
