@@ -1012,16 +1012,25 @@ impl Engine {
     /// time). Non-decreasing in `t`, so the output stays in time order.
     fn due_at(&self, t: i64) -> i64 {
         let due = self.base_due_at(t);
-        let Some(first) = self.first_frame_t.filter(|_| self.warmup_ns > 0) else {
+        let Some(fixed_end) = self.fixed_warm_end() else {
             return due;
         };
-        let release = self.warm_release.unwrap_or_else(|| {
+        let release = self
+            .warm_release
+            .unwrap_or_else(|| fixed_end.saturating_add(self.warmup_sync_ns));
+        due.max(release)
+    }
+
+    /// The fixed warm-up's end plus the decision delay, when the warm-up's observations would
+    /// be due without waiting for known clocks: `first + warmup_s + decision_delay_s`. `None`
+    /// before the first skeleton, and without a warm-up.
+    fn fixed_warm_end(&self) -> Option<i64> {
+        let first = self.first_frame_t.filter(|_| self.warmup_ns > 0)?;
+        Some(
             first
                 .saturating_add(self.warmup_ns)
-                .saturating_add(self.delay_ns)
-                .saturating_add(self.warmup_sync_ns)
-        });
-        due.max(release)
+                .saturating_add(self.delay_ns),
+        )
     }
 
     /// Ends the warm-up at the window `end` if it is due ([`EngineConfig::warmup_sync_s`]): the
@@ -1029,15 +1038,12 @@ impl Engine {
     /// at `end` (see [`TrackState::warm_labels`]; a track not decided at `end` by its latest
     /// label), or the longest wait is reached.
     fn end_warmup(&mut self, end: i64) {
-        if self.warm_release.is_some() || self.warmup_ns == 0 {
+        if self.warm_release.is_some() {
             return;
         }
-        let Some(first) = self.first_frame_t else {
+        let (Some(first), Some(base_end)) = (self.first_frame_t, self.fixed_warm_end()) else {
             return;
         };
-        let base_end = first
-            .saturating_add(self.warmup_ns)
-            .saturating_add(self.delay_ns);
         if end < base_end {
             return;
         }
@@ -1087,11 +1093,11 @@ impl Engine {
     /// (left anonymous) did not give, in this order: the latest earlier decision that named the
     /// track, from the observation's due time `t + decision_delay_s` to `warm_until` (the
     /// warm-up's observations only, see [`EngineConfig::warmup_s`]); the name of the track
-    /// that continues it ([`Engine::successors_name`]); the name of another camera's view of its person at its
-    /// latest decision, or else of an earlier view the decisions could not compare with it since
-    /// (`TrackState::views`), seen until `VIEW_NAMES_AFTER_END_NS` before `t` at the latest, or
-    /// of that view's successor, unless another track of this camera seen over a span that
-    /// holds `t` carries that name now: the per-camera assignment gives a
+    /// that continues it ([`Engine::successors_name`]); the name of another camera's view of
+    /// its person at its latest decision, or else of an earlier view the decisions could not
+    /// compare with it since (`TrackState::views`), seen until `VIEW_NAMES_AFTER_END_NS` before
+    /// `t` at the latest, or of that view's successor, unless another track of this camera seen
+    /// over a span that holds `t` carries that name now: the per-camera assignment gives a
     /// subject one track at a time, and a view's name must not undo that. `None` where no rule
     /// gives a name.
     fn name_from_elsewhere(
