@@ -14,7 +14,8 @@ use std::process::ExitCode;
 
 /// mimalloc instead of the system allocator: the engine builds and drops many short vectors
 /// per window, and `nomen run` of the 8-person full-network scene took 7 % less time with it
-/// (peak memory 37 → 77 MB on its 180-s variant).
+/// (peak memory 37 → 77 MB on its 180-s variant). Built without transparent huge pages
+/// (`no_thp`, see the workspace manifest).
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
