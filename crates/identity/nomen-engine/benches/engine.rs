@@ -3,8 +3,8 @@
 //!
 //! `cargo bench -p nomen-engine` prints the median and the fastest wall time of `run_batch`,
 //! each as the ratio scene time / wall time (the goal: ≥ 500× real time on one core;
-//! on a shared machine other work only adds time, so the fastest run varies least from one
-//! bench run to the next) and the per-push cost
+//! on a shared machine other work only adds time, so the fastest run is the least disturbed)
+//! and the per-push cost
 //! percentiles of camera frames (a latency proxy: what one skeleton costs the caller, including
 //! any window it completes); then the engine time of the last minute of the 180-s variant
 //! (`scenarios/imu_ban_8_long.toml`), offsets searched from scratch, with and without settling
