@@ -106,17 +106,7 @@ fn intruder_named(sim: &SimOutput, out: &[Message]) -> usize {
 
 /// Fraction of truth skeleton frames whose decision names the person's subject.
 fn accuracy(sim: &SimOutput, out: &[Message]) -> f64 {
-    let decided = decisions(out);
-    let (mut n, mut right) = (0usize, 0usize);
-    for m in &sim.truth {
-        let Message::TruthSkeleton(ts) = m else {
-            continue;
-        };
-        n += 1;
-        let got = decided.get(&(ts.t.as_ns(), ts.camera.to_string(), ts.track));
-        right += usize::from(got.and_then(|i| i.subject()) == ts.subject.as_ref());
-    }
-    right as f64 / n.max(1) as f64
+    accuracy_between(sim, out, f64::NEG_INFINITY, f64::INFINITY).0
 }
 
 #[test]
