@@ -117,6 +117,64 @@ impl ImuFeatures {
         }
     }
 
+    /// [`ImuFeatures::from_parts`] on a grid that starts `anchor` samples before the window:
+    /// the filtered and smoothed signals carry the samples before the window (as a filter run
+    /// per sample would), the window-anchored models (orientation change, velocity, vertical
+    /// velocity) start at the window's first sample as always, and only the window's part of
+    /// every signal is kept. `anchor` 0 is [`ImuFeatures::from_parts`].
+    pub fn from_parts_anchored(
+        imu: &ImuWindow,
+        lin_world_mps2: &[Vector3<f64>],
+        elevations: &[[f64; 3]],
+        geo: &GeometricConfig,
+        kin: &KinematicConfig,
+        anchor: usize,
+    ) -> Self {
+        let mut features = Self::from_parts(imu, lin_world_mps2, elevations, geo, kin);
+        if anchor == 0 {
+            return features;
+        }
+        features.drop_front(anchor);
+        let tail = imu.tail(anchor);
+        let n = tail.t_s.len();
+        let missing;
+        let lin = match lin_world_mps2.get(anchor..) {
+            Some(lin) if lin.len() == n => lin,
+            _ => {
+                missing = vec![Vector3::repeat(f64::NAN); n];
+                &missing
+            }
+        };
+        let mut vertical = imu_vertical_velocity(&tail, lin, geo);
+        moving_average(&mut vertical, geo.moving_average_len);
+        features.velocity_magnitude = imu_velocity_magnitude_from(&tail, lin, geo);
+        features.orientation_magnitude = imu_orientation_magnitude(&tail, geo);
+        features.vertical_velocity = vertical;
+        features
+    }
+
+    /// Drops the first `k` grid samples of every signal.
+    pub fn drop_front(&mut self, k: usize) {
+        let [ex, ey, ez] = &mut self.axis_elevation;
+        let [hx, hy] = &mut self.horizontal_accel;
+        for v in [
+            &mut self.accel_magnitude,
+            &mut self.velocity_magnitude,
+            &mut self.orientation_magnitude,
+            &mut self.swing,
+            &mut self.vertical_accel,
+            &mut self.vertical_velocity,
+            ex,
+            ey,
+            ez,
+            &mut self.turn_rate,
+            hx,
+            hy,
+        ] {
+            v.drain(..k.min(v.len()));
+        }
+    }
+
     /// Grid length.
     pub fn len(&self) -> usize {
         self.accel_magnitude.len()
@@ -226,6 +284,73 @@ impl SegmentFeatures {
             turn_rate,
             horizontal_accel: [accel_axis(0), accel_axis(1)],
         }
+    }
+
+    /// [`SegmentFeatures::with_turn_rate`] on a grid that starts `anchor` samples before the
+    /// window (see [`ImuFeatures::from_parts_anchored`]): the run edges are dropped on the
+    /// whole grid (`run_edges`: the samples and whether to keep the grid's start, as in
+    /// [`SegmentFeatures::drop_run_edges`]), then only the window's part is kept, the
+    /// window-anchored models starting at its first sample.
+    pub fn with_turn_rate_anchored(
+        skel: &SkeletonWindow,
+        site: Joint,
+        geo: &GeometricConfig,
+        kin: &KinematicConfig,
+        turn_rate: Vec<f64>,
+        anchor: usize,
+        run_edges: (usize, bool),
+    ) -> Self {
+        let mut features = Self::with_turn_rate(skel, site, geo, kin, turn_rate);
+        features.drop_run_edges(run_edges.0, run_edges.1);
+        if anchor == 0 {
+            return features;
+        }
+        let [hx, hy] = &mut features.horizontal_accel;
+        for v in [
+            &mut features.accel_magnitude,
+            &mut features.velocity_magnitude,
+            &mut features.orientation_magnitude,
+            &mut features.swing,
+            &mut features.vertical_accel,
+            &mut features.vertical_velocity,
+            &mut features.elevation,
+            &mut features.turn_rate,
+            hx,
+            hy,
+        ] {
+            v.drain(..anchor.min(v.len()));
+        }
+        let tail = SkeletonWindow {
+            camera: skel.camera.clone(),
+            track: skel.track,
+            t_s: skel.t_s.get(anchor..).unwrap_or(&[]).to_vec(),
+            joints_world_m: skel.joints_world_m.get(anchor..).unwrap_or(&[]).to_vec(),
+        };
+        let n = tail.t_s.len();
+        let vel = filtered_joint_derivative(skel, site, Derivative::Velocity, geo)
+            .and_then(|v| v.get(anchor..).map(<[_]>::to_vec))
+            .filter(|v| v.len() == n);
+        // The anchored signals keep the NaNs the run edges put on the velocity-shaped ones.
+        let keep_nan = |mut new: Vec<f64>, old: &[f64]| {
+            for (x, o) in new.iter_mut().zip(old) {
+                if !o.is_finite() {
+                    *x = f64::NAN;
+                }
+            }
+            new
+        };
+        let missing = || vec![f64::NAN; n];
+        let velocity = vel
+            .as_deref()
+            .map_or_else(missing, |v| joint_velocity_magnitude_from(&tail, v, geo));
+        let mut vertical = vel
+            .as_deref()
+            .map_or_else(missing, |v| joint_vertical_velocity(&tail, v, geo));
+        moving_average(&mut vertical, geo.moving_average_len);
+        features.velocity_magnitude = keep_nan(velocity, &features.velocity_magnitude);
+        features.vertical_velocity = keep_nan(vertical, &features.vertical_velocity);
+        features.orientation_magnitude = segment_orientation_magnitude(&tail, site, geo);
+        features
     }
 
     /// Drops (sets to `NaN`) the signals the low-pass shapes (acceleration, velocity and their
@@ -708,6 +833,94 @@ mod tests {
         let short = ImuFeatures::from_parts(&imu, &sliced_lin[..10], &elevations, &geo, &kin);
         assert!(short.accel_magnitude.iter().all(|v| v.is_nan()));
         assert_eq!(short.orientation_magnitude, own.orientation_magnitude);
+    }
+
+    #[test]
+    fn anchored_features_keep_the_pads_filtering_and_anchor_the_window_models_at_its_start() {
+        let (imu, skel) = windows();
+        let geo = GeometricConfig::default();
+        let kin = KinematicConfig::default();
+        let elevations: Vec<[f64; 3]> = imu
+            .world_from_sensor
+            .iter()
+            .map(axis_elevations_rad)
+            .collect();
+        let lin = imu_linear_accel_world(&imu, &geo);
+        let anchor = 40;
+        let whole = ImuFeatures::from_parts(&imu, &lin, &elevations, &geo, &kin);
+        // Bit for bit (`NaN`s included).
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            format!(
+                "{:?}",
+                ImuFeatures::from_parts_anchored(&imu, &lin, &elevations, &geo, &kin, 0)
+            ),
+            format!("{whole:?}")
+        );
+        let padded = ImuFeatures::from_parts_anchored(&imu, &lin, &elevations, &geo, &kin, anchor);
+        let tail = imu.tail(anchor);
+        let own = ImuFeatures::from_parts(&tail, &lin[anchor..], &elevations[anchor..], &geo, &kin);
+        assert_eq!(padded.len(), imu.t_s.len() - anchor);
+        // Filtered and smoothed over the pad: the whole grid's values, sliced.
+        assert_eq!(
+            bits(&padded.accel_magnitude),
+            bits(&whole.accel_magnitude[anchor..])
+        );
+        assert_eq!(bits(&padded.swing), bits(&whole.swing[anchor..]));
+        assert_eq!(bits(&padded.turn_rate), bits(&whole.turn_rate[anchor..]));
+        // The tail's own moving average starts again, so its first values differ.
+        assert_ne!(own.accel_magnitude[0], padded.accel_magnitude[0]);
+        // Anchored at the window's first sample, from the pad's filtered acceleration.
+        assert_eq!(
+            bits(&padded.orientation_magnitude),
+            bits(&own.orientation_magnitude)
+        );
+        assert_eq!(
+            bits(&padded.velocity_magnitude),
+            bits(&own.velocity_magnitude)
+        );
+        assert_eq!(
+            bits(&padded.vertical_velocity),
+            bits(&own.vertical_velocity)
+        );
+        assert!(padded.orientation_magnitude[0].abs() < 1e-12);
+
+        let turn = body_turn_rate_signal(&skel, &kin);
+        let whole =
+            SegmentFeatures::with_turn_rate(&skel, Joint::LeftWrist, &geo, &kin, turn.clone());
+        let padded = SegmentFeatures::with_turn_rate_anchored(
+            &skel,
+            Joint::LeftWrist,
+            &geo,
+            &kin,
+            turn,
+            anchor,
+            (0, true),
+        );
+        let tail = SkeletonWindow {
+            camera: None,
+            track: None,
+            t_s: skel.t_s[anchor..].to_vec(),
+            joints_world_m: skel.joints_world_m[anchor..].to_vec(),
+        };
+        let own = SegmentFeatures::new(&tail, Joint::LeftWrist, &geo, &kin);
+        assert_eq!(
+            bits(&padded.accel_magnitude),
+            bits(&whole.accel_magnitude[anchor..])
+        );
+        assert_eq!(bits(&padded.elevation), bits(&whole.elevation[anchor..]));
+        assert_eq!(
+            bits(&padded.orientation_magnitude),
+            bits(&own.orientation_magnitude)
+        );
+        assert!(padded.orientation_magnitude[0].abs() < 1e-12);
+        // The velocities leak from 0 at the window's start, but their low-pass ran over the pad.
+        assert!(padded.velocity_magnitude.iter().all(|v| v.is_finite()));
+        assert_ne!(
+            padded.velocity_magnitude,
+            whole.velocity_magnitude[anchor..]
+        );
+        assert_ne!(padded.velocity_magnitude, own.velocity_magnitude);
     }
 
     #[test]

@@ -100,6 +100,24 @@ fn two_people_with_wrist_imus_are_named_after_the_first_windows() {
 }
 
 #[test]
+fn a_history_pad_changes_the_scores_and_still_names_both_people() {
+    let people = two_people();
+    let msgs = recording(&people, 20.0);
+    let plain = EngineConfig::default();
+    let padded = EngineConfig {
+        history_pad_s: 1.0,
+        ..plain
+    };
+    let (out_plain, _) = run_batch(&registry(&people), &msgs, &plain).unwrap();
+    let (out_padded, _) = run_batch(&registry(&people), &msgs, &padded).unwrap();
+    assert_eq!(out_padded.len(), num_skeletons(&msgs));
+    // The pad reaches the scores: some confidence differs.
+    assert_ne!(out_plain, out_padded);
+    let acc = accuracy(&people, &out_padded, 8.0);
+    assert!(acc > 0.95, "accuracy after the first windows {acc}");
+}
+
+#[test]
 fn an_imu_whose_first_sample_is_a_shock_still_names_its_wearer_after_the_first_windows() {
     // Each band's first reading is a 21 g knock (as a device switched on while being strapped
     // on may send): the orientation filter must not start from its direction.
@@ -1073,6 +1091,20 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             "warmup_sync_s",
             EngineConfig {
                 warmup_sync_s: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "history_pad_s",
+            EngineConfig {
+                history_pad_s: -1.0,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "history_pad_s",
+            EngineConfig {
+                history_pad_s: f64::NAN,
                 ..EngineConfig::default()
             },
         ),

@@ -71,6 +71,7 @@ impl Engine {
         let mut window = WindowScoring {
             start,
             end,
+            pad_ns: (self.config.history_pad_s * 1e9) as i64,
             min_span,
             sites,
             wants_heading,
@@ -96,12 +97,14 @@ impl Engine {
             if keys.is_empty() {
                 continue;
             }
-            // Every frame time of the camera in the window (any of its tracks).
+            // Every frame time of the camera in the window (any of its tracks), from the
+            // history pad on.
+            let pad_ns = window.pad_ns;
             let mut frame_times: Vec<i64> = keys
                 .iter()
                 .filter_map(|k| self.tracks.get(k))
                 .flat_map(|tr| {
-                    let (a, b) = sample_range(tr, start, end);
+                    let (a, b) = sample_range(tr, start - pad_ns, end);
                     tr.samples.range(a..b).map(|s| s.t)
                 })
                 .collect();
@@ -225,14 +228,17 @@ impl Engine {
             if b < a + 8 || covered_span(tr, start, end) < min_span {
                 continue;
             }
-            // The camera's frame times from the track's first sample in the window on; a
-            // frame the track missed is a gap (no joints). Tracks seen since before the
+            // The camera's frame times from the track's first sample in the window (or in
+            // the history pad before it) on; a frame the track missed is a gap (no joints). Tracks seen since before the
             // window share one grid, so an IMU's window and features are built once per
             // (grid, offset), and a track's once per site.
-            let first = tr.samples.get(a).map_or(start, |s| s.t);
+            let (pa, _) = sample_range(tr, start - window.pad_ns, end);
+            let first = tr.samples.get(pa).map_or(start, |s| s.t);
             let grid_from = frame_times.partition_point(|&t| t < first);
             let grid: Vec<i64> = frame_times.get(grid_from..).unwrap_or(&[]).to_vec();
-            let mut samples = tr.samples.range(a..b).peekable();
+            // Grid samples before the window (the history pad).
+            let anchor = grid.partition_point(|&t| t < start);
+            let mut samples = tr.samples.range(pa..b).peekable();
             let joints_world_m = grid
                 .iter()
                 .map(|&t| match samples.next_if(|s| s.t == t) {
@@ -240,12 +246,20 @@ impl Engine {
                     None => Joints::new(),
                 })
                 .collect();
-            let skel = SkeletonWindow {
+            let padded = SkeletonWindow {
                 camera: None,
                 track: Some(key.1),
                 t_s: grid.iter().map(|&t| t as f64 * 1e-9).collect(),
                 joints_world_m,
             };
+            // The window's part, for the models that do not use the pad.
+            let tail = (anchor > 0).then(|| SkeletonWindow {
+                camera: None,
+                track: Some(key.1),
+                t_s: padded.t_s.get(anchor..).unwrap_or(&[]).to_vec(),
+                joints_world_m: padded.joints_world_m.get(anchor..).unwrap_or(&[]).to_vec(),
+            });
+            let skel = tail.as_ref().unwrap_or(&padded);
             let mut index_of = |grid: &[i64]| match grids.iter().position(|g| g == grid) {
                 Some(g) => g,
                 None => {
@@ -310,17 +324,24 @@ impl Engine {
                             .map(|v| v.unwrap_or([f64::NAN; 3]))
                             .collect()
                     };
-                    let features = ImuFeatures::from_parts(
+                    let features = ImuFeatures::from_parts_anchored(
                         &win,
                         base.lin_world_mps2.get(grid_from..).unwrap_or(&[]),
                         &terms(&imu.axis_elevation_rad),
                         &self.config.geometric,
                         &self.config.kinematic,
+                        anchor,
                     );
+                    let win = if anchor == 0 {
+                        win
+                    } else {
+                        Rc::new(win.tail(anchor))
+                    };
                     let band = imu.wants_band_pitch.then(|| {
+                        let pitches = terms(&imu.axis_pitch_rad);
                         BandSignals::with_axis_pitches(
                             &win,
-                            &terms(&imu.axis_pitch_rad),
+                            pitches.get(anchor..).unwrap_or(&[]),
                             &self.config.belmonte,
                         )
                     });
@@ -345,17 +366,18 @@ impl Engine {
                     None => {
                         let turn = turn_rate
                             .get_or_insert_with(|| {
-                                body_turn_rate_signal(&skel, &self.config.kinematic)
+                                body_turn_rate_signal(&padded, &self.config.kinematic)
                             })
                             .clone();
-                        let mut features = SegmentFeatures::with_turn_rate(
-                            &skel,
+                        let features = SegmentFeatures::with_turn_rate_anchored(
+                            &padded,
                             imu.site,
                             &self.config.geometric,
                             &self.config.kinematic,
                             turn,
+                            anchor,
+                            (run_edge_samples, grid_from == 0),
                         );
-                        features.drop_run_edges(run_edge_samples, grid_from == 0);
                         let units = features.units();
                         segments.push((imu.site, features, units));
                         segments.len() - 1
@@ -435,7 +457,7 @@ impl Engine {
                     heading_updates.push((i, [c.re / c.norm(), c.im / c.norm()]));
                 }
                 if let Some(scorer) = &self.pair_scorer {
-                    scores.dl = scorer.score(imu_win, &skel, imu.site);
+                    scores.dl = scorer.score(imu_win, skel, imu.site);
                 }
                 if let (Some(band), Some(side)) = (&cached.band, band_side(imu.site)) {
                     let arm = match arms.iter().position(|(s, _)| *s == side) {
@@ -443,7 +465,7 @@ impl Engine {
                         None => {
                             arms.push((
                                 side,
-                                ForearmSignals::new(&skel, side, &self.config.belmonte),
+                                ForearmSignals::new(skel, side, &self.config.belmonte),
                             ));
                             arms.len() - 1
                         }
@@ -535,6 +557,8 @@ impl Engine {
 struct WindowScoring {
     start: i64,
     end: i64,
+    /// How far before `start` the filtered signals start (`EngineConfig::history_pad_s`).
+    pad_ns: i64,
     /// Shortest span of the window a track must cover to be scored.
     min_span: i64,
     /// The IMUs' sites, sorted, once each: the tensor's columns per subject.
