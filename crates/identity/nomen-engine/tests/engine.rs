@@ -10,7 +10,9 @@ use nomen_core::{
     CameraId, DeviceId, Identity, ImuSample, JointObservation, Message, Registry, RigidTransform,
     SessionTime, SkeletonObservation, TrackId,
 };
-use nomen_engine::{Engine, EngineConfig, EngineError, EngineStats, ModelWeights, run_batch};
+use nomen_engine::{
+    Engine, EngineConfig, EngineError, EngineStats, GeometricConfig, ModelWeights, run_batch,
+};
 use nomen_filters::kalman::ConstantVelocityConfig;
 
 /// How far an estimated clock offset may lie from the truth, s. The joints' causal Kalman filter
@@ -100,7 +102,7 @@ fn two_people_with_wrist_imus_are_named_after_the_first_windows() {
 }
 
 #[test]
-fn a_history_pad_changes_the_scores_and_still_names_both_people() {
+fn a_history_pad_and_a_causal_lowpass_change_the_scores_and_still_name_both_people() {
     let people = two_people();
     let msgs = recording(&people, 20.0);
     let plain = EngineConfig::default();
@@ -115,6 +117,18 @@ fn a_history_pad_changes_the_scores_and_still_names_both_people() {
     assert_ne!(out_plain, out_padded);
     let acc = accuracy(&people, &out_padded, 8.0);
     assert!(acc > 0.95, "accuracy after the first windows {acc}");
+    // With a causal low-pass as well (what features built once per sample would use).
+    let causal = EngineConfig {
+        geometric: GeometricConfig {
+            zero_phase: false,
+            ..padded.geometric
+        },
+        ..padded
+    };
+    let (out_causal, _) = run_batch(&registry(&people), &msgs, &causal).unwrap();
+    assert_ne!(out_causal, out_padded);
+    let acc = accuracy(&people, &out_causal, 8.0);
+    assert!(acc > 0.95, "accuracy after the first windows, causal {acc}");
 }
 
 #[test]
