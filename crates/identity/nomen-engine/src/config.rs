@@ -242,10 +242,11 @@ pub struct EngineConfig {
     /// window's signals are those a filter run once per sample would give, so they could be
     /// computed once and sliced per window, leaving per window only the anchored models (cheap
     /// to finish from per-sample orientations and integrals) and the low-pass's backward pass.
-    /// At 1 s, against 0 (one run of each of 184 scenes): Belmonte's man without a band
-    /// anonymous in 99.67 % of his frames instead of 99.51 % (seeds 1–144), accuracy per
-    /// episode +0.16 ± 0.09 points; 5 people full network −0.02 ± 0.08, 8 people 0.00 ± 0.02
-    /// (seeds 1–15), 8 people one wrist +0.14 ± 0.06 (seeds 1–10). Computed as here, the pad
+    /// At 1 s, against 0 (one run of each scene, paired, points per run): Belmonte's man
+    /// without a band anonymous in 99.67 % of his frames instead of 99.51 % (seeds 1–144),
+    /// accuracy per episode +0.16 ± 0.09; 8 people full network −0.01 ± 0.02 (99.32 → 99.30 %,
+    /// seeds 1–27), one wrist +0.05 ± 0.04 (98.63 → 98.68 %, seeds 1–33); 5 people one wrist
+    /// +0.17 ± 0.32 (seeds 1–10); 2 to 5 people full network within 0.03. Computed as here, the pad
     /// filtered again at every window, it costs about 40 % more engine time (8 people full
     /// network, every offset known), so it is off.
     pub history_pad_s: f64,
