@@ -305,21 +305,7 @@ impl SegmentFeatures {
         if anchor == 0 {
             return features;
         }
-        let [hx, hy] = &mut features.horizontal_accel;
-        for v in [
-            &mut features.accel_magnitude,
-            &mut features.velocity_magnitude,
-            &mut features.orientation_magnitude,
-            &mut features.swing,
-            &mut features.vertical_accel,
-            &mut features.vertical_velocity,
-            &mut features.elevation,
-            &mut features.turn_rate,
-            hx,
-            hy,
-        ] {
-            v.drain(..anchor.min(v.len()));
-        }
+        features.drop_front(anchor);
         let tail = SkeletonWindow {
             camera: skel.camera.clone(),
             track: skel.track,
@@ -351,6 +337,25 @@ impl SegmentFeatures {
         features.vertical_velocity = keep_nan(vertical, &features.vertical_velocity);
         features.orientation_magnitude = segment_orientation_magnitude(&tail, site, geo);
         features
+    }
+
+    /// Drops the first `k` grid samples of every signal.
+    pub fn drop_front(&mut self, k: usize) {
+        let [hx, hy] = &mut self.horizontal_accel;
+        for v in [
+            &mut self.accel_magnitude,
+            &mut self.velocity_magnitude,
+            &mut self.orientation_magnitude,
+            &mut self.swing,
+            &mut self.vertical_accel,
+            &mut self.vertical_velocity,
+            &mut self.elevation,
+            &mut self.turn_rate,
+            hx,
+            hy,
+        ] {
+            v.drain(..k.min(v.len()));
+        }
     }
 
     /// Drops (sets to `NaN`) the signals the low-pass shapes (acceleration, velocity and their
@@ -788,16 +793,20 @@ mod tests {
         (imu, skel)
     }
 
+    /// Each orientation's [`axis_elevations_rad`], in order.
+    fn axis_elevations_of(imu: &ImuWindow) -> Vec<[f64; 3]> {
+        imu.world_from_sensor
+            .iter()
+            .map(axis_elevations_rad)
+            .collect()
+    }
+
     #[test]
     fn features_from_a_windows_sliced_acceleration_differ_from_its_own_only_near_its_start() {
         let (imu, _) = windows();
         let geo = GeometricConfig::default();
         let kin = KinematicConfig::default();
-        let elevations: Vec<[f64; 3]> = imu
-            .world_from_sensor
-            .iter()
-            .map(axis_elevations_rad)
-            .collect();
+        let elevations = axis_elevations_of(&imu);
         // A window's own parts give `new`'s features.
         let own = ImuFeatures::from_parts(
             &imu,
@@ -840,11 +849,7 @@ mod tests {
         let (imu, skel) = windows();
         let geo = GeometricConfig::default();
         let kin = KinematicConfig::default();
-        let elevations: Vec<[f64; 3]> = imu
-            .world_from_sensor
-            .iter()
-            .map(axis_elevations_rad)
-            .collect();
+        let elevations = axis_elevations_of(&imu);
         let lin = imu_linear_accel_world(&imu, &geo);
         let anchor = 40;
         let whole = ImuFeatures::from_parts(&imu, &lin, &elevations, &geo, &kin);
