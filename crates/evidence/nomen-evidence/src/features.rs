@@ -244,14 +244,36 @@ impl SegmentFeatures {
         kin: &KinematicConfig,
         turn_rate: Vec<f64>,
     ) -> Self {
+        let acc = filtered_joint_derivative(skel, site, Derivative::Acceleration, geo);
+        let vel = filtered_joint_derivative(skel, site, Derivative::Velocity, geo);
+        Self::from_derivatives(
+            skel,
+            site,
+            geo,
+            kin,
+            turn_rate,
+            acc.as_deref(),
+            vel.as_deref(),
+        )
+    }
+
+    /// [`SegmentFeatures::with_turn_rate`] from the joint's low-passed acceleration and velocity
+    /// on the same grid (`None` where they could not be built).
+    fn from_derivatives(
+        skel: &SkeletonWindow,
+        site: Joint,
+        geo: &GeometricConfig,
+        kin: &KinematicConfig,
+        turn_rate: Vec<f64>,
+        acc: Option<&[Vector3<f64>]>,
+        vel: Option<&[Vector3<f64>]>,
+    ) -> Self {
         let n = skel.t_s.len();
         let smooth = |mut v: Vec<f64>| {
             moving_average(&mut v, geo.moving_average_len);
             v
         };
         let missing = || vec![f64::NAN; n];
-        let acc = filtered_joint_derivative(skel, site, Derivative::Acceleration, geo);
-        let vel = filtered_joint_derivative(skel, site, Derivative::Velocity, geo);
         let (from, to) = carrying_segment(site);
         let elevation = joint_positions(skel, to)
             .iter()
@@ -260,25 +282,21 @@ impl SegmentFeatures {
             .collect();
         // One world axis of the joint's acceleration, smoothed.
         let accel_axis = |axis: usize| {
-            smooth(acc.as_deref().map_or_else(missing, |a| {
+            smooth(acc.map_or_else(missing, |a| {
                 a.iter()
                     .map(|a| a.get(axis).copied().unwrap_or(f64::NAN))
                     .collect()
             }))
         };
         SegmentFeatures {
-            accel_magnitude: acc
-                .as_deref()
-                .map_or_else(missing, |a| smoothed_norms(a, geo)),
+            accel_magnitude: acc.map_or_else(missing, |a| smoothed_norms(a, geo)),
             velocity_magnitude: vel
-                .as_deref()
                 .map_or_else(missing, |v| joint_velocity_magnitude_from(skel, v, geo)),
             orientation_magnitude: segment_orientation_magnitude(skel, site, geo),
             swing: smooth(segment_swing(skel, site, lag_samples(&skel.t_s, kin))),
             vertical_accel: accel_axis(2),
             vertical_velocity: smooth(
-                vel.as_deref()
-                    .map_or_else(missing, |v| joint_vertical_velocity(skel, v, geo)),
+                vel.map_or_else(missing, |v| joint_vertical_velocity(skel, v, geo)),
             ),
             elevation: smooth(elevation),
             turn_rate,
@@ -300,21 +318,28 @@ impl SegmentFeatures {
         anchor: usize,
         run_edges: (usize, bool),
     ) -> Self {
-        let mut features = Self::with_turn_rate(skel, site, geo, kin, turn_rate);
+        let acc = filtered_joint_derivative(skel, site, Derivative::Acceleration, geo);
+        let vel = filtered_joint_derivative(skel, site, Derivative::Velocity, geo);
+        let mut features = Self::from_derivatives(
+            skel,
+            site,
+            geo,
+            kin,
+            turn_rate,
+            acc.as_deref(),
+            vel.as_deref(),
+        );
         features.drop_run_edges(run_edges.0, run_edges.1);
         if anchor == 0 {
             return features;
         }
         features.drop_front(anchor);
-        let tail = SkeletonWindow {
-            camera: skel.camera.clone(),
-            track: skel.track,
-            t_s: skel.t_s.get(anchor..).unwrap_or(&[]).to_vec(),
-            joints_world_m: skel.joints_world_m.get(anchor..).unwrap_or(&[]).to_vec(),
-        };
+        let tail = skel.tail(anchor);
         let n = tail.t_s.len();
-        let vel = filtered_joint_derivative(skel, site, Derivative::Velocity, geo)
-            .and_then(|v| v.get(anchor..).map(<[_]>::to_vec))
+        // The velocity low-passed over the pad, the window's part.
+        let vel = vel
+            .as_deref()
+            .and_then(|v| v.get(anchor..))
             .filter(|v| v.len() == n);
         // The anchored signals keep the NaNs the run edges put on the velocity-shaped ones.
         let keep_nan = |mut new: Vec<f64>, old: &[f64]| {
@@ -326,12 +351,8 @@ impl SegmentFeatures {
             new
         };
         let missing = || vec![f64::NAN; n];
-        let velocity = vel
-            .as_deref()
-            .map_or_else(missing, |v| joint_velocity_magnitude_from(&tail, v, geo));
-        let mut vertical = vel
-            .as_deref()
-            .map_or_else(missing, |v| joint_vertical_velocity(&tail, v, geo));
+        let velocity = vel.map_or_else(missing, |v| joint_velocity_magnitude_from(&tail, v, geo));
+        let mut vertical = vel.map_or_else(missing, |v| joint_vertical_velocity(&tail, v, geo));
         moving_average(&mut vertical, geo.moving_average_len);
         features.velocity_magnitude = keep_nan(velocity, &features.velocity_magnitude);
         features.vertical_velocity = keep_nan(vertical, &features.vertical_velocity);
@@ -902,13 +923,7 @@ mod tests {
             anchor,
             (0, true),
         );
-        let tail = SkeletonWindow {
-            camera: None,
-            track: None,
-            t_s: skel.t_s[anchor..].to_vec(),
-            joints_world_m: skel.joints_world_m[anchor..].to_vec(),
-        };
-        let own = SegmentFeatures::new(&tail, Joint::LeftWrist, &geo, &kin);
+        let own = SegmentFeatures::new(&skel.tail(anchor), Joint::LeftWrist, &geo, &kin);
         assert_eq!(
             bits(&padded.accel_magnitude),
             bits(&whole.accel_magnitude[anchor..])

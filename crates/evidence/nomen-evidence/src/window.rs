@@ -19,12 +19,14 @@ pub struct ImuWindow {
     pub world_from_sensor: Vec<UnitQuaternion<f64>>,
 }
 
+/// `v` from index `from` on, copied (empty past the end).
+fn tail<T: Clone>(v: &[T], from: usize) -> Vec<T> {
+    v.get(from..).unwrap_or(&[]).to_vec()
+}
+
 impl ImuWindow {
     /// The window from grid point `from` on (empty past the end).
     pub fn tail(&self, from: usize) -> ImuWindow {
-        fn tail<T: Clone>(v: &[T], from: usize) -> Vec<T> {
-            v.get(from..).unwrap_or(&[]).to_vec()
-        }
         ImuWindow {
             device: self.device.clone(),
             t_s: tail(&self.t_s, from),
@@ -47,6 +49,18 @@ pub struct SkeletonWindow {
     /// Joint positions in the world frame per grid time (filtered by the engine); a joint absent
     /// at a time is missing there.
     pub joints_world_m: Vec<Joints<Point3<f64>>>,
+}
+
+impl SkeletonWindow {
+    /// The window from grid point `from` on (empty past the end).
+    pub fn tail(&self, from: usize) -> SkeletonWindow {
+        SkeletonWindow {
+            camera: self.camera.clone(),
+            track: self.track,
+            t_s: tail(&self.t_s, from),
+            joints_world_m: tail(&self.joints_world_m, from),
+        }
+    }
 }
 
 /// Per-model similarity for one (IMU, skeleton joint) pair, all on the correlation scale

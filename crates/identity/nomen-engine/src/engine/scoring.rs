@@ -229,9 +229,9 @@ impl Engine {
                 continue;
             }
             // The camera's frame times from the track's first sample in the window (or in
-            // the history pad before it) on; a frame the track missed is a gap (no joints). Tracks seen since before the
-            // window share one grid, so an IMU's window and features are built once per
-            // (grid, offset), and a track's once per site.
+            // the history pad before it) on; a frame the track missed is a gap (no joints).
+            // Tracks seen since before the window share one grid, so an IMU's window and
+            // features are built once per (grid, offset), and a track's once per site.
             let (pa, _) = sample_range(tr, start - window.pad_ns, end);
             let first = tr.samples.get(pa).map_or(start, |s| s.t);
             let grid_from = frame_times.partition_point(|&t| t < first);
@@ -253,12 +253,7 @@ impl Engine {
                 joints_world_m,
             };
             // The window's part, for the models that do not use the pad.
-            let tail = (anchor > 0).then(|| SkeletonWindow {
-                camera: None,
-                track: Some(key.1),
-                t_s: padded.t_s.get(anchor..).unwrap_or(&[]).to_vec(),
-                joints_world_m: padded.joints_world_m.get(anchor..).unwrap_or(&[]).to_vec(),
-            });
+            let tail = (anchor > 0).then(|| padded.tail(anchor));
             let skel = tail.as_ref().unwrap_or(&padded);
             let mut index_of = |grid: &[i64]| match grids.iter().position(|g| g == grid) {
                 Some(g) => g,
