@@ -129,6 +129,19 @@ fn a_history_pad_and_a_causal_lowpass_change_the_scores_and_still_name_both_peop
     assert_ne!(out_causal, out_padded);
     let acc = accuracy(&people, &out_causal, 8.0);
     assert!(acc > 0.95, "accuracy after the first windows, causal {acc}");
+    // A pad longer than the session (finite, so accepted) reaches back to the first sample: the
+    // same as a pad of the whole session, no overflow.
+    let huge = EngineConfig {
+        history_pad_s: 1e300,
+        ..plain
+    };
+    let whole = EngineConfig {
+        history_pad_s: 100.0,
+        ..plain
+    };
+    let (out_huge, _) = run_batch(&registry(&people), &msgs, &huge).unwrap();
+    let (out_whole, _) = run_batch(&registry(&people), &msgs, &whole).unwrap();
+    assert_eq!(out_huge, out_whole);
 }
 
 #[test]

@@ -104,7 +104,7 @@ impl Engine {
                 .iter()
                 .filter_map(|k| self.tracks.get(k))
                 .flat_map(|tr| {
-                    let (a, b) = sample_range(tr, start - pad_ns, end);
+                    let (a, b) = sample_range(tr, start.saturating_sub(pad_ns), end);
                     tr.samples.range(a..b).map(|s| s.t)
                 })
                 .collect();
@@ -232,7 +232,7 @@ impl Engine {
             // the history pad before it) on; a frame the track missed is a gap (no joints).
             // Tracks seen since before the window share one grid, so an IMU's window and
             // features are built once per (grid, offset), and a track's once per site.
-            let (pa, _) = sample_range(tr, start - window.pad_ns, end);
+            let (pa, _) = sample_range(tr, start.saturating_sub(window.pad_ns), end);
             let first = tr.samples.get(pa).map_or(start, |s| s.t);
             let grid_from = frame_times.partition_point(|&t| t < first);
             let grid: Vec<i64> = frame_times.get(grid_from..).unwrap_or(&[]).to_vec();
