@@ -28,15 +28,15 @@ fn report() -> EvalReport {
         |k: u32, track: u64, person: &str, subject: Option<&str>, label: Option<&str>| {
             let mut joints = Joints::new();
             joints.insert(Joint::Pelvis, Point3::new(track as f64, 0.0, 1.0));
-            truth.push(Message::TruthSkeleton(TruthSkeleton {
+            truth.push(Message::TruthSkeleton(Box::new(TruthSkeleton {
                 t: t(k),
                 camera: CameraId::new("cam"),
                 track: TrackId(track),
                 person: person.into(),
                 subject: subject.map(SubjectId::new),
                 joints_world_m: joints,
-            }));
-            result.push(Message::Identified(IdentifiedSkeleton {
+            })));
+            result.push(Message::Identified(Box::new(IdentifiedSkeleton {
                 t: t(k),
                 camera: CameraId::new("cam"),
                 track: TrackId(track),
@@ -46,7 +46,7 @@ fn report() -> EvalReport {
                 confidence: 1.0,
                 evidence: vec![],
                 joints: Joints::new(),
-            }));
+            })));
         };
     for k in 0..300 {
         let swapped = k >= 200;

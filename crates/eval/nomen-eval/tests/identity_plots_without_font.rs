@@ -15,15 +15,15 @@ fn plots_without_a_font_are_still_png() {
     let (mut truth, mut result) = (Vec::new(), Vec::new());
     for k in 0..20 {
         let t = SessionTime(k * 33_333_333);
-        truth.push(Message::TruthSkeleton(TruthSkeleton {
+        truth.push(Message::TruthSkeleton(Box::new(TruthSkeleton {
             t,
             camera: CameraId::new("cam"),
             track: TrackId(1),
             person: "ana".into(),
             subject: Some(SubjectId::new("ana")),
             joints_world_m: Joints::new(),
-        }));
-        result.push(Message::Identified(IdentifiedSkeleton {
+        })));
+        result.push(Message::Identified(Box::new(IdentifiedSkeleton {
             t,
             camera: CameraId::new("cam"),
             track: TrackId(1),
@@ -35,7 +35,7 @@ fn plots_without_a_font_are_still_png() {
             confidence: 1.0,
             evidence: vec![],
             joints: Joints::new(),
-        }));
+        })));
     }
     let scene = SceneData::from_messages("s", &truth, &result);
     let report = evaluate(&[scene], &EvalConfig::default()).unwrap();

@@ -22,18 +22,18 @@ fn frame_t(k: u32) -> SessionTime {
 fn truth(k: u32, track: u64, person: &str, subject: Option<&str>, x_m: f64) -> Message {
     let mut joints = Joints::new();
     joints.insert(Joint::Pelvis, Point3::new(x_m, 0.0, 1.0));
-    Message::TruthSkeleton(TruthSkeleton {
+    Message::TruthSkeleton(Box::new(TruthSkeleton {
         t: frame_t(k),
         camera: CameraId::new("cam"),
         track: TrackId(track),
         person: person.into(),
         subject: subject.map(SubjectId::new),
         joints_world_m: joints,
-    })
+    }))
 }
 
 fn label(k: u32, track: u64, subject: Option<&str>) -> Message {
-    Message::Identified(IdentifiedSkeleton {
+    Message::Identified(Box::new(IdentifiedSkeleton {
         t: frame_t(k),
         camera: CameraId::new("cam"),
         track: TrackId(track),
@@ -43,7 +43,7 @@ fn label(k: u32, track: u64, subject: Option<&str>) -> Message {
         confidence: 0.9,
         evidence: vec![],
         joints: Joints::new(),
-    })
+    }))
 }
 
 fn run(truth: &[Message], result: &[Message], config: &EvalConfig) -> EvalReport {

@@ -106,12 +106,12 @@ fn main() {
         for k in 0..NUM_PEOPLE {
             let mut joints = Joints::new();
             joints.insert(Joint::Pelvis, JointObservation::tracked(pos(k, t)));
-            msgs.push(Message::Skeleton(SkeletonObservation {
+            msgs.push(Message::Skeleton(Box::new(SkeletonObservation {
                 t: SessionTime::from_secs_f64(t).unwrap(),
                 camera: CameraId::new("cam"),
                 track: TrackId(k as u64),
                 joints,
-            }));
+            })));
         }
     }
     let duration_s = NUM_FRAMES as f64 / FPS_HZ;

@@ -212,7 +212,7 @@ impl Llorca {
                 self.pending
                     .entry((s.t, s.camera.clone()))
                     .or_default()
-                    .push(s.clone());
+                    .push(SkeletonObservation::clone(s));
             }
             Message::Rssi(r) => {
                 self.check_order(r.t, || format!("rssi read of tag {}", r.tag))?;
@@ -478,7 +478,7 @@ impl Llorca {
                 }
             };
             self.stats.num_skeletons += 1;
-            out.push(Message::Identified(IdentifiedSkeleton {
+            out.push(Message::Identified(Box::new(IdentifiedSkeleton {
                 t,
                 camera: camera.clone(),
                 track: s.track,
@@ -486,7 +486,7 @@ impl Llorca {
                 confidence,
                 evidence,
                 joints: Default::default(),
-            }));
+            })));
         }
     }
 }

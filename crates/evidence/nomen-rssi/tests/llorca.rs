@@ -74,12 +74,12 @@ fn position(k: usize, t_s: f64) -> Point3<f64> {
 fn skeleton(t_s: f64, track: u64, pelvis: Point3<f64>) -> Message {
     let mut joints = Joints::new();
     joints.insert(Joint::Pelvis, JointObservation::tracked(pelvis));
-    Message::Skeleton(SkeletonObservation {
+    Message::Skeleton(Box::new(SkeletonObservation {
         t: SessionTime::from_secs_f64(t_s).unwrap(),
         camera: CameraId::new("cam"),
         track: TrackId(track),
         joints,
-    })
+    }))
 }
 
 struct SceneSpec {

@@ -503,7 +503,7 @@ impl Baptizo {
                     .entry(s.camera.clone())
                     .or_insert_with(|| (s.t, Vec::new()))
                     .1
-                    .push(s.clone());
+                    .push(SkeletonObservation::clone(s));
             }
             Message::RtlsFix(f) => {
                 if let Some(c) = self.push_fix(f)? {
@@ -535,7 +535,7 @@ impl Baptizo {
     fn flush_camera(&mut self, camera: &CameraId, out: &mut Vec<Message>) {
         if let Some((t, frame)) = self.pending.remove(camera) {
             for d in self.push_frame(camera, t, &frame) {
-                out.push(Message::Identified(d));
+                out.push(Message::Identified(Box::new(d)));
             }
         }
     }

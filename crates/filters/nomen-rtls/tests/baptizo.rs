@@ -104,7 +104,7 @@ fn scene(
     while t < end {
         for (k, track) in people {
             if let Some(id) = track(t) {
-                out.push(Message::Skeleton(skeleton(t, id, wrist(*k, t))));
+                out.push(Message::Skeleton(Box::new(skeleton(t, id, wrist(*k, t)))));
             }
         }
         t += FRAME_NS;

@@ -1182,15 +1182,16 @@ impl Engine {
                 self.stats.num_identified += 1;
             }
             self.stats.num_decisions += 1;
-            self.ready.push(Message::Identified(IdentifiedSkeleton {
-                t: SessionTime::from_ns(t),
-                camera,
-                track,
-                identity,
-                confidence,
-                evidence,
-                joints: Joints::new(),
-            }));
+            self.ready
+                .push(Message::Identified(Box::new(IdentifiedSkeleton {
+                    t: SessionTime::from_ns(t),
+                    camera,
+                    track,
+                    identity,
+                    confidence,
+                    evidence,
+                    joints: Joints::new(),
+                })));
         }
     }
 

@@ -1197,12 +1197,12 @@ fn with_second_camera(people: &[Person], msgs: &[Message]) -> (Registry, Vec<Mes
             Some("ana") => TrackId(1000 + (s.t.as_secs_f64() / 0.9) as u64),
             _ => TrackId(100 + s.track.0),
         };
-        out.push(Message::Skeleton(SkeletonObservation {
+        out.push(Message::Skeleton(Box::new(SkeletonObservation {
             t: s.t,
             camera: CameraId::new("cam2"),
             track,
             joints,
-        }));
+        })));
     }
     (registry, out)
 }
@@ -1533,7 +1533,7 @@ fn a_new_track_continues_the_track_another_camera_saw_its_person_on() {
         .into_iter()
         .filter_map(|m| match m {
             Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => {
-                lost_and_relabelled(s, 10.0, 10.5).map(Message::Skeleton)
+                lost_and_relabelled(*s, 10.0, 10.5).map(Message::from)
             }
             // The second camera follows each person as one track.
             Message::Skeleton(mut s) => {
@@ -1606,7 +1606,7 @@ fn a_new_track_continues_the_walker_who_was_heading_where_it_appears() {
     let msgs: Vec<Message> = recording(&people, 16.0)
         .into_iter()
         .filter_map(|m| match m {
-            Message::Skeleton(s) => lost_and_relabelled(s, 10.0, 10.8).map(Message::Skeleton),
+            Message::Skeleton(s) => lost_and_relabelled(*s, 10.0, 10.8).map(Message::from),
             m => Some(m),
         })
         .collect();

@@ -134,12 +134,12 @@ fn recording(walkers: &[Walker], duration_s: f64) -> Vec<Message> {
             for j in joints {
                 obs.insert(j, JointObservation::tracked(w.joint(t, j)));
             }
-            msgs.push(Message::Skeleton(SkeletonObservation {
+            msgs.push(Message::Skeleton(Box::new(SkeletonObservation {
                 t: ns(t),
                 camera: CameraId::new(CAMERA),
                 track: w.track_at(t),
                 joints: obs,
-            }));
+            })));
         }
     }
     for (i, w) in walkers.iter().enumerate() {

@@ -106,12 +106,16 @@ pub struct TruthTag {
 }
 
 /// Every message nomen reads or writes, tagged by `type` in files.
-#[allow(clippy::large_enum_variant)]
+///
+/// The three variants that carry a whole skeleton (about 2.4 kB of joints each) are boxed, so a
+/// message is 160 bytes, not 2.5 kB: a recording held in memory (the simulator's, a sorted
+/// batch) and every move of a message (queues, output vectors) pay for what it holds. The
+/// boxes do not show in files.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum Message {
     /// A camera skeleton.
-    Skeleton(SkeletonObservation),
+    Skeleton(Box<SkeletonObservation>),
     /// An IMU sample.
     Imu(ImuSample),
     /// An RTLS position fix.
@@ -121,13 +125,31 @@ pub enum Message {
     /// An RSSI read.
     Rssi(RssiRead),
     /// Engine output: an identified skeleton.
-    Identified(IdentifiedSkeleton),
+    Identified(Box<IdentifiedSkeleton>),
     /// Engine output: a corrected tag position.
     TagCorrection(TagCorrection),
     /// Ground truth for a skeleton observation.
-    TruthSkeleton(TruthSkeleton),
+    TruthSkeleton(Box<TruthSkeleton>),
     /// Ground truth for a tag fix.
     TruthTag(TruthTag),
+}
+
+impl From<SkeletonObservation> for Message {
+    fn from(m: SkeletonObservation) -> Self {
+        Message::Skeleton(Box::new(m))
+    }
+}
+
+impl From<IdentifiedSkeleton> for Message {
+    fn from(m: IdentifiedSkeleton) -> Self {
+        Message::Identified(Box::new(m))
+    }
+}
+
+impl From<TruthSkeleton> for Message {
+    fn from(m: TruthSkeleton) -> Self {
+        Message::TruthSkeleton(Box::new(m))
+    }
 }
 
 impl Message {
@@ -209,6 +231,13 @@ mod tests {
     use nalgebra::Vector3;
 
     #[test]
+    fn a_message_stays_small_whatever_its_skeleton_holds() {
+        // The skeleton variants are boxed: an unboxed one made every message 2.5 kB.
+        assert!(std::mem::size_of::<Message>() <= 256);
+        assert!(std::mem::size_of::<SkeletonObservation>() > 1024);
+    }
+
+    #[test]
     fn messages_are_type_tagged_and_round_trip() {
         let mut joints = Joints::new();
         joints.insert(
@@ -216,12 +245,12 @@ mod tests {
             JointObservation::tracked(Point3::new(0.1, 0.2, 1.0)),
         );
         let msgs = vec![
-            Message::Skeleton(SkeletonObservation {
+            Message::Skeleton(Box::new(SkeletonObservation {
                 t: SessionTime(33_000_000),
                 camera: CameraId::new("kinect"),
                 track: TrackId(7),
                 joints,
-            }),
+            })),
             Message::Imu(ImuSample {
                 t: SessionTime(1),
                 device: DeviceId::new("band"),
@@ -230,7 +259,7 @@ mod tests {
                 mag_ut: None,
                 orientation_wxyz: None,
             }),
-            Message::Identified(IdentifiedSkeleton {
+            Message::Identified(Box::new(IdentifiedSkeleton {
                 t: SessionTime(2),
                 camera: CameraId::new("kinect"),
                 track: TrackId(7),
@@ -238,7 +267,7 @@ mod tests {
                 confidence: 0.5,
                 evidence: vec![],
                 joints: Joints::new(),
-            }),
+            })),
         ];
         for m in &msgs {
             let line = serde_json::to_string(m).unwrap();

@@ -210,8 +210,8 @@ pub fn simulate(
         let model = CameraModel::new(cam.clone())?;
         let mut rng = stream(seed, &format!("camera/{}", cam.id));
         let out = model.simulate(&people, &scenario.room.obstacles, 0.0, duration_s, &mut rng)?;
-        recording.extend(out.observations.into_iter().map(Message::Skeleton));
-        truth.extend(out.truths.into_iter().map(Message::TruthSkeleton));
+        recording.extend(out.observations.into_iter().map(Message::from));
+        truth.extend(out.truths.into_iter().map(Message::from));
         progress("cameras", (i + 1) as f64 / num_cameras as f64);
     }
 

@@ -67,12 +67,12 @@ fn main() -> Result<()> {
                     );
                     joints.insert(j, JointObservation::tracked(p));
                 }
-                writer.write(&Message::Skeleton(SkeletonObservation {
+                writer.write(&Message::Skeleton(Box::new(SkeletonObservation {
                     t,
                     camera: CameraId::new("kinect"),
                     track: TrackId(track),
                     joints,
-                }))?;
+                })))?;
                 num_messages += 1;
             }
         }

@@ -3,7 +3,7 @@
 use crate::check::{Checker, DEFAULT_GLOBAL_TOLERANCE_NS, IdCheck};
 use crate::error::{ErrorKind, Pos, RecordingError, Result, json_detail};
 use crate::header::Header;
-use nomen_core::Message;
+use nomen_core::{Message, SkeletonObservation};
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::fmt;
@@ -289,7 +289,9 @@ fn parse_leading_type(text: &[u8], scratch: &mut Vec<u8>) -> Option<Message> {
     if is_imu {
         serde_json::from_slice(scratch).ok().map(Message::Imu)
     } else {
-        serde_json::from_slice(scratch).ok().map(Message::Skeleton)
+        serde_json::from_slice::<SkeletonObservation>(scratch)
+            .ok()
+            .map(Message::from)
     }
 }
 

@@ -168,7 +168,7 @@ fn anonymous_baseline(recording: &Path, truth: &Path, result_path: &Path) -> Res
     let mut result = Vec::new();
     for m in reader {
         if let Message::Skeleton(s) = m? {
-            result.push(Message::Identified(IdentifiedSkeleton {
+            result.push(Message::Identified(Box::new(IdentifiedSkeleton {
                 t: s.t,
                 camera: s.camera,
                 track: s.track,
@@ -176,7 +176,7 @@ fn anonymous_baseline(recording: &Path, truth: &Path, result_path: &Path) -> Res
                 confidence: 1.0,
                 evidence: Vec::new(),
                 joints: Default::default(),
-            }));
+            })));
         }
     }
     write_recording(

@@ -91,16 +91,16 @@ pub fn convert_files(args: &ConvertArgs) -> Result<(String, Vec<MocapClip>)> {
         let person = person_name(path);
         let obs = clip.to_skeletons(camera.clone(), track, SessionTime::ZERO);
         for o in &obs {
-            truth.push(Message::TruthSkeleton(TruthSkeleton {
+            truth.push(Message::TruthSkeleton(Box::new(TruthSkeleton {
                 t: o.t,
                 camera: o.camera.clone(),
                 track: o.track,
                 person: person.clone(),
                 subject: None,
                 joints_world_m: o.joints.map(|_, j| j.position_m),
-            }));
+            })));
         }
-        skeletons.extend(obs.into_iter().map(Message::Skeleton));
+        skeletons.extend(obs.into_iter().map(Message::from));
         summary.push_str(&format!(
             "{}: {} frames at {} Hz ({:.2} s), scale {}, variant {:?} → track {}\n",
             path.display(),

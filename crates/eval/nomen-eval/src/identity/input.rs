@@ -215,14 +215,14 @@ mod tests {
     #[test]
     fn messages_are_routed_by_type_and_others_are_counted() {
         let truth = [
-            Message::TruthSkeleton(TruthSkeleton {
+            Message::TruthSkeleton(Box::new(TruthSkeleton {
                 t: SessionTime(0),
                 camera: CameraId::new("cam"),
                 track: TrackId(1),
                 person: "p".into(),
                 subject: None,
                 joints_world_m: Joints::new(),
-            }),
+            })),
             Message::TruthTag(TruthTag {
                 t: SessionTime(0),
                 tag: TagId::new("tag"),

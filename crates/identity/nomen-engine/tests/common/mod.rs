@@ -193,12 +193,12 @@ pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
             put(Joint::LeftWrist, p.wrist(t, 1.0));
             put(Joint::RightElbow, p.elbow(t, -1.0));
             put(Joint::RightWrist, p.wrist(t, -1.0));
-            msgs.push(Message::Skeleton(SkeletonObservation {
+            msgs.push(Message::Skeleton(Box::new(SkeletonObservation {
                 t: ns(t),
                 camera: CameraId::new(CAMERA),
                 track: p.track_at(t),
                 joints,
-            }));
+            })));
         }
     }
     for p in people {

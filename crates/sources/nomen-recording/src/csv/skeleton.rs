@@ -346,12 +346,12 @@ fn import_joint_rows<R: Read>(
             (None, _) => false,
         };
         if is_new && let Some(((t, camera, track), start)) = current.take() {
-            let msg = Message::Skeleton(SkeletonObservation {
+            let msg = Message::Skeleton(Box::new(SkeletonObservation {
                 t,
                 camera: CameraId::new(camera),
                 track: TrackId(track),
                 joints: joints.take(),
-            });
+            }));
             csv.check(&msg, start)?;
             out.push(msg);
         }
@@ -459,12 +459,12 @@ fn import_skeleton_rows<R: Read>(
         if joints.is_empty() {
             continue;
         }
-        let msg = Message::Skeleton(SkeletonObservation {
+        let msg = Message::Skeleton(Box::new(SkeletonObservation {
             t,
             camera: CameraId::new(camera),
             track: TrackId(track),
             joints: joints.take(),
-        });
+        }));
         csv.check(&msg, line)?;
         out.push(msg);
     }

@@ -88,12 +88,12 @@ pub fn skeleton(t_ns: i64, track: u64) -> Message {
             covariance_m2: None,
         },
     );
-    Message::Skeleton(SkeletonObservation {
+    Message::Skeleton(Box::new(SkeletonObservation {
         t: SessionTime(t_ns),
         camera: CameraId::new("kinect"),
         track: TrackId(track),
         joints,
-    })
+    }))
 }
 
 pub fn fix(t_ns: i64, tag: &str) -> Message {
@@ -137,7 +137,7 @@ pub fn every_kind() -> Vec<Message> {
         fix(20_000_000, "tag1"),
         range(20_000_000, "a1"),
         rssi(20_000_000, "ant1", -61.5),
-        Message::Identified(IdentifiedSkeleton {
+        Message::Identified(Box::new(IdentifiedSkeleton {
             t: SessionTime(33_000_000),
             camera: CameraId::new("kinect"),
             track: TrackId(1),
@@ -149,21 +149,21 @@ pub fn every_kind() -> Vec<Message> {
                 score: 0.81,
             }],
             joints: Joints::new(),
-        }),
+        })),
         Message::TagCorrection(TagCorrection {
             t: SessionTime(20_000_000),
             tag: TagId::new("tag1"),
             raw_position_m: Point3::new(1.0, 2.0, 1.3),
             corrected_position_m: Point3::new(1.05, 1.98, 1.31),
         }),
-        Message::TruthSkeleton(TruthSkeleton {
+        Message::TruthSkeleton(Box::new(TruthSkeleton {
             t: SessionTime(33_000_000),
             camera: CameraId::new("kinect"),
             track: TrackId(2),
             person: "visitor-1".into(),
             subject: None,
             joints_world_m: Joints::new(),
-        }),
+        })),
         Message::TruthTag(TruthTag {
             t: SessionTime(20_000_000),
             tag: TagId::new("tag1"),
