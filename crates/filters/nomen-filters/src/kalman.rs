@@ -417,7 +417,6 @@ impl JointKalman {
 /// and the posterior after the step's measurement, if any.
 #[derive(Debug, Clone, Copy)]
 struct SmootherStep {
-    t: SessionTime,
     prior: [Axis; 3],
     posterior: [Axis; 3],
     /// Per axis, the RTS gain `C = P Fᵀ (P⁻)⁻¹` from this step to the next (`None` until the
@@ -444,6 +443,13 @@ pub struct JointSmoother {
     filter: JointKalman,
     lag_ns: i64,
     history: VecDeque<SmootherStep>,
+    /// The times of `history`'s steps, kept apart: each step checks the oldest against the
+    /// lag, and in a 370-byte step that read missed the cache (half of the step's time with
+    /// 320 joints in flight).
+    history_t: VecDeque<SessionTime>,
+    /// The posterior of `history`'s newest step, kept apart for the same reason: the next
+    /// step's RTS gain reads it.
+    newest_posterior: Option<[Axis; 3]>,
     smoothed: Vec<(SessionTime, Point3<f64>)>,
 }
 
@@ -456,6 +462,8 @@ impl JointSmoother {
             // Rounded to whole nanoseconds; lags are a fraction of a second.
             lag_ns: (lag_s * 1e9).round() as i64,
             history: VecDeque::new(),
+            history_t: VecDeque::new(),
+            newest_posterior: None,
             smoothed: Vec::new(),
         })
     }
@@ -490,36 +498,42 @@ impl JointSmoother {
         let outcome = self.filter.step(t, measurement)?;
         match (prior, self.filter.axes()) {
             (Some(prior), Some(posterior)) => {
-                if let Some(last) = self.history.back_mut() {
-                    last.gain =
-                        std::array::from_fn(|i| rts_gain(&last.posterior[i], &prior[i], dt_s));
+                if let (Some(last), Some(cur)) = (self.history.back_mut(), &self.newest_posterior) {
+                    last.gain = std::array::from_fn(|i| rts_gain(&cur[i], &prior[i], dt_s));
                 }
                 self.history.push_back(SmootherStep {
-                    t,
                     prior,
                     posterior,
                     gain: [None; 3],
                 });
+                self.history_t.push_back(t);
+                self.newest_posterior = Some(posterior);
             }
             // The first step of a fresh estimate has no prior: it starts the history.
             (None, Some(posterior)) => {
                 self.history.clear();
+                self.history_t.clear();
                 self.history.push_back(SmootherStep {
-                    t,
                     prior: posterior,
                     posterior,
                     gain: [None; 3],
                 });
+                self.history_t.push_back(t);
+                self.newest_posterior = Some(posterior);
             }
-            (_, None) => self.history.clear(),
+            (_, None) => {
+                self.history.clear();
+                self.history_t.clear();
+                self.newest_posterior = None;
+            }
         }
-        while self
-            .history
-            .front()
-            .is_some_and(|first| t.as_ns() - first.t.as_ns() > self.lag_ns)
-        {
-            self.history.pop_front();
-        }
+        let num_old = self
+            .history_t
+            .iter()
+            .take_while(|first| t.as_ns() - first.as_ns() > self.lag_ns)
+            .count();
+        self.history.drain(..num_old);
+        self.history_t.drain(..num_old);
         Ok(outcome)
     }
 
@@ -529,7 +543,7 @@ impl JointSmoother {
     /// for one backward pass.
     pub fn smooth(&mut self) -> &[(SessionTime, Point3<f64>)] {
         self.smoothed.clear();
-        let Some(newest) = self.history.back() else {
+        let (Some(newest), Some(&newest_t)) = (self.history.back(), self.history_t.back()) else {
             return &self.smoothed;
         };
         // Smoothed (position, velocity) per axis, from the newest step back.
@@ -538,9 +552,13 @@ impl JointSmoother {
             (a.p, a.v)
         });
         self.smoothed
-            .push((newest.t, Point3::new(next[0].0, next[1].0, next[2].0)));
+            .push((newest_t, Point3::new(next[0].0, next[1].0, next[2].0)));
         for k in (0..self.history.len().saturating_sub(1)).rev() {
-            let (Some(cur), Some(after)) = (self.history.get(k), self.history.get(k + 1)) else {
+            let (Some(cur), Some(after), Some(&cur_t)) = (
+                self.history.get(k),
+                self.history.get(k + 1),
+                self.history_t.get(k),
+            ) else {
                 break;
             };
             for (i, n) in next.iter_mut().enumerate() {
@@ -554,7 +572,7 @@ impl JointSmoother {
                 };
             }
             self.smoothed
-                .push((cur.t, Point3::new(next[0].0, next[1].0, next[2].0)));
+                .push((cur_t, Point3::new(next[0].0, next[1].0, next[2].0)));
         }
         self.smoothed.reverse();
         &self.smoothed
