@@ -68,14 +68,14 @@ pub struct GeometricConfig {
     /// Whether the low-pass runs forward and backward (zero phase, as De Marchi et al.; the
     /// default) or forward only, as a filter run once per sample while the stream arrives
     /// would. Both sides of every comparison go through the same filter, so a causal one delays
-    /// both alike. The engine's clock-offset search always filters zero phase. Measured in the
-    /// engine with `history_pad_s` = 1 s, against the defaults (one run of each scene, paired,
-    /// points per run): Belmonte's man without a band anonymous in 99.68 % of his frames
-    /// (99.51 % with the defaults; seeds 1–144), +0.09 ± 0.10 per episode; 8 people full network
-    /// 0.00 ± 0.02 (99.32 %, seeds 1–27), one wrist +0.07 ± 0.04 (98.63 → 98.70 %, seeds 1–33);
-    /// 5 people one wrist −0.26 ± 0.55 (seeds 1–10); 2 to 5 people full network within 0.15.
-    /// With the offset search causal too, the one-wrist scenes lost: 5 people −1.33 ± 0.89
-    /// (92.70 → 91.37 %), and at order 8 instead of 4, 8 people −0.57 ± 0.13 (98.06 %).
+    /// both alike. The engine's clock-offset search follows this setting; causal, it puts a
+    /// track on its camera's frame grid first, so that the skeleton's filter keeps time as the
+    /// IMU's does (see `nomen_engine`'s `lag_geometric`). Measured in the engine with
+    /// `history_pad_s` = 1 s, against the defaults (one run of each scene, paired, points per
+    /// run): Belmonte's man without a band anonymous in 99.53 % of his frames (99.51 % with the
+    /// defaults; seeds 1–144), −0.22 ± 0.18 per episode; 8 people full network −0.13 ± 0.08
+    /// (99.32 → 99.19 %, seeds 1–27), one wrist +0.11 ± 0.06 (98.63 → 98.74 %, seeds 1–33); 5
+    /// people one wrist −0.47 ± 1.25 (seeds 1–10); 2 to 5 people full network within 0.09.
     pub zero_phase: bool,
 }
 
