@@ -560,6 +560,10 @@ pub struct EngineConfig {
     /// up to this; an offset that moves (by any path) starts again, and a wearer with no
     /// track to refine against is no refinement. Default 20 s (clocks drift by well under a
     /// lag step in that time); set it to `offset_refine_interval_s` to refine at a fixed pace.
+    /// The check of an accepted offset against its wearer's labelled tracks
+    /// (`offset_label_curves`) keeps the same pace: at the base interval, on the 259-run sweep
+    /// of the simulated scenes, every run named the same frames (all metrics equal) and a cold
+    /// run of the 8-person full network took 8–11 % longer.
     pub offset_refine_max_interval_s: f64,
     /// Lag range around the current estimate searched when refining, s. Default 0.1 s.
     pub offset_refine_range_s: f64,

@@ -82,8 +82,9 @@
 //!    [`EngineConfig::offset_label_curves_unsynced`] curves: her labels then come from pairs
 //!    scored at their own best lags; and her first offsets are accepted together, only when
 //!    the peaks of all her IMUs' sums average
-//!    [`EngineConfig::offset_label_network_min_peak`]). The same sum, restarted at acceptance and taken every
-//!    [`EngineConfig::offset_refine_interval_s`], moves an accepted offset whose wearer's tracks
+//!    [`EngineConfig::offset_label_network_min_peak`]). The same sum, restarted at acceptance and
+//!    taken at the refinement's pace (below: every [`EngineConfig::offset_refine_interval_s`],
+//!    less often while the offset stays put), moves an accepted offset whose wearer's tracks
 //!    clearly peak elsewhere (a stride away, or first found on someone else's track), and
 //!    withdraws one at which that sum stays below [`EngineConfig::offset_withdraw_below`] while
 //!    another lag does better (the IMU is then searched for again). A third path uses no

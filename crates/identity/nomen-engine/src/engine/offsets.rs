@@ -896,9 +896,14 @@ impl Engine {
             let Some(imu) = self.imus.get(i) else {
                 continue;
             };
-            // Accepted offsets are checked the same way, at the refinement's pace.
+            // Accepted offsets are checked the same way, at the refinement's pace (its interval
+            // doubling while the offset stays put).
             let every = if imu.is_offset_known {
-                refine_every
+                refine_interval(
+                    imu,
+                    refine_every,
+                    ns(self.config.offset_refine_max_interval_s),
+                )
             } else {
                 search_every
             };
@@ -1101,9 +1106,7 @@ impl Engine {
                 Some((o, n)) if o == imu.offset_ns => n,
                 _ => 0,
             };
-            let every = refine_every
-                .saturating_mul(1_i64 << num_kept.min(16))
-                .min(refine_max.max(refine_every));
+            let every = refine_interval(imu, refine_every, refine_max);
             if !imu.is_offset_known || end.saturating_sub(imu.last_refine_end) < every {
                 continue;
             }
@@ -1174,6 +1177,19 @@ impl Engine {
             imu.refined = Some((imu.offset_ns, num_kept));
         }
     }
+}
+
+/// How often an accepted offset is refined (and checked against its wearer's labelled tracks):
+/// `refine_every`, doubled with every refinement in a row that left the offset within a lag
+/// step of where it was, up to `refine_max`; an offset moved since (by any path) starts again.
+fn refine_interval(imu: &ImuState, refine_every: i64, refine_max: i64) -> i64 {
+    let num_kept = match imu.refined {
+        Some((o, n)) if o == imu.offset_ns => n,
+        _ => 0,
+    };
+    refine_every
+        .saturating_mul(1_i64 << num_kept.min(16))
+        .min(refine_max.max(refine_every))
 }
 
 /// One window's lag search: the buffer's bounds, the lag grids, the tracks it reads, the caches,
