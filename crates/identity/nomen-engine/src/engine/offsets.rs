@@ -1540,7 +1540,8 @@ impl TrackLagCache {
                     // is designed at: on the track's own samples that is their mean rate, below
                     // the camera's wherever frames were missed, and the skeleton would come out
                     // less delayed than the IMU (see `lag_geometric`). So a causal search puts
-                    // the track on its camera's frames, the missed ones as gaps.
+                    // the track on its camera's frames, the missed ones filled in but not
+                    // compared.
                     let samples = tr.samples.range(a..b);
                     let (t_ns, joints_world_m, seen) = if config.geometric.zero_phase {
                         let (t, j) = samples.map(|s| (s.t, s.joints.clone())).unzip();
@@ -1595,7 +1596,8 @@ const MAX_FILLED_FRAMES: i64 = 10;
 /// more. The filled frames keep a causal filter's clock; their values are not compared
 /// ([`mask_unseen`]). The frame interval is the mean of the samples' intervals within half of
 /// one of their lower quartile, so a track must have been seen in more than a quarter of its
-/// frames for the grid to be the camera's.
+/// frames for the grid to be the camera's; samples that would need more than four frames each
+/// (no regular frame interval among them) are returned as they are.
 fn on_frame_grid<'a>(
     samples: impl Iterator<Item = &'a TrackSample> + Clone,
 ) -> (Vec<i64>, Vec<Joints<Point3<f64>>>, Vec<bool>) {
@@ -1609,21 +1611,35 @@ fn on_frame_grid<'a>(
     let quartile = steps.get(steps.len() / 4).copied().unwrap_or(0);
     let single = steps
         .iter()
-        .filter(|&&d| 2 * d > quartile && 2 * d < 3 * quartile)
+        .filter(|&&d| {
+            d.saturating_mul(2) > quartile && d.saturating_mul(2) < quartile.saturating_mul(3)
+        })
         .fold((0i128, 0i128), |(sum, n), &d| (sum + i128::from(d), n + 1));
     let step = if single.1 > 0 {
         (single.0 / single.1) as i64
     } else {
         0
     };
-    let (mut t_out, mut joints_out, mut seen) = (Vec::new(), Vec::new(), Vec::new());
+    // Frame intervals between two samples (1 where none was missed).
+    let frames_in = |gap: i64| (gap as f64 / step as f64).round().max(1.0) as i64;
+    let num_samples = steps.len() + 1;
+    let num_frames = steps
+        .iter()
+        .fold(1i64, |n, &gap| n.saturating_add(frames_in(gap)));
+    if step <= 0 || num_frames > 4 * num_samples as i64 {
+        // Not a camera's frames: the samples as they are, all seen.
+        let (t, j) = samples.map(|s| (s.t, s.joints.clone())).unzip();
+        return (t, j, vec![true; num_samples]);
+    }
+    let capacity = usize::try_from(num_frames).unwrap_or(num_samples);
+    let mut t_out = Vec::with_capacity(capacity);
+    let mut joints_out = Vec::with_capacity(capacity);
+    let mut seen = Vec::with_capacity(capacity);
     let mut prev: Option<&TrackSample> = None;
     for s in samples {
-        if let Some(p) = prev
-            && step > 0
-        {
+        if let Some(p) = prev {
             let gap = s.t - p.t;
-            let frames = (gap as f64 / step as f64).round().max(1.0) as i64;
+            let frames = frames_in(gap);
             let is_filled = frames - 1 <= MAX_FILLED_FRAMES;
             for k in 1..frames {
                 let f = k as f64 / frames as f64;
@@ -1676,18 +1692,18 @@ mod tests {
     #[test]
     fn missed_frames_are_put_back_filled_and_unseen_long_gaps_empty() {
         const F: i64 = 33_333_333;
-        // Frames 0, 1 (a little late), 3, 4, 14 and 26: one frame missed, then nine (filled),
-        // then eleven (more than `MAX_FILLED_FRAMES`: a gap).
-        let samples = [
+        // Frames 0, 1 (a little late), 3, 4, 14 and 26 to 35: one frame missed, then nine
+        // (filled), then eleven (more than `MAX_FILLED_FRAMES`: a gap).
+        let mut samples = vec![
             sample(0, 0.0),
             sample(F + 2_000_000, 1.0),
             sample(3 * F, 3.0),
             sample(4 * F, 4.0),
             sample(14 * F, 14.0),
-            sample(26 * F, 26.0),
         ];
+        samples.extend((26..36).map(|k| sample(k * F, k as f64)));
         let (t, joints, seen) = on_frame_grid(samples.iter());
-        assert_eq!((t.len(), joints.len(), seen.len()), (27, 27, 27));
+        assert_eq!((t.len(), joints.len(), seen.len()), (36, 36, 36));
         assert!(t.windows(2).all(|w| w[1] > w[0]));
         // The late frame is kept where it was; the missed frame lies halfway, interpolated.
         assert_eq!(t[1], F + 2_000_000);
@@ -1696,14 +1712,14 @@ mod tests {
         assert!((x(2).unwrap() - 2.0).abs() < 1e-12);
         assert!((5..14).all(|k| (x(k).unwrap() - k as f64).abs() < 1e-9));
         assert!((15..26).all(|k| joints[k].is_empty()));
-        let unseen: Vec<usize> = (0..27).filter(|&k| !seen[k]).collect();
+        let unseen: Vec<usize> = (0..36).filter(|&k| !seen[k]).collect();
         let mut want = vec![2];
         want.extend(5..14);
         want.extend(15..26);
         assert_eq!(unseen, want);
         assert_eq!((t[14], t[26]), (14 * F, 26 * F));
         // The unseen frames' values are not compared.
-        let mut thinned: Vec<f64> = (0..27).step_by(LAG_DECIMATION).map(|k| k as f64).collect();
+        let mut thinned: Vec<f64> = (0..36).step_by(LAG_DECIMATION).map(|k| k as f64).collect();
         mask_unseen(&mut thinned, &seen);
         for (i, v) in thinned.iter().enumerate() {
             assert_eq!(v.is_nan(), !seen[i * LAG_DECIMATION]);
@@ -1711,5 +1727,17 @@ mod tests {
         // A track seen in every frame is unchanged.
         let (t, _, seen) = on_frame_grid(samples[2..4].iter());
         assert_eq!((t, seen), (vec![3 * F, 4 * F], vec![true, true]));
+        // Samples 1 µs apart and then a second apart: no regular frame interval, nothing filled
+        // (a million frames otherwise).
+        let odd = [
+            sample(0, 0.0),
+            sample(1_000, 0.0),
+            sample(2_000, 0.0),
+            sample(3_000, 0.0),
+            sample(1_000_000_000, 1.0),
+        ];
+        let (t, _, seen) = on_frame_grid(odd.iter());
+        assert_eq!(t, odd.iter().map(|s| s.t).collect::<Vec<_>>());
+        assert!(seen.iter().all(|&s| s));
     }
 }
