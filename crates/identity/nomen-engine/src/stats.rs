@@ -106,6 +106,11 @@ pub struct EngineStats {
     /// Accepted clock offsets withdrawn because the wearer's labelled tracks hardly correlate at
     /// them and better at another lag (see `EngineConfig::offset_withdraw_below`).
     pub num_offsets_withdrawn: u64,
+    /// Checks of accepted clock offsets against the lag curves of the wearer's labelled tracks
+    /// (one per IMU and check; see `EngineConfig::offset_label_curves`): they keep the
+    /// refinement's pace, less often while an offset stays put.
+    #[serde(default)]
+    pub num_offset_label_checks: u64,
     /// Time from the session's first skeleton to the window whose decisions sent the warm-up's
     /// observations, s (`EngineConfig::warmup_s` plus the decision delay, and up to
     /// `EngineConfig::warmup_sync_s` more while clocks are unknown); `None` until then, and

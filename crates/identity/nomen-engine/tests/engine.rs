@@ -643,6 +643,45 @@ fn a_wearer_out_of_view_does_not_take_the_lags_of_someone_moving_alike() {
 }
 
 #[test]
+fn an_accepted_offset_that_stays_put_is_checked_against_its_wearers_tracks_less_often() {
+    // The offsets are found (not trusted) and stay put; the check of each against its wearer's
+    // labelled tracks keeps the refinement's pace, whose interval doubles up to 20 s, instead
+    // of running every 5 s for good.
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.4;
+    people[1].imu_offset_s = -0.25;
+    let msgs = recording(&people, 60.0);
+    let backing_off = EngineConfig::default();
+    let fixed = EngineConfig {
+        offset_refine_max_interval_s: backing_off.offset_refine_interval_s,
+        ..backing_off
+    };
+    let (out, stats) = run_batch(&registry(&people), &msgs, &backing_off).unwrap();
+    let (fixed_out, fixed_stats) = run_batch(&registry(&people), &msgs, &fixed).unwrap();
+    let (checks, fixed_checks) = (
+        stats.num_offset_label_checks,
+        fixed_stats.num_offset_label_checks,
+    );
+    assert!(fixed_checks >= 12, "{fixed_stats:?}");
+    assert!(
+        checks * 2 <= fixed_checks,
+        "{checks} checks against {fixed_checks} at a fixed pace"
+    );
+    for s in [&stats, &fixed_stats] {
+        assert!(
+            (offset_s(s, "ana_imu") - 0.4).abs() <= OFFSET_TOLERANCE_S,
+            "{s:?}"
+        );
+        assert!(
+            (offset_s(s, "ben_imu") + 0.25).abs() <= OFFSET_TOLERANCE_S,
+            "{s:?}"
+        );
+    }
+    assert!(accuracy(&people, &out, 12.0) > 0.98);
+    assert!(accuracy(&people, &fixed_out, 12.0) > 0.98);
+}
+
+#[test]
 fn the_offset_search_is_centred_on_the_registry_offset() {
     // Clocks seconds apart whose offsets the registry knows to within 0.15 s: the search looks
     // ±max_clock_offset_s around those priors, not around zero. (The residuals are those of

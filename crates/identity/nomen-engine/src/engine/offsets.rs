@@ -962,6 +962,9 @@ impl Engine {
                 continue;
             };
             imu.last_label_search_end = end;
+            if imu.is_offset_known {
+                self.stats.num_offset_label_checks += 1;
+            }
             if imu.label_curve.len() != grid.len() {
                 imu.label_curve = vec![(0.0, 0); grid.len()];
             }
