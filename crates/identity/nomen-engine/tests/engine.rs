@@ -85,6 +85,14 @@ fn two_people() -> Vec<Person> {
     ]
 }
 
+/// [`two_people`] whose bands' clocks are 0.4 s (Ana) and −0.25 s (Ben) off.
+fn two_people_off_by_0_4_and_minus_0_25_s() -> Vec<Person> {
+    let mut people = two_people();
+    people[0].imu_offset_s = 0.4;
+    people[1].imu_offset_s = -0.25;
+    people
+}
+
 #[test]
 fn two_people_with_wrist_imus_are_named_after_the_first_windows() {
     let people = two_people();
@@ -503,9 +511,7 @@ fn a_clock_offset_of_0_4_s_is_estimated_within_15_ms() {
     // and the offset that aligns the IMU with them absorbed the delay; the bound was 35 ms then
     // (20 ms before the offset search took 2.5-s tracks, 25 ms before the filter's acceleration
     // noise density went from 3 to 1.33 m²/s³).
-    let mut people = two_people();
-    people[0].imu_offset_s = 0.4;
-    people[1].imu_offset_s = -0.25;
+    let people = two_people_off_by_0_4_and_minus_0_25_s();
     let msgs = recording(&people, 20.0);
     let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
     let ana = offset_s(&stats, "ana_imu");
@@ -524,9 +530,7 @@ fn a_causal_offset_search_keeps_time_on_a_track_that_misses_frames() {
     // (Ana's 0.4 ms). The search puts the track on its camera's frames instead: +7.3 and
     // +3.1 ms there, +4.1 and +5.0 ms with every tenth frame missed (where unfilled frames,
     // restarting the filter, gave 24–32 ms early), +4.2 and +3.7 ms with every frame seen.
-    let mut people = two_people();
-    people[0].imu_offset_s = 0.4;
-    people[1].imu_offset_s = -0.25;
+    let people = two_people_off_by_0_4_and_minus_0_25_s();
     let config = EngineConfig {
         history_pad_s: 1.0,
         geometric: GeometricConfig {
@@ -647,9 +651,7 @@ fn an_accepted_offset_that_stays_put_is_checked_against_its_wearers_tracks_less_
     // The offsets are found (not trusted) and stay put; the check of each against its wearer's
     // labelled tracks keeps the refinement's pace, whose interval doubles up to 20 s, instead
     // of running every 5 s for good.
-    let mut people = two_people();
-    people[0].imu_offset_s = 0.4;
-    people[1].imu_offset_s = -0.25;
+    let people = two_people_off_by_0_4_and_minus_0_25_s();
     let msgs = recording(&people, 60.0);
     let backing_off = EngineConfig::default();
     let fixed = EngineConfig {
