@@ -51,6 +51,7 @@ impl Engine {
         let min_track = ns(self.config.offset_min_track_s);
         let search_every = ns(self.config.offset_search_interval_s);
         let refine_every = ns(self.config.offset_refine_interval_s);
+        let refine_max = ns(self.config.offset_refine_max_interval_s);
         let refine_range = ns(self.config.offset_refine_range_s);
         let confirm_apart = ns(self.config.offset_confirm_apart_s);
         let same_offset = ns(self.config.offset_consistency_s);
@@ -149,6 +150,7 @@ impl Engine {
             min_samples,
             min_track,
             refine_every,
+            refine_max,
             refine_range,
             search_every,
             coarse,
@@ -884,6 +886,7 @@ impl Engine {
         let max_off = search.max_off;
         let min_samples = search.min_samples;
         let refine_every = search.refine_every;
+        let refine_max = search.refine_max;
         let search_every = search.search_every;
         let coarse = &search.coarse;
         let imu_cache = &mut search.imu_cache;
@@ -899,11 +902,7 @@ impl Engine {
             // Accepted offsets are checked the same way, at the refinement's pace (its interval
             // doubling while the offset stays put).
             let every = if imu.is_offset_known {
-                refine_interval(
-                    imu,
-                    refine_every,
-                    ns(self.config.offset_refine_max_interval_s),
-                )
+                refine_interval(imu, refine_every, refine_max)
             } else {
                 search_every
             };
@@ -1092,7 +1091,7 @@ impl Engine {
         let min_track = search.min_track;
         let refine_every = search.refine_every;
         let refine_range = search.refine_range;
-        let refine_max = ns(self.config.offset_refine_max_interval_s);
+        let refine_max = search.refine_max;
         let full = &search.full;
         let imu_cache = &mut search.imu_cache;
         let skel_cache = &mut search.skel_cache;
@@ -1102,13 +1101,7 @@ impl Engine {
             let Some(imu) = self.imus.get(i) else {
                 continue;
             };
-            // The interval doubles with every refinement in a row that left the offset within a
-            // lag step of where it was, up to the longest; an offset moved since (by any path)
-            // starts again.
-            let num_kept = match imu.refined {
-                Some((o, n)) if o == imu.offset_ns => n,
-                _ => 0,
-            };
+            let num_kept = refinements_kept(imu);
             let every = refine_interval(imu, refine_every, refine_max);
             if !imu.is_offset_known || end.saturating_sub(imu.last_refine_end) < every {
                 continue;
@@ -1186,13 +1179,18 @@ impl Engine {
 /// `refine_every`, doubled with every refinement in a row that left the offset within a lag
 /// step of where it was, up to `refine_max`; an offset moved since (by any path) starts again.
 fn refine_interval(imu: &ImuState, refine_every: i64, refine_max: i64) -> i64 {
-    let num_kept = match imu.refined {
+    refine_every
+        .saturating_mul(1_i64 << refinements_kept(imu).min(16))
+        .min(refine_max.max(refine_every))
+}
+
+/// Refinements in a row that left the IMU's offset within a lag step of where it was (0 once
+/// the offset moved, by any path).
+fn refinements_kept(imu: &ImuState) -> u32 {
+    match imu.refined {
         Some((o, n)) if o == imu.offset_ns => n,
         _ => 0,
-    };
-    refine_every
-        .saturating_mul(1_i64 << num_kept.min(16))
-        .min(refine_max.max(refine_every))
+    }
 }
 
 /// One window's lag search: the buffer's bounds, the lag grids, the tracks it reads, the caches,
@@ -1206,6 +1204,7 @@ pub(super) struct LagSearch {
     min_samples: usize,
     min_track: i64,
     refine_every: i64,
+    refine_max: i64,
     refine_range: i64,
     search_every: i64,
     coarse: Vec<i64>,
@@ -1546,12 +1545,14 @@ impl TrackLagCache {
                     // the track on its camera's frames, the missed ones filled in but not
                     // compared.
                     let samples = tr.samples.range(a..b);
-                    let (t_ns, joints_world_m, seen) = if config.geometric.zero_phase {
+                    let grid = (!config.geometric.zero_phase)
+                        .then(|| on_frame_grid(samples.clone()))
+                        .flatten();
+                    let (t_ns, joints_world_m, seen) = grid.unwrap_or_else(|| {
+                        // The track's own samples, every one seen.
                         let (t, j) = samples.map(|s| (s.t, s.joints.clone())).unzip();
                         (t, j, Vec::new())
-                    } else {
-                        on_frame_grid(samples)
-                    };
+                    });
                     let skel = SkeletonWindow {
                         camera: None,
                         track: None,
@@ -1585,6 +1586,10 @@ impl TrackLagCache {
     }
 }
 
+/// A track's buffer on its camera's frame grid: times (session ns), joints, and whether the
+/// track was seen in each frame.
+type FrameGrid = (Vec<i64>, Vec<Joints<Point3<f64>>>, Vec<bool>);
+
 /// Most frames in a row that [`on_frame_grid`] fills in: a third of a second at 30 Hz, longer
 /// than the gaps of the simulated Belmonte-Hernández episodes' tracks (4 to 10 frames). A
 /// causal filter restarted after every missed frame never settles: with one frame in ten
@@ -1599,11 +1604,9 @@ const MAX_FILLED_FRAMES: i64 = 10;
 /// more. The filled frames keep a causal filter's clock; their values are not compared
 /// ([`mask_unseen`]). The frame interval is the mean of the samples' intervals within half of
 /// one of their lower quartile, so a track must have been seen in more than a quarter of its
-/// frames for the grid to be the camera's; samples that would need more than four frames each
-/// (no regular frame interval among them) are returned as they are.
-fn on_frame_grid<'a>(
-    samples: impl Iterator<Item = &'a TrackSample> + Clone,
-) -> (Vec<i64>, Vec<Joints<Point3<f64>>>, Vec<bool>) {
+/// frames for the grid to be the camera's; `None` for samples that would need more than four
+/// frames each (no regular frame interval among them).
+fn on_frame_grid<'a>(samples: impl Iterator<Item = &'a TrackSample> + Clone) -> Option<FrameGrid> {
     let mut steps: Vec<i64> = samples
         .clone()
         .zip(samples.clone().skip(1))
@@ -1630,9 +1633,7 @@ fn on_frame_grid<'a>(
         .iter()
         .fold(1i64, |n, &gap| n.saturating_add(frames_in(gap)));
     if step <= 0 || num_frames > 4 * num_samples as i64 {
-        // Not a camera's frames: the samples as they are, all seen.
-        let (t, j) = samples.map(|s| (s.t, s.joints.clone())).unzip();
-        return (t, j, vec![true; num_samples]);
+        return None;
     }
     let capacity = usize::try_from(num_frames).unwrap_or(num_samples);
     let mut t_out = Vec::with_capacity(capacity);
@@ -1664,7 +1665,7 @@ fn on_frame_grid<'a>(
         seen.push(true);
         prev = Some(s);
     }
-    (t_out, joints_out, seen)
+    Some((t_out, joints_out, seen))
 }
 
 /// `NaN` in place of the values of `thinned` (every [`LAG_DECIMATION`]-th sample of a track's
@@ -1705,7 +1706,7 @@ mod tests {
             sample(14 * F, 14.0),
         ];
         samples.extend((26..36).map(|k| sample(k * F, k as f64)));
-        let (t, joints, seen) = on_frame_grid(samples.iter());
+        let (t, joints, seen) = on_frame_grid(samples.iter()).unwrap();
         assert_eq!((t.len(), joints.len(), seen.len()), (36, 36, 36));
         assert!(t.windows(2).all(|w| w[1] > w[0]));
         // The late frame is kept where it was; the missed frame lies halfway, interpolated.
@@ -1728,10 +1729,10 @@ mod tests {
             assert_eq!(v.is_nan(), !seen[i * LAG_DECIMATION]);
         }
         // A track seen in every frame is unchanged.
-        let (t, _, seen) = on_frame_grid(samples[2..4].iter());
+        let (t, _, seen) = on_frame_grid(samples[2..4].iter()).unwrap();
         assert_eq!((t, seen), (vec![3 * F, 4 * F], vec![true, true]));
-        // Samples 1 µs apart and then a second apart: no regular frame interval, nothing filled
-        // (a million frames otherwise).
+        // Samples 1 µs apart and then a second apart: no regular frame interval, no grid (a
+        // million frames otherwise), nor for no samples at all.
         let odd = [
             sample(0, 0.0),
             sample(1_000, 0.0),
@@ -1739,8 +1740,7 @@ mod tests {
             sample(3_000, 0.0),
             sample(1_000_000_000, 1.0),
         ];
-        let (t, _, seen) = on_frame_grid(odd.iter());
-        assert_eq!(t, odd.iter().map(|s| s.t).collect::<Vec<_>>());
-        assert!(seen.iter().all(|&s| s));
+        assert!(on_frame_grid(odd.iter()).is_none());
+        assert!(on_frame_grid(odd[..0].iter()).is_none());
     }
 }
