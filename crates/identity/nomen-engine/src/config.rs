@@ -169,6 +169,14 @@ pub struct EngineConfig {
     pub reorder_window_s: f64,
     /// How long past a window's settle time the engine waits for a silent source, s. Default 1 s.
     pub silence_timeout_s: f64,
+    /// How far ahead of every time the engine has seen a message may be stamped, s; one stamped
+    /// further is refused ([`crate::EngineError::TimeJump`]) unless the message of its source
+    /// before it was refused for the same reason, less than this much earlier (a clock that
+    /// really jumped, or a session that resumed after everyone was silent, costs one message
+    /// per source). Without it, one corrupt timestamp an hour ahead would put its source's
+    /// reorder window an hour ahead, so that every later message of that source is refused as
+    /// late, and every window until then would time out waiting for the others. Default 60 s.
+    pub max_time_jump_s: f64,
     /// A skeleton observed at `t` is labelled with the decision of the first window ending at or
     /// after `t + decision_delay_s`, s. Larger values let the first frames of a new track use
     /// evidence from after them, at the price of latency. Default 1.5 s. Over the ten imu-table
@@ -842,6 +850,7 @@ impl Default for EngineConfig {
             hop_s: 0.5,
             reorder_window_s: 0.25,
             silence_timeout_s: 1.0,
+            max_time_jump_s: 60.0,
             decision_delay_s: 1.5,
             warmup_s: 2.0,
             warmup_sync_s: 3.0,
@@ -965,6 +974,7 @@ impl EngineConfig {
                 self.offset_best_track_interval_s,
             ),
             ("track_timeout_s", self.track_timeout_s),
+            ("max_time_jump_s", self.max_time_jump_s),
             ("stitch_max_speed_mps", self.stitch_max_speed_mps),
             ("belmonte_pitch_sigma_rad", self.belmonte_pitch_sigma_rad),
             (

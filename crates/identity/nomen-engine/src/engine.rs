@@ -8,6 +8,7 @@ mod tracks;
 use crate::config::{EngineConfig, ns};
 use crate::error::{EngineError, Result};
 use crate::lag_memo::ImuLagMemo;
+use crate::pending::Pending;
 use crate::signal::ImuSeries;
 use crate::stats::EngineStats;
 use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m};
@@ -30,7 +31,6 @@ use nomen_rssi::{
     background_log_likelihood, log_likelihood, pair_score,
 };
 use scoring::key_joint_near;
-use std::collections::btree_map::Entry;
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 
 /// Step of the clock-offset search, ns (one IMU sample at 100 Hz).
@@ -132,6 +132,64 @@ const SWAP_RETURN_GAP_NS: i64 = 100_000_000;
 /// ... which the other track's own return shows within this long, ns.
 const SWAP_RETURN_WINDOW_NS: i64 = 100_000_000;
 
+/// Index by device id, looked up once per message: a fixed-seed fast hash (the map is never
+/// iterated, so its order cannot reach the output).
+type DeviceIndex = HashMap<DeviceId, usize, foldhash::fast::FixedState>;
+
+/// Refuses a message stamped more than `max_ns` ahead of every time seen so far, unless the
+/// message of its source before it was refused for that too and lies before it, less than
+/// `max_ns` earlier: a corrupt timestamp is refused, and a clock that really jumped (or a
+/// session resuming after a general silence) is followed from its source's second message on.
+/// Messages at the same time as the refused one (a camera frame's other tracks) are refused
+/// as well: they are the same frame, not a second one.
+struct TimeJumpGuard {
+    max_ns: i64,
+    /// Per source, the time of its last message, if that was refused as a jump.
+    refused: BTreeMap<String, i64>,
+}
+
+impl TimeJumpGuard {
+    fn new(max_ns: i64) -> Self {
+        Self {
+            max_ns,
+            refused: BTreeMap::new(),
+        }
+    }
+
+    /// Checks a message of `source` at session time `t` (stamped `stamp`) against `newest`,
+    /// the newest session time so far.
+    fn check(
+        &mut self,
+        newest: Option<i64>,
+        kind: &'static str,
+        source: &str,
+        t: i64,
+        stamp: SessionTime,
+    ) -> Result<()> {
+        let ahead_ns = newest.map_or(0, |n| t.saturating_sub(n));
+        if ahead_ns <= self.max_ns {
+            if !self.refused.is_empty() {
+                self.refused.remove(source);
+            }
+            return Ok(());
+        }
+        if let Some(&before) = self.refused.get(source)
+            && before < t
+            && t - before <= self.max_ns
+        {
+            self.refused.remove(source);
+            return Ok(());
+        }
+        self.refused.insert(source.to_string(), t);
+        Err(EngineError::TimeJump {
+            kind,
+            source_id: source.to_string(),
+            t: stamp,
+            ahead_s: ahead_ns as f64 * 1e-9,
+        })
+    }
+}
+
 struct CameraState {
     id: CameraId,
     world_from_camera: Isometry3<f64>,
@@ -144,7 +202,7 @@ struct ImuState {
     subject: usize,
     site: Joint,
     /// Received, not yet settled: device time → (accel, gyro).
-    pending: BTreeMap<i64, (Vector3<f64>, Vector3<f64>)>,
+    pending: Pending<(Vector3<f64>, Vector3<f64>)>,
     /// Settled samples, device time, increasing.
     t: VecDeque<i64>,
     /// Specific force, sensor frame, m/s².
@@ -405,9 +463,9 @@ pub struct Engine {
     imus: Vec<ImuState>,
     /// Looked up once per sample and never iterated, so hashed: a B-tree of 40 device names
     /// cost about 3 % of a steady-state run.
-    imu_index: HashMap<DeviceId, usize>,
+    imu_index: DeviceIndex,
     tags: Vec<TagState>,
-    tag_index: HashMap<DeviceId, usize>,
+    tag_index: DeviceIndex,
     /// A learned scorer of (IMU window, skeleton window) pairs ([`Engine::with_pair_scorer`]).
     pair_scorer: Option<Box<dyn PairScorer>>,
     /// RSSI evidence, when a calibrated model was given ([`Engine::with_rssi_model`]).
@@ -430,6 +488,8 @@ pub struct Engine {
     warm_release: Option<i64>,
     next_end: Option<i64>,
     global_max: Option<i64>,
+    /// Refuses messages stamped implausibly far ahead of `global_max`.
+    time_jumps: TimeJumpGuard,
     ready: Vec<Message>,
     stats: EngineStats,
     /// Pairs of tracks of one camera that are in a close encounter now (see
@@ -447,9 +507,9 @@ impl Engine {
         config.validate()?;
         registry.validate().map_err(EngineError::Registry)?;
         let mut imus = Vec::new();
-        let mut imu_index = HashMap::new();
+        let mut imu_index = DeviceIndex::default();
         let mut tags = Vec::new();
-        let mut tag_index = HashMap::new();
+        let mut tag_index = DeviceIndex::default();
         let mut device_kinds = BTreeMap::new();
         let mut rssi_tags = BTreeMap::new();
         let mut subject_imus = Vec::new();
@@ -473,7 +533,7 @@ impl Engine {
                     device: w.device.clone(),
                     subject: s,
                     site: w.site,
-                    pending: BTreeMap::new(),
+                    pending: Pending::default(),
                     t: VecDeque::new(),
                     accel: VecDeque::new(),
                     gyro: VecDeque::new(),
@@ -565,6 +625,7 @@ impl Engine {
             warm_release: None,
             next_end: None,
             global_max: None,
+            time_jumps: TimeJumpGuard::new(ns(config.max_time_jump_s)),
             ready: Vec::new(),
             stats: EngineStats::default(),
             close_pairs: BTreeSet::new(),
@@ -639,6 +700,7 @@ impl Engine {
                 EngineError::UnknownCamera { .. } => r.num_unknown_camera += 1,
                 EngineError::Duplicate { .. } => r.num_duplicate += 1,
                 EngineError::Late { .. } => r.num_late += 1,
+                EngineError::TimeJump { .. } => r.num_time_jump += 1,
                 _ => {}
             }
         }
@@ -666,21 +728,18 @@ impl Engine {
                 t: s.t,
             });
         }
-        match imu.pending.entry(t) {
-            Entry::Occupied(_) => {
-                return Err(EngineError::Duplicate {
-                    kind: "imu",
-                    source_id: s.device.to_string(),
-                    t: s.t,
-                });
-            }
-            Entry::Vacant(slot) => {
-                slot.insert((s.accel_mps2, s.gyro_radps));
-            }
+        let session = t.saturating_add(imu.offset_ns);
+        self.time_jumps
+            .check(self.global_max, "imu", s.device.as_str(), session, s.t)?;
+        if !imu.pending.insert(t, (s.accel_mps2, s.gyro_radps)) {
+            return Err(EngineError::Duplicate {
+                kind: "imu",
+                source_id: s.device.to_string(),
+                t: s.t,
+            });
         }
         imu.newest = Some(imu.newest.map_or(t, |n| n.max(t)));
         imu.frontier = imu.frontier.max(t - self.reorder_ns);
-        let session = t.saturating_add(imu.offset_ns);
         self.stats.num_imu_samples += 1;
         settle_imu(imu, &self.config);
         self.note_time(session);
@@ -736,6 +795,8 @@ impl Engine {
                 t: f.t,
             });
         }
+        self.time_jumps
+            .check(self.global_max, "rtls_fix", f.tag.as_str(), t, f.t)?;
         tag.pending.insert(
             t,
             Fix {
@@ -789,6 +850,9 @@ impl Engine {
                 t: r.t,
             });
         }
+        let source = format!("{}@{}", r.tag, r.antenna);
+        self.time_jumps
+            .check(self.global_max, "rssi", &source, t, r.t)?;
         rssi.pending.insert(key, r.clone());
         rssi.newest = Some(rssi.newest.map_or(t, |n| n.max(t)));
         rssi.frontier = rssi.frontier.max(t - reorder);
@@ -837,6 +901,8 @@ impl Engine {
                 t: s.t,
             });
         }
+        self.time_jumps
+            .check(self.global_max, "skeleton", s.camera.as_str(), t, s.t)?;
         let mut world = Joints::new();
         let mut inferred = Joints::new();
         for (j, obs) in s.joints.iter() {
@@ -1339,7 +1405,7 @@ const AHRS_MAX_GAP_NS: i64 = 1_000_000_000;
 /// filter (re)starts at the first sample and after a gap of a second or more (see
 /// [`start_ahrs`]); samples wait until it can.
 fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
-    while let Some((&t, &(accel, gyro))) = imu.pending.first_key_value() {
+    while let Some(&(t, (accel, gyro))) = imu.pending.first() {
         if t >= imu.frontier {
             break;
         }
@@ -1378,17 +1444,13 @@ fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
 /// along the vertical), and Madgwick's gain corrects that at only about 4°/s. Returns whether
 /// the filter started.
 fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
-    let Some(&first) = imu.pending.keys().next() else {
+    let Some(&(first, _)) = imu.pending.first() else {
         return false;
     };
     // While the samples below the frontier span less than the start, none of them can end it
     // (neither its length nor a gap): wait without scanning them again.
     let is_finishing = imu.frontier == i64::MAX;
-    let newest_settled = imu
-        .pending
-        .range(..imu.frontier)
-        .next_back()
-        .map(|(&t, _)| t);
+    let newest_settled = imu.pending.last_before(imu.frontier).map(|&(t, _)| t);
     if !is_finishing && newest_settled.is_none_or(|t| t - first < AHRS_START_NS) {
         return false;
     }
@@ -1397,7 +1459,7 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
     let mut last: Option<(i64, Vector3<f64>)> = None;
     let mut up: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
     let mut is_complete = is_finishing;
-    for (&t, (accel, gyro)) in &imu.pending {
+    for &(t, (accel, gyro)) in imu.pending.iter() {
         if t >= imu.frontier {
             break;
         }
@@ -1417,7 +1479,7 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
         for (axis, x) in up.iter_mut().zip(v.iter()) {
             axis.push(*x);
         }
-        last = Some((t, *gyro));
+        last = Some((t, gyro));
     }
     if !is_complete {
         return false;

@@ -86,6 +86,23 @@ pub enum EngineError {
         /// Message time.
         t: SessionTime,
     },
+    /// A message stamped further ahead of every time seen so far than
+    /// [`crate::EngineConfig::max_time_jump_s`] allows.
+    #[error(
+        "{kind} from '{source_id}' at {t}: {ahead_s:.1} s ahead of the newest time so far; \
+         refused as a time jump (the source's next message is taken if it follows on from \
+         this one)"
+    )]
+    TimeJump {
+        /// Message type.
+        kind: &'static str,
+        /// Device or camera id.
+        source_id: String,
+        /// Message time.
+        t: SessionTime,
+        /// How far ahead of the newest time so far, s.
+        ahead_s: f64,
+    },
     /// A filter refused its configuration or input.
     #[error("filter: {0}")]
     Filter(#[from] nomen_filters::FilterError),

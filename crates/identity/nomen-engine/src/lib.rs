@@ -2,8 +2,13 @@
 //!
 //! # Pipeline
 //! [`Engine::push`] takes messages in any interleaving across sources, as long as each source
-//! is late by at most [`EngineConfig::reorder_window_s`] behind its own newest message. Each
-//! source is *settled* in time order below that frontier:
+//! is late by at most [`EngineConfig::reorder_window_s`] behind its own newest message. A
+//! message is refused, with an error naming its source and time, when it is invalid, from an
+//! unknown source, a duplicate, later than that, or stamped more than
+//! [`EngineConfig::max_time_jump_s`] ahead of every time seen so far (a corrupt timestamp,
+//! which would otherwise put its source's frontier out of reach of its later messages; the
+//! source's next message is taken if it follows on from the refused one, so a clock that really
+//! jumped costs one message). Each source is *settled* in time order below that frontier:
 //! - skeleton joints go to the world frame (`world_from_camera` from the registry) and through
 //!   a constant-velocity Kalman filter per joint ([`EngineConfig::joint_filter`]), a joint the
 //!   camera reports as inferred with [`EngineConfig::inferred_joint_noise_factor`] times the
@@ -194,6 +199,7 @@ mod config;
 mod engine;
 mod error;
 mod lag_memo;
+mod pending;
 mod signal;
 mod stats;
 mod tags;

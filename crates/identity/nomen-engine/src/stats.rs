@@ -18,6 +18,9 @@ pub struct RejectCounts {
     pub num_duplicate: u64,
     /// Older than the source's reorder window.
     pub num_late: u64,
+    /// Stamped implausibly far ahead ([`crate::EngineConfig::max_time_jump_s`]).
+    #[serde(default)]
+    pub num_time_jump: u64,
 }
 
 impl RejectCounts {
@@ -28,6 +31,7 @@ impl RejectCounts {
             + self.num_unknown_camera
             + self.num_duplicate
             + self.num_late
+            + self.num_time_jump
     }
 }
 
