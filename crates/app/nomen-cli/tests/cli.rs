@@ -455,6 +455,85 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
 }
 
 #[test]
+fn run_writes_the_decisions_before_a_bad_line_and_a_corrupt_timestamp_costs_one_line() {
+    let Some(data) = data_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    simulate_library("belmonte_one_without_band.toml", &scene, &data);
+    let recording = std::fs::read_to_string(scene.join("recording.jsonl")).unwrap();
+    let lines: Vec<&str> = recording.lines().collect();
+    let middle = lines.len() / 2;
+    let skeletons_before = lines[..middle]
+        .iter()
+        .filter(|l| l.contains("\"type\":\"skeleton\""))
+        .count();
+    let write = |name: &str, edited: &[String]| {
+        let path = tmp.path().join(name);
+        std::fs::write(&path, edited.join("\n") + "\n").unwrap();
+        path
+    };
+    let run = |input: &Path, out: &Path, skip_bad: bool| {
+        let mut args = vec![
+            "run",
+            input.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        if skip_bad {
+            args.push("--skip-bad");
+        }
+        nomen(&args)
+    };
+
+    // A line cut off in the middle: the run stops there, with the decisions on every skeleton
+    // before it written.
+    let mut cut: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    cut[middle] = cut[middle][..40].to_owned();
+    let input = write("cut.jsonl", &cut);
+    let out = tmp.path().join("cut_result.jsonl");
+    let o = run(&input, &out, false);
+    assert!(!o.status.success());
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains(&format!("cut.jsonl:{}: truncated line", middle + 1)),
+        "{stderr}"
+    );
+    assert!(stderr.contains("decisions on what came before"), "{stderr}");
+    assert_eq!(count(&out, "identified"), skeletons_before);
+
+    // One skeleton stamped an hour late: refused as a time jump (stopping there), or skipped
+    // alone, every other skeleton decided.
+    let k = middle
+        + lines[middle..]
+            .iter()
+            .position(|l| l.contains("\"type\":\"skeleton\""))
+            .unwrap();
+    let mut msg: serde_json::Value = serde_json::from_str(lines[k]).unwrap();
+    let t = msg["t"].as_i64().unwrap();
+    msg["t"] = serde_json::json!(t + 3_600_000_000_000i64);
+    let mut jumped: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    jumped[k] = msg.to_string();
+    let input = write("jump.jsonl", &jumped);
+    let o = run(&input, &tmp.path().join("stopped.jsonl"), false);
+    assert!(!o.status.success());
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains(&format!("jump.jsonl:{}: time ", k + 1)) && stderr.contains("corrupt"),
+        "{stderr}"
+    );
+    let out = tmp.path().join("skipped.jsonl");
+    let o = run(&input, &out, true);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("1 skipped (time jump: 1)"),
+        "{}",
+        text(&o.stderr)
+    );
+    let num_skeletons = count(&scene.join("recording.jsonl"), "skeleton");
+    assert_eq!(count(&out, "identified"), num_skeletons - 1);
+}
+
+#[test]
 fn refine_joints_estimates_hidden_arms_with_covariance_and_keeps_seen_joints() {
     let Some(data) = data_dir() else { return };
     let tmp = tempfile::tempdir().unwrap();

@@ -11,6 +11,11 @@ use std::sync::Arc;
 /// transport latency; the writer is strict (tolerance 0) unless told otherwise.
 pub const DEFAULT_GLOBAL_TOLERANCE_NS: i64 = 100_000_000;
 
+/// How far after every earlier message a reader takes a message only if the next one follows on
+/// from it, by default (60 s): further than that, one corrupt timestamp would put the global
+/// time order out of reach of every later line.
+pub const DEFAULT_MAX_TIME_JUMP_NS: i64 = 60_000_000_000;
+
 /// Which registry a reader or writer checks ids against.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub enum IdCheck {
@@ -103,6 +108,21 @@ pub(crate) fn type_rank(msg: &Message) -> u8 {
     }
 }
 
+/// A checked message's time and the streams it is ordered in, to be recorded.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Times {
+    t: SessionTime,
+    source: StreamKey,
+    camera: Option<StreamKey>,
+}
+
+impl Times {
+    /// The message's time.
+    pub(crate) fn t(&self) -> SessionTime {
+        self.t
+    }
+}
+
 /// Validates messages one by one and remembers what time order requires.
 pub(crate) struct Checker {
     ids: Option<IdIndex>,
@@ -135,6 +155,38 @@ impl Checker {
 
     /// Runs every check on `msg`; on success records its time, on failure changes nothing.
     pub(crate) fn check(&mut self, msg: &Message, file: &Arc<str>, line: u64) -> Result<()> {
+        let times = self.check_unrecorded(msg, file, line)?;
+        self.record(times);
+        Ok(())
+    }
+
+    /// [`Checker::check`], except that a message more than `max_jump_ns` after the latest one
+    /// so far is not recorded: its times come back, for [`Checker::record`] once the caller
+    /// has seen whether the next message follows on from it.
+    pub(crate) fn check_deferring_jumps(
+        &mut self,
+        msg: &Message,
+        file: &Arc<str>,
+        line: u64,
+        max_jump_ns: i64,
+    ) -> Result<Option<Times>> {
+        let times = self.check_unrecorded(msg, file, line)?;
+        let is_jump = self
+            .latest
+            .is_some_and(|latest| times.t.as_ns() > latest.as_ns().saturating_add(max_jump_ns));
+        if is_jump {
+            return Ok(Some(times));
+        }
+        self.record(times);
+        Ok(None)
+    }
+
+    /// The latest time recorded so far.
+    pub(crate) fn latest(&self) -> Option<SessionTime> {
+        self.latest
+    }
+
+    fn check_unrecorded(&mut self, msg: &Message, file: &Arc<str>, line: u64) -> Result<Times> {
         msg.validate().map_err(|source| RecordingError::Invalid {
             at: Pos::new(file, line),
             source,
@@ -145,7 +197,17 @@ impl Checker {
         self.check_order(msg, file, line)
     }
 
-    fn check_order(&mut self, msg: &Message, file: &Arc<str>, line: u64) -> Result<()> {
+    /// Records a checked message's times: later messages are ordered after it.
+    pub(crate) fn record(&mut self, times: Times) {
+        let Times { t, source, camera } = times;
+        self.last.insert(source, t);
+        if let Some(camera) = camera {
+            self.last.insert(camera, t);
+        }
+        self.latest = Some(self.latest.map_or(t, |l| l.max(t)));
+    }
+
+    fn check_order(&mut self, msg: &Message, file: &Arc<str>, line: u64) -> Result<Times> {
         let t = msg.t();
         let rank = type_rank(msg);
         // The strict per-source stream and, for camera messages, the camera-level stream.
@@ -197,12 +259,7 @@ impl Checker {
                 tolerance_ns: self.global_tolerance_ns,
             });
         }
-        self.last.insert(source, t);
-        if let Some(camera) = camera {
-            self.last.insert(camera, t);
-        }
-        self.latest = Some(self.latest.map_or(t, |l| l.max(t)));
-        Ok(())
+        Ok(Times { t, source, camera })
     }
 
     fn key(&mut self, rank: u8, a: &str, b: Option<&str>) -> StreamKey {

@@ -170,6 +170,24 @@ pub enum RecordingError {
         /// The tolerance in force, nanoseconds.
         tolerance_ns: i64,
     },
+    /// A message far later than every message before it, and the next message falls back
+    /// before it: the odd one out, most likely a corrupt timestamp.
+    #[error(
+        "{at}: time {t} is {:.3} s after the latest message at {latest}, more than the {:.0} s a \
+         clock may jump, and the next message does not follow on from it (a corrupt timestamp?)",
+        lag_secs(.t, .latest),
+        ns_to_secs(.max_jump_ns)
+    )]
+    TimeJump {
+        /// Where.
+        at: Pos,
+        /// The message's time.
+        t: SessionTime,
+        /// The latest time accepted before it.
+        latest: SessionTime,
+        /// How far a clock may jump before the next message must confirm it, nanoseconds.
+        max_jump_ns: i64,
+    },
     /// A problem in a CSV file or in the spec used to import it.
     #[error("{at}: {detail}")]
     Csv {
@@ -234,6 +252,8 @@ pub enum ErrorKind {
     CameraOrder,
     /// [`RecordingError::GlobalOrder`].
     GlobalOrder,
+    /// [`RecordingError::TimeJump`].
+    TimeJump,
     /// [`RecordingError::Csv`].
     Csv,
 }
@@ -255,6 +275,7 @@ impl ErrorKind {
             ErrorKind::SourceOrder => "source time order",
             ErrorKind::CameraOrder => "camera time order",
             ErrorKind::GlobalOrder => "global time order",
+            ErrorKind::TimeJump => "time jump",
             ErrorKind::Csv => "csv",
         }
     }
@@ -283,6 +304,7 @@ impl RecordingError {
             RecordingError::SourceOrder { .. } => ErrorKind::SourceOrder,
             RecordingError::CameraOrder { .. } => ErrorKind::CameraOrder,
             RecordingError::GlobalOrder { .. } => ErrorKind::GlobalOrder,
+            RecordingError::TimeJump { .. } => ErrorKind::TimeJump,
             RecordingError::Csv { .. } => ErrorKind::Csv,
         }
     }
@@ -303,6 +325,7 @@ impl RecordingError {
             | RecordingError::SourceOrder { at, .. }
             | RecordingError::CameraOrder { at, .. }
             | RecordingError::GlobalOrder { at, .. }
+            | RecordingError::TimeJump { at, .. }
             | RecordingError::Csv { at, .. } => at,
         }
     }

@@ -42,7 +42,7 @@ mod header;
 mod reader;
 mod writer;
 
-pub use check::{DEFAULT_GLOBAL_TOLERANCE_NS, IdCheck};
+pub use check::{DEFAULT_GLOBAL_TOLERANCE_NS, DEFAULT_MAX_TIME_JUMP_NS, IdCheck};
 pub use error::{ErrorKind, Pos, RecordingError, Result};
 pub use header::{FORMAT_NAME, FORMAT_VERSION, Header};
 pub use reader::{

@@ -1,9 +1,11 @@
 //! The validating streaming reader.
 
-use crate::check::{Checker, DEFAULT_GLOBAL_TOLERANCE_NS, IdCheck};
+use crate::check::{
+    Checker, DEFAULT_GLOBAL_TOLERANCE_NS, DEFAULT_MAX_TIME_JUMP_NS, IdCheck, Times,
+};
 use crate::error::{ErrorKind, Pos, RecordingError, Result, json_detail};
 use crate::header::Header;
-use nomen_core::{Message, SkeletonObservation};
+use nomen_core::{Message, SessionTime, SkeletonObservation};
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::fmt;
@@ -35,6 +37,14 @@ pub struct ReadOptions {
     pub global_tolerance_ns: i64,
     /// How many errors [`ReadStats::first_errors`] keeps under [`ErrorPolicy::SkipAndCount`].
     pub max_errors_kept: usize,
+    /// A message more than this after every message before it, nanoseconds, is taken only if
+    /// the next good message follows on from it (is not earlier than it by more than
+    /// `global_tolerance_ns`); otherwise it is refused as a time jump
+    /// ([`crate::RecordingError::TimeJump`]) and the lines after it are read as if it were not
+    /// there. A recording that really pauses loses nothing; one corrupt timestamp costs its
+    /// own line instead of every line after it. At the end of the input, or before a bad line,
+    /// it is taken. [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX` turns the check off.
+    pub max_time_jump_ns: i64,
 }
 
 impl Default for ReadOptions {
@@ -44,6 +54,7 @@ impl Default for ReadOptions {
             id_check: IdCheck::Header,
             global_tolerance_ns: DEFAULT_GLOBAL_TOLERANCE_NS,
             max_errors_kept: 10,
+            max_time_jump_ns: DEFAULT_MAX_TIME_JUMP_NS,
         }
     }
 }
@@ -126,6 +137,20 @@ pub struct RecordingReader<R> {
     /// A message line rebuilt without its `type` key ([`parse_leading_type`]).
     scratch: Vec<u8>,
     is_done: bool,
+    /// A message that jumped ahead of every earlier one, waiting for the next good message to
+    /// confirm it ([`ReadOptions::max_time_jump_ns`]).
+    held: Option<Held>,
+    /// What to yield next, after a held message was released.
+    queued: Option<Result<Message>>,
+}
+
+/// A message that jumped ahead of every earlier one: its line, its times (not yet recorded)
+/// and the latest time before it.
+struct Held {
+    msg: Message,
+    line: u64,
+    times: Times,
+    latest: Option<SessionTime>,
 }
 
 impl<R: BufRead> RecordingReader<R> {
@@ -173,6 +198,8 @@ impl<R: BufRead> RecordingReader<R> {
             buf,
             scratch: Vec::new(),
             is_done: false,
+            held: None,
+            queued: None,
         })
     }
 
@@ -198,6 +225,9 @@ impl<R: BufRead> RecordingReader<R> {
 
     /// The next good message, the error that ends the stream, or `None` at the end.
     pub fn next_message(&mut self) -> Option<Result<Message>> {
+        if let Some(item) = self.queued.take() {
+            return Some(item);
+        }
         while !self.is_done {
             self.buf.clear();
             let line = self.stats.num_lines + 1;
@@ -205,44 +235,156 @@ impl<R: BufRead> RecordingReader<R> {
                 Ok(n) => n,
                 Err(source) => {
                     self.is_done = true;
-                    return Some(Err(RecordingError::Io {
+                    let err = RecordingError::Io {
                         at: Pos::new(&self.file, line),
                         source,
-                    }));
+                    };
+                    return Some(self.release_before(Err(err)));
                 }
             };
             if n == 0 {
                 self.is_done = true;
-                return None;
+                return self.release_held();
             }
             self.stats.num_lines = line;
             self.stats.num_bytes += n as u64;
             if self.buf.iter().all(u8::is_ascii_whitespace) {
                 continue;
             }
-            match self.parse_line(line) {
-                Ok(msg) => {
-                    self.stats.num_accepted += 1;
-                    return Some(Ok(msg));
-                }
-                Err(err) => match self.options.policy {
-                    ErrorPolicy::Stop => {
-                        self.is_done = true;
-                        return Some(Err(err));
-                    }
-                    ErrorPolicy::SkipAndCount => {
-                        *self.stats.skipped.entry(err.kind()).or_insert(0) += 1;
-                        if self.stats.first_errors.len() < self.options.max_errors_kept {
-                            self.stats.first_errors.push(err);
+            let item = match self.parse_line(line) {
+                Ok((msg, None)) => match self.held.take() {
+                    None => Ok(msg),
+                    Some(held) => {
+                        if self.follows_on(&msg, &held.times) {
+                            // The jump is confirmed; this message was checked before it.
+                            self.checker.record(held.times);
+                            self.stats.num_accepted += 2;
+                            self.queued = Some(Ok(msg));
+                            return Some(Ok(held.msg));
+                        }
+                        match self.refuse_jump(&held) {
+                            Some(err) => return Some(Err(err)),
+                            None => Ok(msg),
                         }
                     }
                 },
+                Ok((msg, Some(times))) => match self.held.take() {
+                    None => {
+                        self.held = Some(self.hold(msg, line, times));
+                        continue;
+                    }
+                    Some(held) => {
+                        if self.follows_on(&msg, &held.times) {
+                            // The first jump is confirmed: this one is checked again after it.
+                            self.checker.record(held.times);
+                            self.stats.num_accepted += 1;
+                            match self.checker.check_deferring_jumps(
+                                &msg,
+                                &self.file,
+                                line,
+                                self.options.max_time_jump_ns,
+                            ) {
+                                Ok(None) => {
+                                    self.stats.num_accepted += 1;
+                                    self.queued = Some(Ok(msg));
+                                }
+                                Ok(Some(times)) => self.held = Some(self.hold(msg, line, times)),
+                                Err(err) => self.queued = self.fail(err),
+                            }
+                            return Some(Ok(held.msg));
+                        }
+                        if let Some(err) = self.refuse_jump(&held) {
+                            return Some(Err(err));
+                        }
+                        self.held = Some(self.hold(msg, line, times));
+                        continue;
+                    }
+                },
+                Err(err) => match self.fail(err) {
+                    Some(item) => return Some(self.release_before(item)),
+                    None => continue,
+                },
+            };
+            if item.is_ok() {
+                self.stats.num_accepted += 1;
             }
+            return Some(item);
         }
-        None
+        self.release_held()
     }
 
-    fn parse_line(&mut self, line: u64) -> Result<Message> {
+    /// Whether `msg`, the message after a held jump at `times`, follows on from it: it is not
+    /// earlier than the jump by more than the global tolerance.
+    fn follows_on(&self, msg: &Message, times: &Times) -> bool {
+        msg.t().as_ns()
+            >= times
+                .t()
+                .as_ns()
+                .saturating_sub(self.options.global_tolerance_ns)
+    }
+
+    fn hold(&self, msg: Message, line: u64, times: Times) -> Held {
+        Held {
+            msg,
+            line,
+            times,
+            latest: self.checker.latest(),
+        }
+    }
+
+    /// Refuses the held jump: the error that ends the stream under [`ErrorPolicy::Stop`],
+    /// `None` (counted) under [`ErrorPolicy::SkipAndCount`].
+    fn refuse_jump(&mut self, held: &Held) -> Option<RecordingError> {
+        let t = held.times.t();
+        let err = RecordingError::TimeJump {
+            at: Pos::new(&self.file, held.line),
+            t,
+            latest: held.latest.unwrap_or(t),
+            max_jump_ns: self.options.max_time_jump_ns,
+        };
+        self.fail(err).and_then(Result::err)
+    }
+
+    /// A bad line under the policy: the error that ends the stream, or `None` once counted.
+    fn fail(&mut self, err: RecordingError) -> Option<Result<Message>> {
+        match self.options.policy {
+            ErrorPolicy::Stop => {
+                self.is_done = true;
+                Some(Err(err))
+            }
+            ErrorPolicy::SkipAndCount => {
+                *self.stats.skipped.entry(err.kind()).or_insert(0) += 1;
+                if self.stats.first_errors.len() < self.options.max_errors_kept {
+                    self.stats.first_errors.push(err);
+                }
+                None
+            }
+        }
+    }
+
+    /// A held jump with nothing after it to judge it by (the end of the input): taken.
+    fn release_held(&mut self) -> Option<Result<Message>> {
+        let held = self.held.take()?;
+        self.checker.record(held.times);
+        self.stats.num_accepted += 1;
+        Some(Ok(held.msg))
+    }
+
+    /// `item` (an error that ends the stream), after the held jump if there is one: a bad
+    /// line does not judge the jump, so it is taken.
+    fn release_before(&mut self, item: Result<Message>) -> Result<Message> {
+        match self.release_held() {
+            Some(held) => {
+                self.queued = Some(item);
+                held
+            }
+            None => item,
+        }
+    }
+
+    /// Parses and checks the line: the message, with its times while it awaits confirmation
+    /// of a jump ([`ReadOptions::max_time_jump_ns`]).
+    fn parse_line(&mut self, line: u64) -> Result<(Message, Option<Times>)> {
         // Without its line ending, a line cut off inside a string reads as truncated.
         let mut text = self.buf.as_slice();
         while let Some((b'\n' | b'\r', rest)) = text.split_last() {
@@ -256,8 +398,13 @@ impl<R: BufRead> RecordingReader<R> {
             Ok(msg) => msg,
             Err(err) => return Err(diagnose(text, &err, &Pos::new(&self.file, line))),
         };
-        self.checker.check(&msg, &self.file, line)?;
-        Ok(msg)
+        let times = self.checker.check_deferring_jumps(
+            &msg,
+            &self.file,
+            line,
+            self.options.max_time_jump_ns,
+        )?;
+        Ok((msg, times))
     }
 }
 

@@ -421,3 +421,92 @@ fn garbage_bytes_never_panic() {
         assert!(err.starts_with("rec.jsonl:2: "), "{err}");
     }
 }
+
+/// `n` IMU samples of `band1` every 10 ms from `from_ns`.
+fn imus(from_ns: i64, n: i64) -> Vec<Message> {
+    (0..n)
+        .map(|k| imu(from_ns + k * S / 100, "band1"))
+        .collect()
+}
+
+fn lines(msgs: &[Message]) -> Vec<String> {
+    msgs.iter().map(line).collect()
+}
+
+#[test]
+fn one_timestamp_an_hour_ahead_costs_its_own_line_and_not_the_lines_after_it() {
+    let before = imus(S, 5);
+    let after = imus(S + 5 * S / 100, 5);
+    let hour = 3_600 * S;
+    let mut all = lines(&before);
+    all.push(line(&imu(S + hour, "band2")));
+    all.extend(lines(&after));
+    let text = file(&all);
+    // Stopping: every line before it, then the error at its line.
+    let (good, err) = read_stop(&text);
+    assert_eq!(good, before);
+    assert_eq!(
+        err.unwrap(),
+        "rec.jsonl:7: time 3601.000000 s is 3599.960 s after the latest message at 1.040000 s, \
+         more than the 60 s a clock may jump, and the next message does not follow on from it \
+         (a corrupt timestamp?)"
+    );
+    // Skipping: only that line goes.
+    let mut reader =
+        RecordingReader::with_options(text.as_bytes(), "rec.jsonl", skip_options()).unwrap();
+    let good: Vec<Message> = reader.by_ref().map(Result::unwrap).collect();
+    let mut expected = before.clone();
+    expected.extend(after.iter().cloned());
+    assert_eq!(good, expected);
+    let stats = reader.into_stats();
+    assert_eq!(stats.skipped.get(&ErrorKind::TimeJump), Some(&1));
+    assert_eq!(stats.num_skipped(), 1);
+    // Without the check, the corrupt line is taken and every line after it is out of order.
+    let off = ReadOptions {
+        max_time_jump_ns: i64::MAX,
+        ..skip_options()
+    };
+    let mut reader = RecordingReader::with_options(text.as_bytes(), "rec.jsonl", off).unwrap();
+    assert_eq!(reader.by_ref().count(), before.len() + 1);
+    assert_eq!(
+        reader.into_stats().skipped.get(&ErrorKind::GlobalOrder),
+        Some(&5)
+    );
+}
+
+#[test]
+fn a_recording_that_pauses_for_minutes_is_read_whole() {
+    let pause = 300 * S;
+    for (num_after, tail) in [
+        (5, "lines after the pause"),
+        (1, "one line after the pause"),
+    ] {
+        let mut msgs = imus(S, 5);
+        msgs.extend(imus(2 * S + pause, num_after));
+        let (good, err) = read_stop(&file(&lines(&msgs)));
+        assert_eq!(err, None, "{tail}");
+        assert_eq!(good, msgs, "{tail}");
+    }
+    // Two jumps in a row, each confirmed by the line after it.
+    let mut msgs = imus(S, 3);
+    msgs.extend(imus(2 * S + pause, 2));
+    msgs.extend(imus(3 * S + 2 * pause, 2));
+    let (good, err) = read_stop(&file(&lines(&msgs)));
+    assert_eq!((good, err), (msgs, None));
+}
+
+#[test]
+fn a_line_after_a_jump_that_is_bad_for_another_reason_leaves_the_jump_standing() {
+    let mut all = lines(&imus(S, 3));
+    let jump = imu(2 * S + 300 * S, "band1");
+    all.push(line(&jump));
+    all.push("{\"type\":\"imu\",".to_owned());
+    all.extend(lines(&imus(2 * S + 300 * S + S / 100, 2)));
+    let text = file(&all);
+    let (good, err) = read_stop(&text);
+    assert_eq!(good.len(), 4);
+    assert_eq!(good.last(), Some(&jump));
+    assert!(err.unwrap().starts_with("rec.jsonl:6: "));
+    let (good, err) = read_with(&text, skip_options());
+    assert_eq!((good.len(), err), (6, None));
+}

@@ -201,9 +201,18 @@ pub fn run_baseline_file(
             baseline.name()
         );
     };
+    // A bad line stops the reading (without `--skip-bad`); what came before is still decided
+    // and written.
     let mut messages = Vec::new();
+    let mut read_error = None;
     for m in reader.by_ref() {
-        messages.push(m?);
+        match m {
+            Ok(m) => messages.push(m),
+            Err(e) => {
+                read_error = Some(e);
+                break;
+            }
+        }
     }
     let mut decided = match baseline {
         Baseline::Baptizo => nomen_rtls::run_baptizo(&registry, &messages)
@@ -223,6 +232,14 @@ pub fn run_baseline_file(
         writer.write(m)?;
     }
     writer.finish()?;
+    if let Some(e) = read_error {
+        return Err(anyhow::Error::from(e).context(format!(
+            "stopped reading; the {} decisions on what came before are in {} (--skip-bad skips \
+             bad lines instead)",
+            decided.len(),
+            crate::io::sink_name(out)
+        )));
+    }
     let stats = reader.into_stats();
     let num_identified = decided
         .iter()
@@ -300,8 +317,17 @@ pub fn run_file(
         }
         Ok(())
     };
+    // A bad line stops the reading (without `--skip-bad`), not the engine: what it accepted
+    // before is still decided and written.
+    let mut read_error = None;
     for m in reader.by_ref() {
-        let m = m?;
+        let m = match m {
+            Ok(m) => m,
+            Err(e) => {
+                read_error = Some(e);
+                break;
+            }
+        };
         if let (Some(r), Message::Skeleton(s)) = (refinement.as_mut(), &m) {
             r.observe(s);
         }
@@ -317,6 +343,13 @@ pub fn run_file(
     engine.finish(&mut batch);
     write_batch(&mut batch, &mut writer, &mut refinement)?;
     writer.finish()?;
+    if let Some(e) = read_error {
+        return Err(anyhow::Error::from(e).context(format!(
+            "stopped reading; the {num_out} decisions on what came before are in {} \
+             (--skip-bad skips bad lines instead)",
+            crate::io::sink_name(out)
+        )));
+    }
     let stats = reader.into_stats();
     let mut summary = format!(
         "{}: {stats}; engine rejected {num_rejected} messages, stitched {} tracks ({} of them seen again), undid {} id swaps, estimated {} clock offsets (moved {}, withdrawn {}, settled {}); wrote {num_out} decisions to {}",
