@@ -161,8 +161,9 @@ impl Checker {
     }
 
     /// [`Checker::check`], except that a message more than `max_jump_ns` after the latest one
-    /// so far is not recorded: its times come back, for [`Checker::record`] once the caller
-    /// has seen whether the next message follows on from it.
+    /// so far, or the first message, is not recorded: its times come back, for
+    /// [`Checker::record`] once the caller has seen whether the next message follows on from
+    /// it.
     pub(crate) fn check_deferring_jumps(
         &mut self,
         msg: &Message,
@@ -173,7 +174,7 @@ impl Checker {
         let times = self.check_unrecorded(msg, file, line)?;
         let is_jump = self
             .latest
-            .is_some_and(|latest| times.t.as_ns() > latest.as_ns().saturating_add(max_jump_ns));
+            .is_none_or(|latest| times.t.as_ns() > latest.as_ns().saturating_add(max_jump_ns));
         if is_jump {
             return Ok(Some(times));
         }

@@ -170,21 +170,19 @@ pub enum RecordingError {
         /// The tolerance in force, nanoseconds.
         tolerance_ns: i64,
     },
-    /// A message far later than every message before it, and the next message falls back
-    /// before it: the odd one out, most likely a corrupt timestamp.
-    #[error(
-        "{at}: time {t} is {:.3} s after the latest message at {latest}, more than the {:.0} s a \
-         clock may jump, and the next message does not follow on from it (a corrupt timestamp?)",
-        lag_secs(.t, .latest),
-        ns_to_secs(.max_jump_ns)
-    )]
+    /// A message far later than every message before it (or the first message, far later
+    /// than the one after it), and the next message falls back before it: the odd one out,
+    /// most likely a corrupt timestamp.
+    #[error("{at}: {}", time_jump_text(.t, .latest, .next, .max_jump_ns))]
     TimeJump {
         /// Where.
         at: Pos,
         /// The message's time.
         t: SessionTime,
-        /// The latest time accepted before it.
-        latest: SessionTime,
+        /// The latest time accepted before it (`None`: it is the first message).
+        latest: Option<SessionTime>,
+        /// The time of the message after it.
+        next: SessionTime,
         /// How far a clock may jump before the next message must confirm it, nanoseconds.
         max_jump_ns: i64,
     },
@@ -196,6 +194,28 @@ pub enum RecordingError {
         /// What is wrong.
         detail: String,
     },
+}
+
+fn time_jump_text(
+    t: &SessionTime,
+    latest: &Option<SessionTime>,
+    next: &SessionTime,
+    max_jump_ns: &i64,
+) -> String {
+    let max_s = ns_to_secs(max_jump_ns);
+    match latest {
+        Some(latest) => format!(
+            "time {t} is {:.3} s after the latest message at {latest}, more than the {max_s:.0} s \
+             a clock may jump, and the next message, at {next}, does not follow on from it (a \
+             corrupt timestamp?)",
+            t.secs_since(*latest)
+        ),
+        None => format!(
+            "time {t} of the first message is {:.3} s after the next message, at {next}, more \
+             than the {max_s:.0} s a clock may jump (a corrupt timestamp?)",
+            t.secs_since(*next)
+        ),
+    }
 }
 
 fn order_word(t: &SessionTime, previous: &SessionTime) -> &'static str {

@@ -42,8 +42,10 @@ pub struct ReadOptions {
     /// `global_tolerance_ns`); otherwise it is refused as a time jump
     /// ([`crate::RecordingError::TimeJump`]) and the lines after it are read as if it were not
     /// there. A recording that really pauses loses nothing; one corrupt timestamp costs its
-    /// own line instead of every line after it. At the end of the input, or before a bad line,
-    /// it is taken. [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX` turns the check off.
+    /// own line instead of every line after it. The first message, which nothing precedes, is
+    /// refused only when the next one is more than this before it. At the end of the input, or
+    /// before a bad line, a waiting message is taken. [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX`
+    /// turns the check off.
     pub max_time_jump_ns: i64,
 }
 
@@ -255,14 +257,14 @@ impl<R: BufRead> RecordingReader<R> {
                 Ok((msg, None)) => match self.held.take() {
                     None => Ok(msg),
                     Some(held) => {
-                        if self.follows_on(&msg, &held.times) {
+                        if self.follows_on(&msg, &held) {
                             // The jump is confirmed; this message was checked before it.
                             self.checker.record(held.times);
                             self.stats.num_accepted += 2;
                             self.queued = Some(Ok(msg));
                             return Some(Ok(held.msg));
                         }
-                        match self.refuse_jump(&held) {
+                        match self.refuse_jump(&held, &msg) {
                             Some(err) => return Some(Err(err)),
                             None => Ok(msg),
                         }
@@ -274,7 +276,7 @@ impl<R: BufRead> RecordingReader<R> {
                         continue;
                     }
                     Some(held) => {
-                        if self.follows_on(&msg, &held.times) {
+                        if self.follows_on(&msg, &held) {
                             // The first jump is confirmed: this one is checked again after it.
                             self.checker.record(held.times);
                             self.stats.num_accepted += 1;
@@ -293,7 +295,7 @@ impl<R: BufRead> RecordingReader<R> {
                             }
                             return Some(Ok(held.msg));
                         }
-                        if let Some(err) = self.refuse_jump(&held) {
+                        if let Some(err) = self.refuse_jump(&held, &msg) {
                             return Some(Err(err));
                         }
                         self.held = Some(self.hold(msg, line, times));
@@ -313,14 +315,15 @@ impl<R: BufRead> RecordingReader<R> {
         self.release_held()
     }
 
-    /// Whether `msg`, the message after a held jump at `times`, follows on from it: it is not
-    /// earlier than the jump by more than the global tolerance.
-    fn follows_on(&self, msg: &Message, times: &Times) -> bool {
-        msg.t().as_ns()
-            >= times
-                .t()
-                .as_ns()
-                .saturating_sub(self.options.global_tolerance_ns)
+    /// Whether `msg`, the message after `held`, follows on from it: it is not earlier than
+    /// a jump by more than the global tolerance, or than the first message by more than a jump
+    /// (for a message a little earlier than the first, the global order check speaks).
+    fn follows_on(&self, msg: &Message, held: &Held) -> bool {
+        let slack = match held.latest {
+            Some(_) => self.options.global_tolerance_ns,
+            None => self.options.max_time_jump_ns,
+        };
+        msg.t().as_ns() >= held.times.t().as_ns().saturating_sub(slack)
     }
 
     fn hold(&self, msg: Message, line: u64, times: Times) -> Held {
@@ -332,14 +335,14 @@ impl<R: BufRead> RecordingReader<R> {
         }
     }
 
-    /// Refuses the held jump: the error that ends the stream under [`ErrorPolicy::Stop`],
-    /// `None` (counted) under [`ErrorPolicy::SkipAndCount`].
-    fn refuse_jump(&mut self, held: &Held) -> Option<RecordingError> {
-        let t = held.times.t();
+    /// Refuses the held jump, which `next` does not follow on from: the error that ends the
+    /// stream under [`ErrorPolicy::Stop`], `None` (counted) under [`ErrorPolicy::SkipAndCount`].
+    fn refuse_jump(&mut self, held: &Held, next: &Message) -> Option<RecordingError> {
         let err = RecordingError::TimeJump {
             at: Pos::new(&self.file, held.line),
-            t,
-            latest: held.latest.unwrap_or(t),
+            t: held.times.t(),
+            latest: held.latest,
+            next: next.t(),
             max_jump_ns: self.options.max_time_jump_ns,
         };
         self.fail(err).and_then(Result::err)

@@ -448,8 +448,8 @@ fn one_timestamp_an_hour_ahead_costs_its_own_line_and_not_the_lines_after_it() {
     assert_eq!(
         err.unwrap(),
         "rec.jsonl:7: time 3601.000000 s is 3599.960 s after the latest message at 1.040000 s, \
-         more than the 60 s a clock may jump, and the next message does not follow on from it \
-         (a corrupt timestamp?)"
+         more than the 60 s a clock may jump, and the next message, at 1.050000 s, does not \
+         follow on from it (a corrupt timestamp?)"
     );
     // Skipping: only that line goes.
     let mut reader =
@@ -471,6 +471,28 @@ fn one_timestamp_an_hour_ahead_costs_its_own_line_and_not_the_lines_after_it() {
     assert_eq!(
         reader.into_stats().skipped.get(&ErrorKind::GlobalOrder),
         Some(&5)
+    );
+}
+
+#[test]
+fn a_first_line_an_hour_ahead_is_refused_and_the_rest_read() {
+    let rest = imus(S, 5);
+    let mut all = vec![line(&imu(3_600 * S, "band2"))];
+    all.extend(lines(&rest));
+    let text = file(&all);
+    assert_eq!(
+        error_of(&text),
+        "rec.jsonl:2: time 3600.000000 s of the first message is 3599.000 s after the next \
+         message, at 1.000000 s, more than the 60 s a clock may jump (a corrupt timestamp?)"
+    );
+    let (good, err) = read_with(&text, skip_options());
+    assert_eq!((good, err), (rest, None));
+    // A first line a little after the second is still a global order error at the second.
+    let (good, err) = read_stop(&file(&[line(&imu(2 * S, "band2")), line(&imu(S, "band1"))]));
+    assert_eq!(good, vec![imu(2 * S, "band2")]);
+    assert!(
+        err.unwrap()
+            .starts_with("rec.jsonl:3: time 1.000000 s is 1.000000000 s before")
     );
 }
 
