@@ -8,7 +8,6 @@ mod tracks;
 use crate::config::{EngineConfig, ns};
 use crate::error::{EngineError, Result};
 use crate::lag_memo::ImuLagMemo;
-use crate::pending::Pending;
 use crate::signal::ImuSeries;
 use crate::stats::EngineStats;
 use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m};
@@ -31,6 +30,7 @@ use nomen_rssi::{
     background_log_likelihood, log_likelihood, pair_score,
 };
 use scoring::key_joint_near;
+use std::collections::btree_map::Entry;
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 
 /// Step of the clock-offset search, ns (one IMU sample at 100 Hz).
@@ -132,10 +132,6 @@ const SWAP_RETURN_GAP_NS: i64 = 100_000_000;
 /// ... which the other track's own return shows within this long, ns.
 const SWAP_RETURN_WINDOW_NS: i64 = 100_000_000;
 
-/// Index by device id, looked up once per message: a fixed-seed fast hash (the map is never
-/// iterated, so its order cannot reach the output).
-type DeviceIndex = HashMap<DeviceId, usize, foldhash::fast::FixedState>;
-
 /// Refuses a message stamped more than `max_ns` ahead of every time seen so far, unless the
 /// message of its source before it was refused for that too and lies before it, less than
 /// `max_ns` earlier: a corrupt timestamp is refused, and a clock that really jumped (or a
@@ -202,7 +198,7 @@ struct ImuState {
     subject: usize,
     site: Joint,
     /// Received, not yet settled: device time → (accel, gyro).
-    pending: Pending<(Vector3<f64>, Vector3<f64>)>,
+    pending: BTreeMap<i64, (Vector3<f64>, Vector3<f64>)>,
     /// Settled samples, device time, increasing.
     t: VecDeque<i64>,
     /// Specific force, sensor frame, m/s².
@@ -463,9 +459,9 @@ pub struct Engine {
     imus: Vec<ImuState>,
     /// Looked up once per sample and never iterated, so hashed: a B-tree of 40 device names
     /// cost about 3 % of a steady-state run.
-    imu_index: DeviceIndex,
+    imu_index: HashMap<DeviceId, usize>,
     tags: Vec<TagState>,
-    tag_index: DeviceIndex,
+    tag_index: HashMap<DeviceId, usize>,
     /// A learned scorer of (IMU window, skeleton window) pairs ([`Engine::with_pair_scorer`]).
     pair_scorer: Option<Box<dyn PairScorer>>,
     /// RSSI evidence, when a calibrated model was given ([`Engine::with_rssi_model`]).
@@ -507,9 +503,9 @@ impl Engine {
         config.validate()?;
         registry.validate().map_err(EngineError::Registry)?;
         let mut imus = Vec::new();
-        let mut imu_index = DeviceIndex::default();
+        let mut imu_index = HashMap::new();
         let mut tags = Vec::new();
-        let mut tag_index = DeviceIndex::default();
+        let mut tag_index = HashMap::new();
         let mut device_kinds = BTreeMap::new();
         let mut rssi_tags = BTreeMap::new();
         let mut subject_imus = Vec::new();
@@ -533,7 +529,7 @@ impl Engine {
                     device: w.device.clone(),
                     subject: s,
                     site: w.site,
-                    pending: Pending::default(),
+                    pending: BTreeMap::new(),
                     t: VecDeque::new(),
                     accel: VecDeque::new(),
                     gyro: VecDeque::new(),
@@ -731,12 +727,17 @@ impl Engine {
         let session = t.saturating_add(imu.offset_ns);
         self.time_jumps
             .check(self.global_max, "imu", s.device.as_str(), session, s.t)?;
-        if !imu.pending.insert(t, (s.accel_mps2, s.gyro_radps)) {
-            return Err(EngineError::Duplicate {
-                kind: "imu",
-                source_id: s.device.to_string(),
-                t: s.t,
-            });
+        match imu.pending.entry(t) {
+            Entry::Occupied(_) => {
+                return Err(EngineError::Duplicate {
+                    kind: "imu",
+                    source_id: s.device.to_string(),
+                    t: s.t,
+                });
+            }
+            Entry::Vacant(slot) => {
+                slot.insert((s.accel_mps2, s.gyro_radps));
+            }
         }
         imu.newest = Some(imu.newest.map_or(t, |n| n.max(t)));
         imu.frontier = imu.frontier.max(t - self.reorder_ns);
@@ -1405,7 +1406,7 @@ const AHRS_MAX_GAP_NS: i64 = 1_000_000_000;
 /// filter (re)starts at the first sample and after a gap of a second or more (see
 /// [`start_ahrs`]); samples wait until it can.
 fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
-    while let Some(&(t, (accel, gyro))) = imu.pending.first() {
+    while let Some((&t, &(accel, gyro))) = imu.pending.first_key_value() {
         if t >= imu.frontier {
             break;
         }
@@ -1444,13 +1445,17 @@ fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
 /// along the vertical), and Madgwick's gain corrects that at only about 4°/s. Returns whether
 /// the filter started.
 fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
-    let Some(&(first, _)) = imu.pending.first() else {
+    let Some(&first) = imu.pending.keys().next() else {
         return false;
     };
     // While the samples below the frontier span less than the start, none of them can end it
     // (neither its length nor a gap): wait without scanning them again.
     let is_finishing = imu.frontier == i64::MAX;
-    let newest_settled = imu.pending.last_before(imu.frontier).map(|&(t, _)| t);
+    let newest_settled = imu
+        .pending
+        .range(..imu.frontier)
+        .next_back()
+        .map(|(&t, _)| t);
     if !is_finishing && newest_settled.is_none_or(|t| t - first < AHRS_START_NS) {
         return false;
     }
@@ -1459,7 +1464,7 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
     let mut last: Option<(i64, Vector3<f64>)> = None;
     let mut up: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
     let mut is_complete = is_finishing;
-    for &(t, (accel, gyro)) in imu.pending.iter() {
+    for (&t, (accel, gyro)) in &imu.pending {
         if t >= imu.frontier {
             break;
         }
@@ -1479,7 +1484,7 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
         for (axis, x) in up.iter_mut().zip(v.iter()) {
             axis.push(*x);
         }
-        last = Some((t, gyro));
+        last = Some((t, *gyro));
     }
     if !is_complete {
         return false;

@@ -199,7 +199,6 @@ mod config;
 mod engine;
 mod error;
 mod lag_memo;
-mod pending;
 mod signal;
 mod stats;
 mod tags;
