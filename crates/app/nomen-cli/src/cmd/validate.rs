@@ -13,7 +13,9 @@ use std::path::PathBuf;
 pub struct ValidateArgs {
     /// The recording (`-` for stdin).
     pub file: PathBuf,
-    /// Skip bad lines and count them instead of stopping at the first one.
+    /// Skip bad lines and count them instead of stopping at the first one (a line more than
+    /// 60 s after every earlier one that the next line does not follow on from counts as a
+    /// time jump).
     #[arg(long)]
     pub skip_bad: bool,
 }
