@@ -7,7 +7,7 @@ use std::process::Stdio;
 
 mod common;
 
-use common::{count, data_dir, nomen, nomen_command, simulate_library, text};
+use common::{count, data_dir, nomen, nomen_command, simulated_scene, text};
 
 #[test]
 fn handshake_converts_validates_and_evaluates() {
@@ -385,10 +385,9 @@ fn csv_imports_convert_units_and_reject_bad_rows_by_line() {
 
 #[test]
 fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
-    let Some(data) = data_dir() else { return };
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = tmp.path().join("scene");
-    simulate_library("belmonte_one_without_band.toml", &scene, &data);
+    let Some((tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
+        return;
+    };
     let result = scene.join("result.jsonl");
     let o = nomen(&[
         "run",
@@ -456,10 +455,9 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
 
 #[test]
 fn run_writes_the_decisions_before_a_bad_line_and_a_corrupt_timestamp_costs_one_line() {
-    let Some(data) = data_dir() else { return };
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = tmp.path().join("scene");
-    simulate_library("belmonte_one_without_band.toml", &scene, &data);
+    let Some((tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
+        return;
+    };
     let recording = std::fs::read_to_string(scene.join("recording.jsonl")).unwrap();
     let lines: Vec<&str> = recording.lines().collect();
     let middle = lines.len() / 2;
@@ -535,10 +533,9 @@ fn run_writes_the_decisions_before_a_bad_line_and_a_corrupt_timestamp_costs_one_
 
 #[test]
 fn refine_joints_estimates_hidden_arms_with_covariance_and_keeps_seen_joints() {
-    let Some(data) = data_dir() else { return };
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = tmp.path().join("scene");
-    simulate_library("hospital_room.toml", &scene, &data);
+    let Some((tmp, scene)) = simulated_scene("hospital_room.toml") else {
+        return;
+    };
     let result = scene.join("refined.jsonl");
     let o = nomen(&[
         "run",
@@ -602,11 +599,10 @@ fn refine_joints_estimates_hidden_arms_with_covariance_and_keeps_seen_joints() {
 
 #[test]
 fn run_with_the_shipped_cnn_labels_every_skeleton_and_a_missing_model_is_named() {
-    let Some(data) = data_dir() else { return };
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = tmp.path().join("scene");
+    let Some((tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
+        return;
+    };
     let repo = common::repo();
-    simulate_library("belmonte_one_without_band.toml", &scene, &data);
     let result = scene.join("cnn.jsonl");
     let model = repo.join("models/cnn_small");
     let o = nomen(&[

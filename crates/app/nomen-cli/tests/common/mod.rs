@@ -51,6 +51,16 @@ pub fn simulate_library(name: &str, out: &Path, data: &Path) {
     assert!(o.status.success(), "{}", text(&o.stderr));
 }
 
+/// A temporary directory with `scenarios/NAME` simulated into its `scene` folder, or `None`
+/// when the shared data is absent (the test then skips).
+pub fn simulated_scene(name: &str) -> Option<(tempfile::TempDir, PathBuf)> {
+    let data = data_dir()?;
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    simulate_library(name, &scene, &data);
+    Some((tmp, scene))
+}
+
 /// Number of messages of type `kind` in a recording file.
 pub fn count(path: &Path, kind: &str) -> usize {
     std::fs::read_to_string(path)
