@@ -185,6 +185,20 @@ fn open_writer(
     )?)
 }
 
+/// The error of a run that stopped at the bad line `e`, after writing the `num_decisions`
+/// decisions on what came before it to `out`.
+fn stopped_reading(
+    e: nomen_recording::RecordingError,
+    num_decisions: impl std::fmt::Display,
+    out: &Path,
+) -> anyhow::Error {
+    anyhow::Error::from(e).context(format!(
+        "stopped reading; the {num_decisions} decisions on what came before are in {} \
+         (--skip-bad skips bad lines instead)",
+        crate::io::sink_name(out)
+    ))
+}
+
 /// Reads the whole of `recording`, decides it with `baseline` and writes the decisions to `out`
 /// in time order; returns a summary line.
 pub fn run_baseline_file(
@@ -236,12 +250,7 @@ pub fn run_baseline_file(
     }
     writer.finish()?;
     if let Some(e) = read_error {
-        return Err(anyhow::Error::from(e).context(format!(
-            "stopped reading; the {} decisions on what came before are in {} (--skip-bad skips \
-             bad lines instead)",
-            decided.len(),
-            crate::io::sink_name(out)
-        )));
+        return Err(stopped_reading(e, decided.len(), out));
     }
     let stats = reader.into_stats();
     let num_identified = decided
@@ -347,11 +356,7 @@ pub fn run_file(
     write_batch(&mut batch, &mut writer, &mut refinement)?;
     writer.finish()?;
     if let Some(e) = read_error {
-        return Err(anyhow::Error::from(e).context(format!(
-            "stopped reading; the {num_out} decisions on what came before are in {} \
-             (--skip-bad skips bad lines instead)",
-            crate::io::sink_name(out)
-        )));
+        return Err(stopped_reading(e, num_out, out));
     }
     let stats = reader.into_stats();
     let mut summary = format!(
