@@ -176,7 +176,8 @@ pub struct EngineConfig {
     /// per source). Without it, one corrupt timestamp an hour ahead would put its source's
     /// reorder window an hour ahead, so that every later message of that source is refused as
     /// late, and every window until then would time out waiting for the others. The session's
-    /// very first message has nothing to be compared with and is taken as it is. Default 60 s.
+    /// first message waits for the next one and is dropped if that is stamped more than this
+    /// much before it ([`crate::Engine::push`]). Default 60 s.
     pub max_time_jump_s: f64,
     /// A skeleton observed at `t` is labelled with the decision of the first window ending at or
     /// after `t + decision_delay_s`, s. Larger values let the first frames of a new track use

@@ -144,6 +144,27 @@ struct TimeJumpGuard {
     refused: BTreeMap<String, i64>,
 }
 
+/// Where the session's first message stands (see [`Engine::push`]).
+enum FirstMessage {
+    /// Nothing the engine would take has come yet.
+    Awaited,
+    /// The first message (and its session time), waiting for the next one.
+    Held(Box<Message>, i64),
+    /// Taken or dropped: every message is checked against the ones before it.
+    Taken,
+}
+
+/// The id a refusal names for `msg`'s source (a device, camera or `tag@antenna`).
+fn message_source(msg: &Message) -> String {
+    match msg {
+        Message::Imu(s) => s.device.to_string(),
+        Message::Skeleton(s) => s.camera.to_string(),
+        Message::RtlsFix(f) => f.tag.to_string(),
+        Message::Rssi(r) => format!("{}@{}", r.tag, r.antenna),
+        other => other.type_name().to_string(),
+    }
+}
+
 impl TimeJumpGuard {
     fn new(max_ns: i64) -> Self {
         Self {
@@ -486,6 +507,8 @@ pub struct Engine {
     global_max: Option<i64>,
     /// Refuses messages stamped implausibly far ahead of `global_max`.
     time_jumps: TimeJumpGuard,
+    /// The session's first message, held until the next one vouches for its time.
+    first: FirstMessage,
     ready: Vec<Message>,
     stats: EngineStats,
     /// Pairs of tracks of one camera that are in a close encounter now (see
@@ -622,6 +645,7 @@ impl Engine {
             next_end: None,
             global_max: None,
             time_jumps: TimeJumpGuard::new(ns(config.max_time_jump_s)),
+            first: FirstMessage::Awaited,
             ready: Vec::new(),
             stats: EngineStats::default(),
             close_pairs: BTreeSet::new(),
@@ -671,11 +695,83 @@ impl Engine {
         &self.config
     }
 
-    /// Ingests one message. A bad message (invalid numbers, unknown source, duplicate, late) is
-    /// rejected with an error and counted; the engine keeps running. Message types the engine
-    /// does not use are accepted and ignored.
+    /// Ingests one message. A bad message (invalid numbers, unknown source, duplicate, late,
+    /// stamped too far ahead) is rejected with an error and counted; the engine keeps running.
+    /// Message types the engine does not use are accepted and ignored.
+    ///
+    /// The session's first message has nothing to be checked against, so it waits for the next
+    /// valid one from a known source: if that is stamped more than
+    /// [`EngineConfig::max_time_jump_s`] before it, the first was a corrupt timestamp and is
+    /// dropped (counted as a time jump, with the reason in
+    /// [`EngineStats::first_message_dropped`](crate::EngineStats::first_message_dropped));
+    /// otherwise it is taken just before the second. Without this, a first message stamped an
+    /// hour ahead would make every later message of its source late. [`Engine::finish`] takes
+    /// a first message that nothing followed.
     pub fn push(&mut self, msg: &Message) -> Result<()> {
         self.stats.num_messages += 1;
+        // The session's first message has no earlier time to be checked against: it waits for
+        // the next one that could vouch for it (see `EngineConfig::max_time_jump_s`).
+        match std::mem::replace(&mut self.first, FirstMessage::Taken) {
+            FirstMessage::Taken => {}
+            FirstMessage::Awaited => match self.vouching_time(msg) {
+                Some(t) => {
+                    self.first = FirstMessage::Held(Box::new(msg.clone()), t);
+                    return Ok(());
+                }
+                None => self.first = FirstMessage::Awaited,
+            },
+            FirstMessage::Held(first, first_t) => match self.vouching_time(msg) {
+                None => self.first = FirstMessage::Held(first, first_t),
+                Some(t) if first_t.saturating_sub(t) > self.time_jumps.max_ns => {
+                    self.stats.rejected.num_time_jump += 1;
+                    self.stats.first_message_dropped = Some(
+                        EngineError::TimeJump {
+                            kind: first.type_name(),
+                            source_id: message_source(&first),
+                            t: first.t(),
+                            ahead_s: (first_t - t) as f64 * 1e-9,
+                        }
+                        .to_string(),
+                    );
+                }
+                Some(_) => {
+                    // Taken as if pushed now; nothing is in the engine yet to refuse it.
+                    let _ = self.ingest(&first);
+                }
+            },
+        }
+        self.ingest(msg)
+    }
+
+    /// The session time of `msg` if it is a message the engine would take at the start of a
+    /// session (of a kind it uses, from a known source, with valid values); `None` otherwise.
+    fn vouching_time(&self, msg: &Message) -> Option<i64> {
+        let t = msg.t().as_ns();
+        let known = match msg {
+            Message::Imu(s) => {
+                let imu = self
+                    .imu_index
+                    .get(&s.device)
+                    .and_then(|&i| self.imus.get(i))?;
+                return msg
+                    .validate()
+                    .is_ok()
+                    .then(|| t.saturating_add(imu.offset_ns));
+            }
+            Message::Skeleton(s) => self.camera_index.contains_key(&s.camera),
+            Message::RtlsFix(f) => self.tag_index.contains_key(&f.tag),
+            Message::Rssi(r) => {
+                self.rssi.is_some()
+                    && self.rssi_tags.contains_key(&r.tag)
+                    && self.antennas.contains(&r.antenna)
+            }
+            _ => false,
+        };
+        (known && msg.validate().is_ok()).then_some(t)
+    }
+
+    /// [`Engine::push`] after the first message's check: takes `msg` or counts its refusal.
+    fn ingest(&mut self, msg: &Message) -> Result<()> {
         let result = match msg {
             Message::Imu(s) => self.push_imu(s),
             Message::Skeleton(s) => self.push_skeleton(s),
@@ -1008,6 +1104,12 @@ impl Engine {
 
     /// Settles everything, processes every remaining window and emits every remaining decision.
     pub fn finish(&mut self, out: &mut Vec<Message>) {
+        // A first message nothing came to vouch for is taken as it is.
+        if let FirstMessage::Held(first, _) =
+            std::mem::replace(&mut self.first, FirstMessage::Taken)
+        {
+            let _ = self.ingest(&first);
+        }
         for imu in &mut self.imus {
             imu.frontier = i64::MAX;
             settle_imu(imu, &self.config);

@@ -125,4 +125,10 @@ pub struct EngineStats {
     pub clock_offsets: BTreeMap<DeviceId, ClockOffsetEstimate>,
     /// The latest coherent heading estimate per IMU (kept when it later loses coherence).
     pub imu_headings: BTreeMap<DeviceId, HeadingEstimate>,
+    /// Why the session's first message was dropped, if it was: the next message was stamped
+    /// more than `EngineConfig::max_time_jump_s` before it (a corrupt timestamp). Counted in
+    /// `rejected.num_time_jump`; no [`crate::Engine::push`] returned it, as the push that
+    /// brought the message had already returned.
+    #[serde(default)]
+    pub first_message_dropped: Option<String>,
 }

@@ -191,6 +191,8 @@ struct Run {
     errors: BTreeMap<usize, EngineError>,
     accepted: BTreeMap<(i64, CameraId, u64), usize>,
     out: Vec<Message>,
+    /// Why the session's first message was dropped, if it was.
+    first_dropped: Option<String>,
 }
 
 fn run<'a>(people: &[Person], stream: impl IntoIterator<Item = &'a Message>) -> Run {
@@ -214,15 +216,17 @@ fn run<'a>(people: &[Person], stream: impl IntoIterator<Item = &'a Message>) -> 
         engine.poll(&mut out);
     }
     engine.finish(&mut out);
+    let first_dropped = engine.stats().first_message_dropped.clone();
     assert_eq!(
         engine.stats().rejected.total(),
-        errors.len() as u64,
+        errors.len() as u64 + u64::from(first_dropped.is_some()),
         "every refusal is counted"
     );
     Run {
         errors,
         accepted,
         out,
+        first_dropped,
     }
 }
 
@@ -369,6 +373,79 @@ fn a_session_resuming_after_everyone_was_silent_loses_one_message_per_source() {
         named > 0.95,
         "{named:.3} of frames named right after the gap"
     );
+}
+
+#[test]
+fn a_first_message_stamped_an_hour_ahead_is_dropped_when_the_next_one_comes() {
+    let people = vec![
+        Person::new(Some("ana"), 0.9, 0.0, 1),
+        Person::new(Some("ben"), 1.3, 1.2, 2),
+    ];
+    let clean = recording(&people, 12.0);
+    let num_clean = num_skeletons(&clean);
+    let hour_ns = 3_600_000_000_000;
+    let first_imu = clean
+        .iter()
+        .position(|m| matches!(m, Message::Imu(_)))
+        .unwrap();
+    let first_skeleton = clean
+        .iter()
+        .position(|m| matches!(m, Message::Skeleton(_)))
+        .unwrap();
+    for (k, source) in [(first_skeleton, "cam"), (first_imu, "ana_imu")] {
+        // The message moved to the front of the stream, stamped an hour later: the session's
+        // first message. Before the hold, a skeleton there made every later frame of its
+        // camera late: 1 of 1,199 skeletons kept, nobody named.
+        let mut stream = vec![restamped(&clean[k], clean[k].t().as_ns() + hour_ns)];
+        stream.extend(
+            clean
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| *i != k)
+                .map(|(_, m)| m.clone()),
+        );
+        let result = run(&people, &stream);
+        assert!(result.errors.is_empty(), "{source}: {:?}", result.errors);
+        let why = result.first_dropped.expect("the first message is dropped");
+        assert!(why.contains(source) && why.contains("3600"), "{why}");
+        // Every skeleton but a dropped one is decided (its push had returned Ok: it waited).
+        let num_kept = if source == "cam" {
+            num_clean - 1
+        } else {
+            num_clean
+        };
+        assert_eq!(num_decided(&result.out), num_kept, "{source}");
+        assert!(result.out.iter().all(|m| m.t().as_ns() < hour_ns));
+        let named = accuracy(&people, &result.out, 6.0);
+        assert!(named > 0.95, "{source}: {named:.3} of frames named right");
+    }
+    // A first message in time is taken, and so is one that nothing follows.
+    let result = run(&people, &clean);
+    assert!(result.first_dropped.is_none() && result.errors.is_empty());
+    assert_eq!(result.accepted.len(), num_clean);
+    let alone = run(&people, &clean[first_skeleton..=first_skeleton]);
+    assert_eq!(alone.out.len(), 1, "{:?}", alone.out);
+    // Messages that cannot vouch (an unknown camera, an invalid sample) are refused as before
+    // and leave the first message waiting for one that can.
+    let stranger = from_stranger(&clean[first_skeleton]);
+    let mut stream = vec![
+        restamped(
+            &clean[first_skeleton],
+            clean[first_skeleton].t().as_ns() + hour_ns,
+        ),
+        stranger,
+    ];
+    stream.extend(clean.iter().cloned());
+    let result = run(&people, &stream);
+    assert_eq!(result.errors.keys().copied().collect::<Vec<_>>(), vec![1]);
+    assert!(result.first_dropped.is_some());
+    assert_eq!(num_decided(&result.out), num_clean);
+}
+
+fn num_decided(out: &[Message]) -> usize {
+    out.iter()
+        .filter(|m| matches!(m, Message::Identified(_)))
+        .count()
 }
 
 /// An output moved back by `shift_ns`, to compare with the scene's tracks.

@@ -355,6 +355,11 @@ pub fn run_file(
     engine.finish(&mut batch);
     write_batch(&mut batch, &mut writer, &mut refinement)?;
     writer.finish()?;
+    // The session's first message, dropped once the next showed its stamp was far ahead.
+    if let Some(why) = &engine.stats().first_message_dropped {
+        num_rejected += 1;
+        first_rejection = Some(why.clone());
+    }
     if let Some(e) = read_error {
         return Err(stopped_reading(e, num_out, out));
     }
