@@ -529,6 +529,34 @@ fn run_writes_the_decisions_before_a_bad_line_and_a_corrupt_timestamp_costs_one_
     );
     let num_skeletons = count(&scene.join("recording.jsonl"), "skeleton");
     assert_eq!(count(&out, "identified"), num_skeletons - 1);
+
+    // The first message 30 s ahead: refused at its own line (the next one is 30 s before it),
+    // or skipped alone; before, it was taken and every later frame of its camera was out of
+    // order.
+    let mut first: serde_json::Value = serde_json::from_str(lines[1]).unwrap();
+    let t = first["t"].as_i64().unwrap();
+    first["t"] = serde_json::json!(t + 30_000_000_000i64);
+    let mut early: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    early[1] = first.to_string();
+    let input = write("first.jsonl", &early);
+    let o = run(&input, &tmp.path().join("first_stopped.jsonl"), false);
+    let stderr = text(&o.stderr);
+    assert!(
+        !o.status.success()
+            && stderr.contains("first.jsonl:2: time ")
+            && stderr.contains("of the first message"),
+        "{stderr}"
+    );
+    let out = tmp.path().join("first_skipped.jsonl");
+    let o = run(&input, &out, true);
+    let stderr = text(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("1 skipped (time jump: 1)"), "{stderr}");
+    let num_first_skeletons = usize::from(first["type"] == "skeleton");
+    assert_eq!(
+        count(&out, "identified"),
+        num_skeletons - num_first_skeletons
+    );
 }
 
 #[test]

@@ -724,15 +724,13 @@ impl Engine {
                 None => self.first = FirstMessage::Held(first, first_t),
                 Some(t) if first_t.saturating_sub(t) > self.time_jumps.max_ns => {
                     self.stats.rejected.num_time_jump += 1;
-                    self.stats.first_message_dropped = Some(
-                        EngineError::TimeJump {
-                            kind: first.type_name(),
-                            source_id: message_source(&first),
-                            t: first.t(),
-                            ahead_s: (first_t - t) as f64 * 1e-9,
-                        }
-                        .to_string(),
-                    );
+                    self.stats.first_message_dropped = Some(format!(
+                        "the session's first message, {} from '{}' at {}, was stamped {:.1} s after the next one; dropped as a time jump",
+                        first.type_name(),
+                        message_source(&first),
+                        first.t(),
+                        (first_t - t) as f64 * 1e-9
+                    ));
                 }
                 Some(_) => {
                     // Taken as if pushed now; nothing is in the engine yet to refuse it.

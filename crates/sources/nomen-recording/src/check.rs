@@ -12,9 +12,12 @@ use std::sync::Arc;
 pub const DEFAULT_GLOBAL_TOLERANCE_NS: i64 = 100_000_000;
 
 /// How far after every earlier message a reader takes a message only if the next one follows on
-/// from it, by default (60 s): further than that, one corrupt timestamp would put the global
-/// time order out of reach of every later line.
-pub const DEFAULT_MAX_TIME_JUMP_NS: i64 = 60_000_000_000;
+/// from it, by default (100 ms, as far as the global tolerance lets messages be out of order). A
+/// message further ahead is the first after a pause, which the next one confirms, or out of
+/// place (a corrupt timestamp, a line moved earlier): taken at once, it would put the lines it
+/// jumped over out of order, every source's beyond the global tolerance and its own source's
+/// all, when refusing it costs its own line only.
+pub const DEFAULT_MAX_TIME_JUMP_NS: i64 = 100_000_000;
 
 /// Which registry a reader or writer checks ids against.
 #[derive(Debug, Clone, Default, PartialEq)]

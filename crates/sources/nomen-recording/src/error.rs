@@ -205,14 +205,15 @@ fn time_jump_text(
     let max_s = ns_to_secs(max_jump_ns);
     match latest {
         Some(latest) => format!(
-            "time {t} is {:.3} s after the latest message at {latest}, more than the {max_s:.0} s \
-             a clock may jump, and the next message, at {next}, does not follow on from it (a \
-             corrupt timestamp?)",
+            "time {t} is {:.3} s after the latest message at {latest}, more than the {max_s} s a \
+             message may lead unconfirmed, and the next message, at {next}, does not follow on \
+             from it (a corrupt timestamp, or a line out of place?)",
             t.secs_since(*latest)
         ),
         None => format!(
             "time {t} of the first message is {:.3} s after the next message, at {next}, more \
-             than the {max_s:.0} s a clock may jump (a corrupt timestamp?)",
+             than the {max_s} s a message may lead unconfirmed (a corrupt timestamp, or a line \
+             out of place?)",
             t.secs_since(*next)
         ),
     }

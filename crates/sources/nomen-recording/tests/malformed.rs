@@ -89,10 +89,15 @@ fn missing_field_and_wrong_type_carry_serde_detail() {
 
 #[test]
 fn out_of_order_time_for_one_device_is_refused() {
-    let text = file(&[line(&imu(2 * S, "band1")), line(&imu(S, "band1"))]);
+    // Within the global tolerance, but before the device's previous sample.
+    let text = file(&[
+        line(&imu(2 * S, "band1")),
+        line(&imu(2 * S + 10_000_000, "band2")),
+        line(&imu(2 * S - 20_000_000, "band1")),
+    ]);
     assert_eq!(
         error_of(&text),
-        "rec.jsonl:3: time 1.000000 s is not after the previous imu sample of 'band1' at 2.000000 s (out of order)"
+        "rec.jsonl:4: time 1.980000 s is not after the previous imu sample of 'band1' at 2.000000 s (out of order)"
     );
 }
 
@@ -133,22 +138,26 @@ fn one_camera_frame_may_hold_several_tracks_but_camera_time_never_goes_back() {
 #[test]
 fn global_order_allows_the_tolerance_and_no_more() {
     let lag_ok = 2 * S - 100_000_000;
-    let (good, err) = read_stop(&file(&[
-        line(&imu(2 * S, "band1")),
-        line(&imu(lag_ok, "band2")),
-    ]));
-    assert_eq!((good.len(), err), (2, None));
-    let text = file(&[line(&imu(2 * S, "band1")), line(&imu(lag_ok - 1, "band2"))]);
+    // A first sample, then one 50 ms later that leads the rest (by less than a time jump).
+    let lead = [
+        line(&imu(2 * S - 50_000_000, "band1")),
+        line(&imu(2 * S, "band2")),
+    ];
+    let (good, err) = read_stop(&file(
+        &[lead.to_vec(), vec![line(&skeleton(lag_ok, 4))]].concat(),
+    ));
+    assert_eq!((good.len(), err), (3, None));
+    let text = file(&[lead.to_vec(), vec![line(&skeleton(lag_ok - 1, 4))]].concat());
     assert_eq!(
         error_of(&text),
-        "rec.jsonl:3: time 1.900000 s is 0.100000001 s before the latest message at 2.000000 s, more than the global order tolerance of 0.100000 s"
+        "rec.jsonl:4: time 1.900000 s is 0.100000001 s before the latest message at 2.000000 s, more than the global order tolerance of 0.100000 s"
     );
     let strict = ReadOptions {
         global_tolerance_ns: 0,
         ..ReadOptions::default()
     };
     let (_, err) = read_with(
-        &file(&[line(&imu(2 * S, "band1")), line(&imu(lag_ok, "band2"))]),
+        &file(&[lead.to_vec(), vec![line(&skeleton(lag_ok, 4))]].concat()),
         strict,
     );
     assert!(
@@ -448,8 +457,8 @@ fn one_timestamp_an_hour_ahead_costs_its_own_line_and_not_the_lines_after_it() {
     assert_eq!(
         err.unwrap(),
         "rec.jsonl:7: time 3601.000000 s is 3599.960 s after the latest message at 1.040000 s, \
-         more than the 60 s a clock may jump, and the next message, at 1.050000 s, does not \
-         follow on from it (a corrupt timestamp?)"
+         more than the 0.1 s a message may lead unconfirmed, and the next message, at 1.050000 \
+         s, does not follow on from it (a corrupt timestamp, or a line out of place?)"
     );
     // Skipping: only that line goes.
     let mut reader =
@@ -483,17 +492,59 @@ fn a_first_line_an_hour_ahead_is_refused_and_the_rest_read() {
     assert_eq!(
         error_of(&text),
         "rec.jsonl:2: time 3600.000000 s of the first message is 3599.000 s after the next \
-         message, at 1.000000 s, more than the 60 s a clock may jump (a corrupt timestamp?)"
+         message, at 1.000000 s, more than the 0.1 s a message may lead unconfirmed (a corrupt \
+         timestamp, or a line out of place?)"
     );
     let (good, err) = read_with(&text, skip_options());
     assert_eq!((good, err), (rest, None));
-    // A first line a little after the second is still a global order error at the second.
+    // A first line a second after the second is refused the same way; within the global
+    // tolerance both are taken.
     let (good, err) = read_stop(&file(&[line(&imu(2 * S, "band2")), line(&imu(S, "band1"))]));
-    assert_eq!(good, vec![imu(2 * S, "band2")]);
+    assert!(good.is_empty());
     assert!(
         err.unwrap()
-            .starts_with("rec.jsonl:3: time 1.000000 s is 1.000000000 s before")
+            .starts_with("rec.jsonl:2: time 2.000000 s of the first message is 1.000 s after")
     );
+    let near = [imu(S + S / 20, "band2"), imu(S, "band1")];
+    assert_eq!(read_stop(&file(&lines(&near))), (near.to_vec(), None));
+}
+
+#[test]
+fn a_line_moved_earlier_costs_its_own_line_and_not_the_lines_it_jumped_over() {
+    // Two IMUs at 100 Hz; one sample of band1 half a second early in the file (as if swapped
+    // with an earlier line, or stamped wrong).
+    let band1 = imus(S, 100);
+    let band2: Vec<Message> = (0..100)
+        .map(|k| imu(S + k * S / 100 + S / 200, "band2"))
+        .collect();
+    let mut sorted: Vec<Message> = band1.iter().chain(&band2).cloned().collect();
+    sorted.sort_by_key(Message::t);
+    let moved = imu(S + 80 * S / 100, "band1");
+    let at = sorted.iter().position(|m| *m == moved).unwrap();
+    let mut shuffled = sorted.clone();
+    shuffled.remove(at);
+    shuffled.insert(30, moved.clone());
+    let text = file(&lines(&shuffled));
+    let (good, err) = read_with(&text, skip_options());
+    assert_eq!(err, None);
+    let mut expected = sorted.clone();
+    expected.remove(at);
+    assert_eq!(good, expected, "only the moved line is lost");
+    let mut reader =
+        RecordingReader::with_options(text.as_bytes(), "rec.jsonl", skip_options()).unwrap();
+    assert_eq!(reader.by_ref().count(), sorted.len() - 1);
+    assert_eq!(
+        reader.into_stats().skipped.get(&ErrorKind::TimeJump),
+        Some(&1)
+    );
+    // Taken at once (the rule before), it cost every line of band1 it jumped over and every
+    // line of band2 more than the global tolerance before it.
+    let old = ReadOptions {
+        max_time_jump_ns: 60 * S,
+        ..skip_options()
+    };
+    let mut reader = RecordingReader::with_options(text.as_bytes(), "rec.jsonl", old).unwrap();
+    assert!(reader.by_ref().count() < sorted.len() - 60);
 }
 
 #[test]
