@@ -725,7 +725,8 @@ impl Engine {
                 Some(t) if first_t.saturating_sub(t) > self.time_jumps.max_ns => {
                     self.stats.rejected.num_time_jump += 1;
                     self.stats.first_message_dropped = Some(format!(
-                        "the session's first message, {} from '{}' at {}, was stamped {:.1} s after the next one; dropped as a time jump",
+                        "the session's first message, {} from '{}' at {}, was stamped {:.1} s \
+                         after the next one; dropped as a time jump",
                         first.type_name(),
                         message_source(&first),
                         first.t(),

@@ -183,7 +183,8 @@ pub enum RecordingError {
         latest: Option<SessionTime>,
         /// The time of the message after it.
         next: SessionTime,
-        /// How far a clock may jump before the next message must confirm it, nanoseconds.
+        /// How far a message may lead every earlier one before the next must confirm it,
+        /// nanoseconds.
         max_jump_ns: i64,
     },
     /// A problem in a CSV file or in the spec used to import it.

@@ -42,10 +42,10 @@ pub struct ReadOptions {
     /// `global_tolerance_ns`); otherwise it is refused as a time jump
     /// ([`crate::RecordingError::TimeJump`]) and the lines after it are read as if it were not
     /// there. A recording that really pauses loses nothing; one corrupt timestamp, or one line
-    /// moved earlier, costs its own line instead of the lines it jumped over. The first message, which nothing precedes, is
-    /// refused only when the next one is more than this before it. At the end of the input, or
-    /// before a bad line, a waiting message is taken. [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX`
-    /// turns the check off.
+    /// moved earlier, costs its own line instead of the lines it jumped over. The first
+    /// message, which nothing precedes, is refused only when the next one is more than this
+    /// before it. At the end of the input, or before a bad line, a waiting message is taken.
+    /// [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX` turns the check off.
     pub max_time_jump_ns: i64,
 }
 
