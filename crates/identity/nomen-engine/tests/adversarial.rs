@@ -395,7 +395,7 @@ fn a_first_message_stamped_an_hour_ahead_is_dropped_when_the_next_one_comes() {
     for (k, source) in [(first_skeleton, "cam"), (first_imu, "ana_imu")] {
         // The message moved to the front of the stream, stamped an hour later: the session's
         // first message. Before the hold, a skeleton there made every later frame of its
-        // camera late: 1 of 1,199 skeletons kept, nobody named.
+        // camera late, and nobody was named.
         let mut stream = vec![restamped(&clean[k], clean[k].t().as_ns() + hour_ns)];
         stream.extend(
             clean
@@ -425,8 +425,8 @@ fn a_first_message_stamped_an_hour_ahead_is_dropped_when_the_next_one_comes() {
     assert_eq!(result.accepted.len(), num_clean);
     let alone = run(&people, &clean[first_skeleton..=first_skeleton]);
     assert_eq!(alone.out.len(), 1, "{:?}", alone.out);
-    // Messages that cannot vouch (an unknown camera, an invalid sample) are refused as before
-    // and leave the first message waiting for one that can.
+    // A message that cannot vouch (here a skeleton from an unknown camera) is refused as
+    // before and leaves the first message waiting for one that can.
     let stranger = from_stranger(&clean[first_skeleton]);
     let mut stream = vec![
         restamped(
