@@ -45,7 +45,9 @@ pub struct ReadOptions {
     /// moved earlier, costs its own line instead of the lines it jumped over. The first
     /// message, which nothing precedes, is refused only when the next one is more than this
     /// before it. At the end of the input, or before a bad line, a waiting message is taken.
-    /// [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX` turns the check off.
+    /// Live, a waiting message is delivered with the next one: a stream whose sources are all
+    /// sparser than this is one message late. [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX` turns
+    /// the check off.
     pub max_time_jump_ns: i64,
 }
 
