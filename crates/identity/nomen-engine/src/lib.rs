@@ -9,7 +9,8 @@
 //! which would otherwise put its source's frontier out of reach of its later messages; the
 //! source's next message is taken if it follows on from the refused one, so a clock that really
 //! jumped costs one message). The session's first message waits for the next one, and is
-//! dropped if that is stamped more than `max_time_jump_s` before it. Each source is *settled* in time order below that frontier:
+//! dropped if that is stamped more than `max_time_jump_s` before it. Each source is *settled*
+//! in time order below that frontier:
 //! - skeleton joints go to the world frame (`world_from_camera` from the registry) and through
 //!   a constant-velocity Kalman filter per joint ([`EngineConfig::joint_filter`]), a joint the
 //!   camera reports as inferred with [`EngineConfig::inferred_joint_noise_factor`] times the
