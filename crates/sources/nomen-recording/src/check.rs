@@ -163,26 +163,12 @@ impl Checker {
         Ok(())
     }
 
-    /// [`Checker::check`], except that a message more than `max_jump_ns` after the latest one
-    /// so far, or the first message, is not recorded: its times come back, for
-    /// [`Checker::record`] once the caller has seen whether the next message follows on from
-    /// it.
-    pub(crate) fn check_deferring_jumps(
-        &mut self,
-        msg: &Message,
-        file: &Arc<str>,
-        line: u64,
-        max_jump_ns: i64,
-    ) -> Result<Option<Times>> {
-        let times = self.check_unrecorded(msg, file, line)?;
-        let is_jump = self
-            .latest
-            .is_none_or(|latest| times.t.as_ns() > latest.as_ns().saturating_add(max_jump_ns));
-        if is_jump {
-            return Ok(Some(times));
-        }
-        self.record(times);
-        Ok(None)
+    /// Whether a message at `t` would lead every message recorded so far by more than
+    /// `max_jump_ns` (the first message always does): the reader then waits for the next one
+    /// before recording it.
+    pub(crate) fn leads(&self, t: SessionTime, max_jump_ns: i64) -> bool {
+        self.latest
+            .is_none_or(|latest| t.as_ns() > latest.as_ns().saturating_add(max_jump_ns))
     }
 
     /// The latest time recorded so far.
@@ -190,7 +176,13 @@ impl Checker {
         self.latest
     }
 
-    fn check_unrecorded(&mut self, msg: &Message, file: &Arc<str>, line: u64) -> Result<Times> {
+    /// [`Checker::check`] without recording: the message's times, for [`Checker::record`].
+    pub(crate) fn check_unrecorded(
+        &mut self,
+        msg: &Message,
+        file: &Arc<str>,
+        line: u64,
+    ) -> Result<Times> {
         msg.validate().map_err(|source| RecordingError::Invalid {
             at: Pos::new(file, line),
             source,
@@ -211,7 +203,13 @@ impl Checker {
         self.latest = Some(self.latest.map_or(t, |l| l.max(t)));
     }
 
-    fn check_order(&mut self, msg: &Message, file: &Arc<str>, line: u64) -> Result<Times> {
+    /// The time-order part of [`Checker::check_unrecorded`].
+    pub(crate) fn check_order(
+        &mut self,
+        msg: &Message,
+        file: &Arc<str>,
+        line: u64,
+    ) -> Result<Times> {
         let t = msg.t();
         let rank = type_rank(msg);
         // The strict per-source stream and, for camera messages, the camera-level stream.

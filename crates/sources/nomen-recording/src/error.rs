@@ -170,9 +170,9 @@ pub enum RecordingError {
         /// The tolerance in force, nanoseconds.
         tolerance_ns: i64,
     },
-    /// A message far later than every message before it (or the first message, far later
-    /// than the one after it), and the next message falls back before it: the odd one out,
-    /// most likely a corrupt timestamp.
+    /// A message later than every message before it by more than `max_jump_ns` (or the first
+    /// message, that much later than the one after it), and the next message falls back before
+    /// it: the odd one out, a corrupt timestamp or a line out of place.
     #[error("{at}: {}", time_jump_text(.t, .latest, .next, .max_jump_ns))]
     TimeJump {
         /// Where.

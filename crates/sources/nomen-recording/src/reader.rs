@@ -255,64 +255,32 @@ impl<R: BufRead> RecordingReader<R> {
             if self.buf.iter().all(u8::is_ascii_whitespace) {
                 continue;
             }
-            let item = match self.parse_line(line) {
-                Ok((msg, None)) => match self.held.take() {
-                    None => Ok(msg),
-                    Some(held) => {
-                        if self.follows_on(&msg, &held) {
-                            // The jump is confirmed; this message was checked before it.
-                            self.checker.record(held.times);
-                            self.stats.num_accepted += 2;
-                            self.queued = Some(Ok(msg));
-                            return Some(Ok(held.msg));
-                        }
-                        match self.refuse_jump(&held, &msg) {
-                            Some(err) => return Some(Err(err)),
-                            None => Ok(msg),
-                        }
-                    }
-                },
-                Ok((msg, Some(times))) => match self.held.take() {
-                    None => {
-                        self.held = Some(self.hold(msg, line, times));
-                        continue;
-                    }
-                    Some(held) => {
-                        if self.follows_on(&msg, &held) {
-                            // The first jump is confirmed: this one is checked again after it.
-                            self.checker.record(held.times);
-                            self.stats.num_accepted += 1;
-                            match self.checker.check_deferring_jumps(
-                                &msg,
-                                &self.file,
-                                line,
-                                self.options.max_time_jump_ns,
-                            ) {
-                                Ok(None) => {
-                                    self.stats.num_accepted += 1;
-                                    self.queued = Some(Ok(msg));
-                                }
-                                Ok(Some(times)) => self.held = Some(self.hold(msg, line, times)),
-                                Err(err) => self.queued = self.fail(err),
-                            }
-                            return Some(Ok(held.msg));
-                        }
-                        if let Some(err) = self.refuse_jump(&held, &msg) {
-                            return Some(Err(err));
-                        }
-                        self.held = Some(self.hold(msg, line, times));
-                        continue;
-                    }
-                },
+            let (msg, times) = match self.parse_line(line) {
+                Ok(parsed) => parsed,
                 Err(err) => match self.fail(err) {
                     Some(item) => return Some(self.release_before(item)),
                     None => continue,
                 },
             };
-            if item.is_ok() {
-                self.stats.num_accepted += 1;
+            if let Some(held) = self.held.take() {
+                if self.follows_on(&msg, &held) {
+                    // The held message is confirmed, and this one is ordered after it.
+                    self.checker.record(held.times);
+                    self.stats.num_accepted += 1;
+                    match self.checker.check_order(&msg, &self.file, line) {
+                        Ok(times) => self.queued = self.admit(msg, line, times),
+                        Err(err) => self.queued = self.fail(err),
+                    }
+                    return Some(Ok(held.msg));
+                }
+                // Refused: this message was checked as if it had not been there.
+                if let Some(err) = self.refuse_jump(&held, &msg) {
+                    return Some(Err(err));
+                }
             }
-            return Some(item);
+            if let Some(item) = self.admit(msg, line, times) {
+                return Some(item);
+            }
         }
         self.release_held()
     }
@@ -328,13 +296,21 @@ impl<R: BufRead> RecordingReader<R> {
         msg.t().as_ns() >= held.times.t().as_ns().saturating_sub(slack)
     }
 
-    fn hold(&self, msg: Message, line: u64, times: Times) -> Held {
-        Held {
-            msg,
-            line,
-            times,
-            latest: self.checker.latest(),
+    /// A checked message: taken (recorded and counted), or held while it leads every earlier
+    /// one by more than [`ReadOptions::max_time_jump_ns`] (`None`).
+    fn admit(&mut self, msg: Message, line: u64, times: Times) -> Option<Result<Message>> {
+        if self.checker.leads(times.t(), self.options.max_time_jump_ns) {
+            self.held = Some(Held {
+                msg,
+                line,
+                times,
+                latest: self.checker.latest(),
+            });
+            return None;
         }
+        self.checker.record(times);
+        self.stats.num_accepted += 1;
+        Some(Ok(msg))
     }
 
     /// Refuses the held jump, which `next` does not follow on from: the error that ends the
@@ -387,9 +363,8 @@ impl<R: BufRead> RecordingReader<R> {
         }
     }
 
-    /// Parses and checks the line: the message, with its times while it awaits confirmation
-    /// of a jump ([`ReadOptions::max_time_jump_ns`]).
-    fn parse_line(&mut self, line: u64) -> Result<(Message, Option<Times>)> {
+    /// Parses and checks the line: the message and its times, not yet recorded.
+    fn parse_line(&mut self, line: u64) -> Result<(Message, Times)> {
         // Without its line ending, a line cut off inside a string reads as truncated.
         let mut text = self.buf.as_slice();
         while let Some((b'\n' | b'\r', rest)) = text.split_last() {
@@ -403,12 +378,7 @@ impl<R: BufRead> RecordingReader<R> {
             Ok(msg) => msg,
             Err(err) => return Err(diagnose(text, &err, &Pos::new(&self.file, line))),
         };
-        let times = self.checker.check_deferring_jumps(
-            &msg,
-            &self.file,
-            line,
-            self.options.max_time_jump_ns,
-        )?;
+        let times = self.checker.check_unrecorded(&msg, &self.file, line)?;
         Ok((msg, times))
     }
 }

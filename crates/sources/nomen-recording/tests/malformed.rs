@@ -510,6 +510,33 @@ fn a_first_line_an_hour_ahead_is_refused_and_the_rest_read() {
 }
 
 #[test]
+fn a_line_after_a_waiting_line_is_ordered_after_it() {
+    // band1 leads by 0.14 s and waits; the next line follows on from it (within the global
+    // tolerance) and leads nothing itself, but is band1's again, earlier: out of order once
+    // the waiting line is taken.
+    let text = file(&[
+        line(&imu(S, "band1")),
+        line(&imu(S + 10_000_000, "band2")),
+        line(&imu(S + 150_000_000, "band1")),
+        line(&imu(S + 100_000_000, "band1")),
+    ]);
+    let (good, err) = read_stop(&text);
+    assert_eq!(
+        good,
+        vec![
+            imu(S, "band1"),
+            imu(S + 10_000_000, "band2"),
+            imu(S + 150_000_000, "band1")
+        ]
+    );
+    assert_eq!(
+        err.unwrap(),
+        "rec.jsonl:5: time 1.100000 s is not after the previous imu sample of 'band1' at \
+         1.150000 s (out of order)"
+    );
+}
+
+#[test]
 fn a_line_moved_earlier_costs_its_own_line_and_not_the_lines_it_jumped_over() {
     // Two IMUs at 100 Hz; one sample of band1 half a second early in the file (as if swapped
     // with an earlier line, or stamped wrong).
