@@ -160,9 +160,14 @@ fn message_source(msg: &Message) -> String {
         Message::Imu(s) => s.device.to_string(),
         Message::Skeleton(s) => s.camera.to_string(),
         Message::RtlsFix(f) => f.tag.to_string(),
-        Message::Rssi(r) => format!("{}@{}", r.tag, r.antenna),
+        Message::Rssi(r) => rssi_source(r),
         other => other.type_name().to_string(),
     }
+}
+
+/// The source an RSSI read's refusals name: `tag@antenna`.
+fn rssi_source(r: &RssiRead) -> String {
+    format!("{}@{}", r.tag, r.antenna)
 }
 
 impl TimeJumpGuard {
@@ -745,28 +750,28 @@ impl Engine {
     /// The session time of `msg` if it is a message the engine would take at the start of a
     /// session (of a kind it uses, from a known source, with valid values); `None` otherwise.
     fn vouching_time(&self, msg: &Message) -> Option<i64> {
-        let t = msg.t().as_ns();
-        let known = match msg {
+        // Session time is the stamp, but for an IMU's clock offset.
+        let offset_ns = match msg {
             Message::Imu(s) => {
-                let imu = self
-                    .imu_index
+                self.imu_index
                     .get(&s.device)
-                    .and_then(|&i| self.imus.get(i))?;
-                return msg
-                    .validate()
-                    .is_ok()
-                    .then(|| t.saturating_add(imu.offset_ns));
+                    .and_then(|&i| self.imus.get(i))?
+                    .offset_ns
             }
-            Message::Skeleton(s) => self.camera_index.contains_key(&s.camera),
-            Message::RtlsFix(f) => self.tag_index.contains_key(&f.tag),
-            Message::Rssi(r) => {
-                self.rssi.is_some()
+            Message::Skeleton(s) if self.camera_index.contains_key(&s.camera) => 0,
+            Message::RtlsFix(f) if self.tag_index.contains_key(&f.tag) => 0,
+            Message::Rssi(r)
+                if self.rssi.is_some()
                     && self.rssi_tags.contains_key(&r.tag)
-                    && self.antennas.contains(&r.antenna)
+                    && self.antennas.contains(&r.antenna) =>
+            {
+                0
             }
-            _ => false,
+            _ => return None,
         };
-        (known && msg.validate().is_ok()).then_some(t)
+        msg.validate()
+            .is_ok()
+            .then(|| msg.t().as_ns().saturating_add(offset_ns))
     }
 
     /// [`Engine::push`] after the first message's check: takes `msg` or counts its refusal.
@@ -921,7 +926,7 @@ impl Engine {
         }
         r.validate().map_err(|error| EngineError::InvalidMessage {
             kind: "rssi",
-            source_id: format!("{}@{}", r.tag, r.antenna),
+            source_id: rssi_source(r),
             t: r.t,
             error,
         })?;
@@ -930,23 +935,23 @@ impl Engine {
             self.stats.num_rssi_without_model += 1;
             return Ok(());
         };
+        let source = rssi_source(r);
         let t = r.t.as_ns();
         let key = (t, r.tag.clone(), r.antenna.clone());
         if t < rssi.frontier {
             return Err(EngineError::Late {
                 kind: "rssi",
-                source_id: format!("{}@{}", r.tag, r.antenna),
+                source_id: source,
                 t: r.t,
             });
         }
         if rssi.pending.contains_key(&key) {
             return Err(EngineError::Duplicate {
                 kind: "rssi",
-                source_id: format!("{}@{}", r.tag, r.antenna),
+                source_id: source,
                 t: r.t,
             });
         }
-        let source = format!("{}@{}", r.tag, r.antenna);
         self.time_jumps
             .check(self.global_max, "rssi", &source, t, r.t)?;
         rssi.pending.insert(key, r.clone());
