@@ -105,6 +105,15 @@ impl<W: Write> RecordingWriter<W> {
         Ok(())
     }
 
+    /// Hands every line written so far to the output (a live consumer at the other end of a
+    /// pipe sees them now, not when a buffer fills).
+    pub fn flush(&mut self) -> Result<()> {
+        self.out.flush().map_err(|source| RecordingError::Io {
+            at: Pos::new(&self.file, self.num_lines),
+            source,
+        })
+    }
+
     /// Lines written so far, the header included.
     pub fn num_lines(&self) -> u64 {
         self.num_lines
@@ -112,10 +121,7 @@ impl<W: Write> RecordingWriter<W> {
 
     /// Flushes and returns the output.
     pub fn finish(mut self) -> Result<W> {
-        self.out.flush().map_err(|source| RecordingError::Io {
-            at: Pos::new(&self.file, self.num_lines),
-            source,
-        })?;
+        self.flush()?;
         Ok(self.out)
     }
 }

@@ -25,7 +25,8 @@ pub struct RunArgs {
     /// Engine configuration (TOML); defaults documented in `nomen-engine`.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Where to write the result (`-` for stdout).
+    /// Where to write the result (`-` for stdout). When reading stdin or writing stdout (a live
+    /// pipe), each batch of decisions is flushed as soon as the engine makes it.
     #[arg(long)]
     pub out: PathBuf,
     /// Skip malformed input lines (counted and reported) instead of stopping. A bad line
@@ -266,6 +267,11 @@ pub fn run_baseline_file(
     ))
 }
 
+/// Whether `path` names stdin or stdout (`-`).
+fn is_std_stream(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
 /// Loads an engine configuration file, or the defaults.
 pub fn load_config(path: Option<&Path>) -> Result<EngineConfig> {
     match path {
@@ -311,6 +317,13 @@ pub fn run_file(
         None
     };
     let mut writer = open_writer(out, recording, registry, "nomen run")?;
+    // Live (reading stdin or writing stdout): each batch of decisions goes out as soon as it is
+    // decided, instead of when the output buffer fills, so a consumer's wait is the engine's
+    // latency alone, also while the input pauses.
+    let is_live = is_std_stream(recording) || is_std_stream(out);
+    if is_live {
+        writer.flush()?;
+    }
     let mut batch: Vec<Message> = Vec::new();
     let mut num_rejected = 0u64;
     let mut first_rejection = None;
@@ -326,6 +339,9 @@ pub fn run_file(
             }
             writer.write(&m)?;
             num_out += 1;
+        }
+        if is_live {
+            writer.flush()?;
         }
         Ok(())
     };
