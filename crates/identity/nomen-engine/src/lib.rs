@@ -183,7 +183,10 @@
 //! track)`, labelled with the decision of the first window ending at or after
 //! `t + decision_delay_s`. While all sources send, an observation is emitted at most
 //! `decision_delay_s + hop_s + reorder_window_s` (default 2.25 s) of stream time after `t`
-//! ([`EngineConfig::latency_s`]); a silent source adds at most `silence_timeout_s`. The
+//! ([`EngineConfig::latency_s`]), stream time being the session time every source has reached
+//! (an IMU's stamps read through its current clock-offset estimate, so an IMU whose clock is
+//! behind and whose offset is not yet known holds output back by that offset); a silent source
+//! adds at most `silence_timeout_s`. The
 //! exception is the session's warm-up ([`EngineConfig::warmup_s`], 2 s): observations within
 //! it wait for the decision due at its end, up to `warmup_s` longer, since before the first
 //! windows fill nobody can be named; and while no clock offset is known the warm-up may last
