@@ -1080,6 +1080,34 @@ impl Engine {
         }
     }
 
+    /// Tells the engine that the session clock has reached `now` with nothing sent since the
+    /// last message: a live host's heartbeat while every source is quiet (the last people left
+    /// the view and took their wearables with them, say). Every source then counts as silent
+    /// since its newest message, so the windows it held back are processed once `now` is
+    /// `silence_timeout_s` past them, and the decisions then due come out at the next
+    /// [`Engine::poll`]: every observation is out once `now` is
+    /// [`EngineConfig::latency_s`] + `silence_timeout_s` after it (the warm-up's, after
+    /// [`EngineConfig::max_latency_s`] + `silence_timeout_s`). A message stamped before the
+    /// windows processed is late afterwards, as from any source that fell silent.
+    ///
+    /// Does nothing before the session's first message is taken, or when `now` is not after
+    /// the newest message. A `now` more than [`EngineConfig::max_time_jump_s`] ahead of the
+    /// newest message is refused ([`EngineError::ClockAhead`]) and changes nothing.
+    pub fn advance_to(&mut self, now: SessionTime) -> Result<()> {
+        let t = now.as_ns();
+        let Some(newest) = self.global_max.filter(|&newest| t > newest) else {
+            return Ok(());
+        };
+        if t.saturating_sub(newest) > self.time_jumps.max_ns {
+            return Err(EngineError::ClockAhead {
+                now,
+                ahead_s: t.saturating_sub(newest) as f64 * 1e-9,
+            });
+        }
+        self.global_max = Some(t);
+        Ok(())
+    }
+
     /// Appends the decisions that are final (every window they depend on is processed).
     pub fn poll(&mut self, out: &mut Vec<Message>) {
         while let Some(end) = self.next_end {

@@ -103,6 +103,18 @@ pub enum EngineError {
         /// How far ahead of the newest time so far, s.
         ahead_s: f64,
     },
+    /// [`crate::Engine::advance_to`] with a time further ahead of the newest message than
+    /// [`crate::EngineConfig::max_time_jump_s`] allows (a host clock off the session's).
+    #[error(
+        "advance_to {now}: {ahead_s:.1} s ahead of the newest message; refused as a time jump \
+         (is the host's clock the session's?)"
+    )]
+    ClockAhead {
+        /// The time the host gave.
+        now: SessionTime,
+        /// How far ahead of the newest message, s.
+        ahead_s: f64,
+    },
     /// A filter refused its configuration or input.
     #[error("filter: {0}")]
     Filter(#[from] nomen_filters::FilterError),

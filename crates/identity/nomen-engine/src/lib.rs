@@ -186,7 +186,8 @@
 //! ([`EngineConfig::latency_s`]), stream time being the session time every source has reached
 //! (an IMU's stamps read through its current clock-offset estimate, so an IMU whose clock is
 //! behind and whose offset is not yet known holds output back by that offset); a silent source
-//! adds at most `silence_timeout_s`. The
+//! adds at most `silence_timeout_s`, and when every source falls silent the host's heartbeat
+//! ([`Engine::advance_to`]) brings the rest out `silence_timeout_s` later. The
 //! exception is the session's warm-up ([`EngineConfig::warmup_s`], 2 s): observations within
 //! it wait for the decision due at its end, up to `warmup_s` longer, since before the first
 //! windows fill nobody can be named; and while no clock offset is known the warm-up may last

@@ -323,6 +323,83 @@ fn a_silent_imu_does_not_block_output() {
 }
 
 #[test]
+fn a_host_heartbeat_brings_out_the_last_decisions_when_every_source_falls_silent() {
+    let people = two_people();
+    let msgs = recording(&people, 12.0);
+    let config = EngineConfig::default();
+    let last_s = msgs.iter().map(|m| m.t().as_secs_f64()).fold(0.0, f64::max);
+    let mut engine = Engine::new(registry(&people), config).unwrap();
+    let mut out = Vec::new();
+    // Before any message, the clock has nothing to move.
+    engine
+        .advance_to(SessionTime::from_secs_f64(5.0).unwrap())
+        .unwrap();
+    engine.poll(&mut out);
+    assert!(out.is_empty());
+    for m in &msgs {
+        engine.push(m).unwrap();
+        engine.poll(&mut out);
+    }
+    // Every source stops: without a heartbeat the last seconds' decisions wait for more data.
+    let num_skeletons = num_skeletons(&msgs);
+    let waiting = num_skeletons - out.len();
+    assert!(
+        waiting as f64 > 2.0 * 30.0 * config.decision_delay_s,
+        "{waiting} waiting"
+    );
+    // A host clock an hour ahead is refused and changes nothing.
+    let hour_ahead = SessionTime::from_secs_f64(last_s + 3600.0).unwrap();
+    assert!(matches!(
+        engine.advance_to(hour_ahead),
+        Err(EngineError::ClockAhead { .. })
+    ));
+    engine.poll(&mut out);
+    assert_eq!(num_skeletons - out.len(), waiting);
+    // The host's heartbeat, every 0.1 s: each observation is out within the documented bound.
+    let bound_s = config.latency_s() + config.silence_timeout_s;
+    let mut now_s = last_s;
+    while out.len() < num_skeletons {
+        now_s += 0.1;
+        assert!(
+            now_s < last_s + bound_s + 1.0,
+            "{} still waiting",
+            num_skeletons - out.len()
+        );
+        engine
+            .advance_to(SessionTime::from_secs_f64(now_s).unwrap())
+            .unwrap();
+        engine.poll(&mut out);
+        let due = msgs
+            .iter()
+            .filter(|m| matches!(m, Message::Skeleton(_)) && m.t().as_secs_f64() + bound_s <= now_s)
+            .count();
+        assert!(
+            out.len() >= due,
+            "at {now_s} s: {} out, {due} due",
+            out.len()
+        );
+    }
+    let mut rest = Vec::new();
+    engine.finish(&mut rest);
+    assert!(rest.is_empty(), "{} more at finish", rest.len());
+    // The names are those of the batch run, which settles everything at the end.
+    let (batch, _) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    let identities = |out: &[Message]| -> Vec<Identity> {
+        let mut v: Vec<_> = out
+            .iter()
+            .filter_map(|m| match m {
+                Message::Identified(id) => Some((id.t, id.track, id.identity.clone())),
+                _ => None,
+            })
+            .collect();
+        v.sort_by_key(|(t, track, _)| (*t, *track));
+        v.into_iter().map(|(_, _, i)| i).collect()
+    };
+    assert_eq!(identities(&out), identities(&batch));
+    assert!(accuracy(&people, &out, 8.0) > 0.98);
+}
+
+#[test]
 fn a_sessions_first_frames_wait_for_its_first_decisions_and_later_frames_do_not() {
     let people = two_people();
     let msgs = recording(&people, 12.0);
