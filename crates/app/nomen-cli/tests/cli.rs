@@ -453,40 +453,27 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
     );
 }
 
-/// `nomen run - --out -` as a live pipe: while the input stays open, every skeleton older than
-/// the engine's latency (`EngineConfig::latency_s`, plus the IMU clock's offset) behind the
-/// newest input has its decision on stdout, not held in an output buffer until it fills or the
-/// input ends.
-#[test]
-fn run_on_a_live_pipe_sends_each_decision_while_the_input_is_still_open() {
-    use std::io::{BufRead, Write};
-    let Some((_tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
-        return;
-    };
-    let recording = std::fs::read_to_string(scene.join("recording.jsonl")).unwrap();
-    let mut lines = recording.lines();
-    let header = lines.next().unwrap();
-    // The first 12 s of the session.
-    let t_of = |line: &str| -> i64 {
-        let v: serde_json::Value = serde_json::from_str(line).unwrap();
-        v["t"].as_i64().unwrap()
-    };
-    let prefix: Vec<&str> = lines.take_while(|l| t_of(l) <= 12_000_000_000).collect();
-    let newest_ns = prefix.iter().map(|l| t_of(l)).max().unwrap();
-    // An IMU stamps its samples with its own clock, up to `max_clock_offset_s` off the
-    // session's: its newest sample in the prefix may be that much older in session time, and
-    // the engine waits for it.
-    let config = nomen_engine::EngineConfig::default();
-    let latency_ns = ((config.latency_s() + config.max_clock_offset_s) * 1e9) as i64;
-    let due: Vec<i64> = prefix
-        .iter()
-        .filter(|l| l.contains("\"type\":\"skeleton\""))
-        .map(|l| t_of(l))
-        .filter(|&t| t + latency_ns <= newest_ns)
-        .collect();
-    assert!(due.len() > 100, "{} skeletons due", due.len());
+/// The session time of a recording line.
+fn t_of(line: &str) -> i64 {
+    let v: serde_json::Value = serde_json::from_str(line).unwrap();
+    v["t"].as_i64().unwrap()
+}
 
-    let mut child = nomen_command(&["run", "-", "--out", "-"])
+/// Feeds `header` and `lines` to `nomen run - --out - EXTRA` and keeps its input open until
+/// `needed` decisions on skeletons at times that `counts` takes have come out (or a generous
+/// 120 s, for a slow machine: not a speed test), then closes it; returns how many came out
+/// while it was open. The run must succeed.
+fn decisions_while_open(
+    header: &str,
+    lines: &[&str],
+    extra: &[&str],
+    counts: impl Fn(i64) -> bool,
+    needed: usize,
+) -> usize {
+    use std::io::{BufRead, Write};
+    let mut args = vec!["run", "-", "--out", "-"];
+    args.extend_from_slice(extra);
+    let mut child = nomen_command(&args)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -504,18 +491,16 @@ fn run_on_a_live_pipe_sends_each_decision_while_the_input_is_still_open() {
     });
     let mut stdin = child.stdin.take().unwrap();
     writeln!(stdin, "{header}").unwrap();
-    for line in &prefix {
+    for line in lines {
         writeln!(stdin, "{line}").unwrap();
     }
     stdin.flush().unwrap();
-    // The input stays open: the decisions due must come anyway (the wait is a generous bound
-    // for a slow machine, not a speed test: without flushing they never come before the end).
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
-    let mut num_due_seen = 0;
-    while num_due_seen < due.len() {
+    let mut num_seen = 0;
+    while num_seen < needed {
         let left = deadline.saturating_duration_since(std::time::Instant::now());
         match received.recv_timeout(left) {
-            Ok(t) if t + latency_ns <= newest_ns => num_due_seen += 1,
+            Ok(t) if counts(t) => num_seen += 1,
             Ok(_) => {}
             Err(_) => break,
         }
@@ -524,10 +509,48 @@ fn run_on_a_live_pipe_sends_each_decision_while_the_input_is_still_open() {
     let out = child.wait_with_output().unwrap();
     reader.join().unwrap();
     assert!(out.status.success(), "{}", text(&out.stderr));
+    num_seen
+}
+
+/// `nomen run - --out -` as a live pipe: while the input stays open, every skeleton older than
+/// the engine's latency (`EngineConfig::latency_s`, plus the IMU clock's offset) behind the
+/// newest input has its decision on stdout, not held in an output buffer until it fills or the
+/// input ends (without a flush per batch, the newest of them stay there however long one
+/// waits). With `--live`, once the input falls quiet the rest come out too.
+#[test]
+fn run_on_a_live_pipe_sends_each_decision_while_the_input_is_still_open() {
+    let Some((_tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
+        return;
+    };
+    let recording = std::fs::read_to_string(scene.join("recording.jsonl")).unwrap();
+    let mut lines = recording.lines();
+    let header = lines.next().unwrap();
+    // The first 12 s of the session.
+    let prefix: Vec<&str> = lines.take_while(|l| t_of(l) <= 12_000_000_000).collect();
+    let newest_ns = prefix.iter().map(|l| t_of(l)).max().unwrap();
+    let skeletons: Vec<i64> = prefix
+        .iter()
+        .filter(|l| l.contains("\"type\":\"skeleton\""))
+        .map(|l| t_of(l))
+        .collect();
+    // An IMU stamps its samples with its own clock, up to `max_clock_offset_s` off the
+    // session's: its newest sample in the prefix may be that much older in session time, and
+    // the engine waits for it.
+    let config = nomen_engine::EngineConfig::default();
+    let latency_ns = ((config.latency_s() + config.max_clock_offset_s) * 1e9) as i64;
+    let is_due = |t: i64| t + latency_ns <= newest_ns;
+    let num_due = skeletons.iter().filter(|&&t| is_due(t)).count();
+    assert!(num_due > 100 && num_due < skeletons.len(), "{num_due} due");
     assert_eq!(
-        num_due_seen,
-        due.len(),
+        decisions_while_open(header, &prefix, &[], is_due, num_due),
+        num_due,
         "decisions due that came out while the input was open"
+    );
+    // `--live`: every skeleton, a few seconds after the input fell quiet.
+    assert_eq!(
+        decisions_while_open(header, &prefix, &["--live"], |_| true, skeletons.len()),
+        skeletons.len(),
+        "decisions that came out with --live while the input was open"
     );
 }
 

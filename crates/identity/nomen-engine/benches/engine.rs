@@ -125,7 +125,7 @@ fn main() {
     let mut push_us: Vec<f64> = costs_s.iter().map(|c| c * 1e6).collect();
     let mut frame_ms: Vec<f64> = live.iter().map(|l| l * 1e3).collect();
     println!(
-        "per skeleton push+poll: p50 {:.1} µs, p99 {:.1} µs over {} skeletons; any push+poll: p99 {:.1} µs, p99.9 {:.0} µs, max {:.1} ms (a window completed) over {} messages",
+        "per skeleton push+poll: p50 {:.1} µs, p99 {:.1} µs over {} skeletons; any push+poll: p99 {:.1} µs, p99.9 {:.0} µs, max {:.1} ms over {} messages",
         percentile(&mut skeleton_us, 0.5),
         percentile(&mut skeleton_us, 0.99),
         skeleton_us.len(),
@@ -178,8 +178,8 @@ fn main() {
     }
 }
 
-/// Replays `recording` (in time order) live into one core: message `i` arrives at its session
-/// time and is handled once the core is free, taking `costs_s[i]`. Returns, per camera frame
+/// Replays `recording` (in time order) live into one core: message `i` arrives at its time stamp
+/// and is handled once the core is free, taking `costs_s[i]`. Returns, per camera frame
 /// (one camera's skeletons at one instant), the seconds from its time to the end of its last
 /// skeleton's handling.
 fn replay_live(recording: &[Message], costs_s: &[f64]) -> Vec<f64> {

@@ -12,10 +12,12 @@ use clap::{Args, ValueEnum};
 use nomen_core::{Message, Registry};
 use nomen_engine::{Engine, EngineConfig};
 use nomen_recording::{
-    DEFAULT_GLOBAL_TOLERANCE_NS, ErrorPolicy, Header, IdCheck, ReadOptions, RecordingReader,
-    RecordingWriter, WriteOptions,
+    DEFAULT_GLOBAL_TOLERANCE_NS, ErrorPolicy, Header, IdCheck, ReadOptions, ReadStats,
+    RecordingReader, RecordingWriter, WriteOptions,
 };
 use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
 
 /// Arguments of `nomen run`.
 #[derive(Debug, Args)]
@@ -55,6 +57,13 @@ pub struct RunArgs {
     /// one more model of every (IMU, track) window (engine only).
     #[arg(long, value_name = "MODEL")]
     pub cnn: Option<PathBuf>,
+    /// The input is a live stream (stdin or a named pipe) whose session clock runs with the wall
+    /// clock: while no line arrives, the engine is told that time passes
+    /// (`Engine::advance_to`), so when every source falls silent the last decisions still come
+    /// out, a few seconds later (`latency_s` + `silence_timeout_s`), instead of at the end of
+    /// the input. Output then depends on when lines arrive; without it a run is reproducible.
+    #[arg(long)]
+    pub live: bool,
 }
 
 /// What the engine path of `nomen run` adds to the engine itself.
@@ -68,6 +77,8 @@ pub struct EngineExtras {
     pub environment: Option<PathBuf>,
     /// CNN model for the engine's learned voter.
     pub cnn: Option<PathBuf>,
+    /// Treat the input as live (`--live`).
+    pub live: bool,
 }
 
 fn load_rssi_model(path: &Path) -> Result<nomen_rssi::RssiModel> {
@@ -106,13 +117,14 @@ pub fn run(args: RunArgs) -> Result<()> {
                 refine_joints: args.refine_joints,
                 environment: args.environment.clone(),
                 cnn: args.cnn.clone(),
+                live: args.live,
             };
             run_file(&args.recording, &args.out, config, args.skip_bad, &extras)?
         }
         Method::Baptizo | Method::Llorca => {
-            if args.refine_joints || args.environment.is_some() || args.cnn.is_some() {
+            if args.refine_joints || args.environment.is_some() || args.cnn.is_some() || args.live {
                 bail!(
-                    "--refine-joints, --environment and --cnn work with the engine (--method nomen) only"
+                    "--refine-joints, --environment, --cnn and --live work with the engine (--method nomen) only"
                 );
             }
             if args.config.is_some() {
@@ -267,6 +279,125 @@ pub fn run_baseline_file(
     ))
 }
 
+/// Where [`run_file`] takes its messages from.
+enum Input {
+    /// The reader, on this thread (boxed: the larger variant, and one per run).
+    Reader(Box<RecordingReader<Box<dyn std::io::BufRead>>>),
+    /// `--live`: a thread reads and hands each message over, so that a pause in the input can
+    /// be noticed (and the engine told that time passes) while the thread waits for a line.
+    Live {
+        header: Header,
+        received: mpsc::Receiver<nomen_recording::Result<Message>>,
+        reading: std::thread::JoinHandle<ReadStats>,
+        /// The newest stamp received and when it came.
+        newest: Option<(nomen_core::SessionTime, Instant)>,
+    },
+}
+
+/// What [`Input::next_event`] gives.
+enum Event {
+    /// A message, or the read error that ends the input.
+    Message(nomen_recording::Result<Message>),
+    /// `--live`: nothing arrived for a tick; `idle` since the message stamped `newest` (the
+    /// newest so far) came.
+    Idle {
+        newest: nomen_core::SessionTime,
+        idle: Duration,
+    },
+}
+
+/// How long `--live` waits for a line before it tells the engine that time passes.
+const LIVE_TICK: Duration = Duration::from_millis(100);
+
+impl Input {
+    /// Starts a thread that reads `recording` and returns once its header is read.
+    fn live(recording: &Path, options: ReadOptions) -> Result<Self> {
+        let (header_sender, header_received) = mpsc::channel();
+        // Bounded: while the engine is busy, the reading waits instead of buffering the input.
+        let (sender, received) = mpsc::sync_channel(4096);
+        let path = recording.to_path_buf();
+        let reading = std::thread::spawn(move || {
+            let mut reader = match RecordingReader::open_with_options(&path, options) {
+                Ok(reader) => reader,
+                Err(e) => {
+                    let _ = header_sender.send(Err(e));
+                    return ReadStats::default();
+                }
+            };
+            if header_sender.send(Ok(reader.header().clone())).is_err() {
+                return reader.into_stats();
+            }
+            for m in reader.by_ref() {
+                let is_last = m.is_err();
+                if sender.send(m).is_err() || is_last {
+                    break;
+                }
+            }
+            reader.into_stats()
+        });
+        let header = match header_received.recv() {
+            Ok(header) => header?,
+            Err(_) => bail!(
+                "{}: the reading thread stopped before the header",
+                crate::io::source_name(recording)
+            ),
+        };
+        Ok(Input::Live {
+            header,
+            received,
+            reading,
+            newest: None,
+        })
+    }
+
+    fn header(&self) -> &Header {
+        match self {
+            Input::Reader(reader) => reader.header(),
+            Input::Live { header, .. } => header,
+        }
+    }
+
+    /// The next message, or (live) a tick without one; `None` at the end of the input.
+    fn next_event(&mut self) -> Option<Event> {
+        let (received, newest) = match self {
+            Input::Reader(reader) => return reader.next().map(Event::Message),
+            Input::Live {
+                received, newest, ..
+            } => (received, newest),
+        };
+        loop {
+            match received.recv_timeout(LIVE_TICK) {
+                Ok(m) => {
+                    if let Ok(m) = &m
+                        && newest.is_none_or(|(t, _)| m.t() > t)
+                    {
+                        *newest = Some((m.t(), Instant::now()));
+                    }
+                    return Some(Event::Message(m));
+                }
+                Err(mpsc::RecvTimeoutError::Timeout) => {
+                    // Before the first message there is no time to run on from: wait on.
+                    if let Some((t, at)) = newest {
+                        return Some(Event::Idle {
+                            newest: *t,
+                            idle: at.elapsed(),
+                        });
+                    }
+                }
+                Err(mpsc::RecvTimeoutError::Disconnected) => return None,
+            }
+        }
+    }
+
+    fn into_stats(self) -> ReadStats {
+        match self {
+            Input::Reader(reader) => (*reader).into_stats(),
+            // A reading thread that panicked has no counts to give.
+            Input::Live { reading, .. } => reading.join().unwrap_or_default(),
+        }
+    }
+}
+
 /// Whether `path` names stdin or stdout (`-`).
 fn is_std_stream(path: &Path) -> bool {
     path.as_os_str() == "-"
@@ -292,11 +423,15 @@ pub fn run_file(
     skip_bad: bool,
     extras: &EngineExtras,
 ) -> Result<String> {
-    let mut reader = RecordingReader::open_with_options(
-        recording,
-        ReadOptions::with_policy(read_policy(skip_bad)),
-    )?;
-    let Some(registry) = reader.header().registry.clone() else {
+    let options = ReadOptions::with_policy(read_policy(skip_bad));
+    let mut input = if extras.live {
+        Input::live(recording, options)?
+    } else {
+        Input::Reader(Box::new(RecordingReader::open_with_options(
+            recording, options,
+        )?))
+    };
+    let Some(registry) = input.header().registry.clone() else {
         bail!(
             "{}: the header carries no registry, so the engine does not know who wears what",
             crate::io::source_name(recording)
@@ -320,7 +455,7 @@ pub fn run_file(
     // Live (reading stdin or writing stdout): each batch of decisions goes out as soon as it is
     // decided, instead of when the output buffer fills, so a consumer's wait is the engine's
     // latency alone, also while the input pauses.
-    let is_live = is_std_stream(recording) || is_std_stream(out);
+    let is_live = extras.live || is_std_stream(recording) || is_std_stream(out);
     if is_live {
         writer.flush()?;
     }
@@ -348,12 +483,28 @@ pub fn run_file(
     // A bad line stops the reading (without `--skip-bad`), not the engine: what it accepted
     // before is still decided and written.
     let mut read_error = None;
-    for m in reader.by_ref() {
-        let m = match m {
-            Ok(m) => m,
-            Err(e) => {
+    // Before each idle tick's heartbeat, what the clock may run to: far enough for every
+    // decision to come out, never a time jump.
+    let max_idle_ns = ((config.max_latency_s() + config.silence_timeout_s + config.hop_s)
+        .min(config.max_time_jump_s)
+        * 1e9) as i64;
+    while let Some(event) = input.next_event() {
+        let m = match event {
+            Event::Message(Ok(m)) => m,
+            Event::Message(Err(e)) => {
                 read_error = Some(e);
                 break;
+            }
+            Event::Idle { newest, idle } => {
+                let idle_ns = i64::try_from(idle.as_nanos()).unwrap_or(i64::MAX);
+                let now = newest.as_ns().saturating_add(idle_ns.min(max_idle_ns));
+                // Within the time-jump bound by construction; a refusal changes nothing.
+                let _ = engine.advance_to(nomen_core::SessionTime::from_ns(now));
+                engine.poll(&mut batch);
+                if !batch.is_empty() {
+                    write_batch(&mut batch, &mut writer, &mut refinement)?;
+                }
+                continue;
             }
         };
         if let (Some(r), Message::Skeleton(s)) = (refinement.as_mut(), &m) {
@@ -379,7 +530,7 @@ pub fn run_file(
     if let Some(e) = read_error {
         return Err(stopped_reading(e, num_out, out));
     }
-    let stats = reader.into_stats();
+    let stats = input.into_stats();
     let mut summary = format!(
         "{}: {stats}; engine rejected {num_rejected} messages, stitched {} tracks ({} of them seen again), undid {} id swaps, estimated {} clock offsets (moved {}, withdrawn {}, settled {}); wrote {num_out} decisions to {}",
         crate::io::source_name(recording),
