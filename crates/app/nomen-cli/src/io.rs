@@ -20,9 +20,14 @@ pub fn stdout() -> std::io::StdoutLock<'static> {
     std::io::stdout().lock()
 }
 
+/// Whether `path` is `-`: standard input where a command reads, standard output where it writes.
+pub fn is_std_stream(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
 /// Creates `path` (and its parent folders) for buffered writing; `-` is standard output.
 pub fn create_write(path: &Path) -> Result<Box<dyn Write>> {
-    if path.as_os_str() == "-" {
+    if is_std_stream(path) {
         return Ok(Box::new(BufWriter::new(std::io::stdout().lock())));
     }
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
@@ -35,7 +40,7 @@ pub fn create_write(path: &Path) -> Result<Box<dyn Write>> {
 
 /// A display name for an output path in messages (`-` is `<stdout>`).
 pub fn sink_name(path: &Path) -> String {
-    if path.as_os_str() == "-" {
+    if is_std_stream(path) {
         "<stdout>".to_owned()
     } else {
         path.display().to_string()
@@ -44,7 +49,7 @@ pub fn sink_name(path: &Path) -> String {
 
 /// A display name for a path in error messages (`-` is `<stdin>`).
 pub fn source_name(path: &Path) -> String {
-    if path.as_os_str() == "-" {
+    if is_std_stream(path) {
         "<stdin>".to_owned()
     } else {
         path.display().to_string()

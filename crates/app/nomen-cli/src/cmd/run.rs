@@ -398,11 +398,6 @@ impl Input {
     }
 }
 
-/// Whether `path` names stdin or stdout (`-`).
-fn is_std_stream(path: &Path) -> bool {
-    path.as_os_str() == "-"
-}
-
 /// Loads an engine configuration file, or the defaults.
 pub fn load_config(path: Option<&Path>) -> Result<EngineConfig> {
     match path {
@@ -455,7 +450,8 @@ pub fn run_file(
     // Live (reading stdin or writing stdout): each batch of decisions goes out as soon as it is
     // decided, instead of when the output buffer fills, so a consumer's wait is the engine's
     // latency alone, also while the input pauses.
-    let is_live = extras.live || is_std_stream(recording) || is_std_stream(out);
+    let is_live =
+        extras.live || crate::io::is_std_stream(recording) || crate::io::is_std_stream(out);
     if is_live {
         writer.flush()?;
     }
@@ -489,8 +485,16 @@ pub fn run_file(
         .min(config.max_time_jump_s)
         * 1e9) as i64;
     while let Some(event) = input.next_event() {
-        let m = match event {
-            Event::Message(Ok(m)) => m,
+        match event {
+            Event::Message(Ok(m)) => {
+                if let (Some(r), Message::Skeleton(s)) = (refinement.as_mut(), &m) {
+                    r.observe(s);
+                }
+                if let Err(e) = engine.push(&m) {
+                    num_rejected += 1;
+                    first_rejection.get_or_insert_with(|| e.to_string());
+                }
+            }
             Event::Message(Err(e)) => {
                 read_error = Some(e);
                 break;
@@ -500,19 +504,7 @@ pub fn run_file(
                 let now = newest.as_ns().saturating_add(idle_ns.min(max_idle_ns));
                 // Within the time-jump bound by construction; a refusal changes nothing.
                 let _ = engine.advance_to(nomen_core::SessionTime::from_ns(now));
-                engine.poll(&mut batch);
-                if !batch.is_empty() {
-                    write_batch(&mut batch, &mut writer, &mut refinement)?;
-                }
-                continue;
             }
-        };
-        if let (Some(r), Message::Skeleton(s)) = (refinement.as_mut(), &m) {
-            r.observe(s);
-        }
-        if let Err(e) = engine.push(&m) {
-            num_rejected += 1;
-            first_rejection.get_or_insert_with(|| e.to_string());
         }
         engine.poll(&mut batch);
         if !batch.is_empty() {
