@@ -599,6 +599,35 @@ fn run_writes_the_decisions_before_a_bad_line_and_a_corrupt_timestamp_costs_one_
     );
     assert!(stderr.contains("decisions on what came before"), "{stderr}");
     assert_eq!(count(&out, "identified"), skeletons_before);
+    // The same through `--live`, whose reading runs on a thread of its own; and a file without
+    // its header line, named as such from that thread.
+    let live_out = tmp.path().join("cut_live.jsonl");
+    let run_live = |input: &Path| {
+        nomen(&[
+            "run",
+            input.to_str().unwrap(),
+            "--live",
+            "--out",
+            live_out.to_str().unwrap(),
+        ])
+    };
+    let o = run_live(&input);
+    assert!(!o.status.success());
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains(&format!("cut.jsonl:{}: truncated line", middle + 1)),
+        "{stderr}"
+    );
+    assert!(stderr.contains("decisions on what came before"), "{stderr}");
+    assert_eq!(count(&live_out, "identified"), skeletons_before);
+    let o = run_live(&write("headless.jsonl", &cut[1..middle]));
+    assert!(!o.status.success());
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains("headless.jsonl:1: missing header"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
 
     // One skeleton stamped an hour late: refused as a time jump (stopping there), or skipped
     // alone, every other skeleton decided.
