@@ -38,6 +38,53 @@ pub fn create_write(path: &Path) -> Result<Box<dyn Write>> {
     Ok(Box::new(BufWriter::with_capacity(1 << 16, file)))
 }
 
+/// Refuses to run when an output would overwrite an input or another output: `nomen run
+/// rec.jsonl --out rec.jsonl` would truncate the recording before reading it. Paths are compared
+/// after following symbolic links; `-` (a standard stream) is never compared, nor are `None`s.
+pub fn check_distinct(inputs: &[Option<&Path>], outputs: &[Option<&Path>]) -> Result<()> {
+    let named = |paths: &[Option<&Path>]| -> Vec<(PathBuf, PathBuf)> {
+        paths
+            .iter()
+            .flatten()
+            .filter(|p| !is_std_stream(p))
+            .map(|p| (p.to_path_buf(), resolved(p)))
+            .collect()
+    };
+    let (inputs, outputs) = (named(inputs), named(outputs));
+    for (k, (out, out_id)) in outputs.iter().enumerate() {
+        if let Some((input, _)) = inputs.iter().find(|(_, id)| id == out_id) {
+            bail!(
+                "the output {} is the input {}: writing it would destroy what is to be read \
+                 (choose another output path)",
+                out.display(),
+                input.display()
+            );
+        }
+        if let Some((other, _)) = outputs.iter().skip(k + 1).find(|(_, id)| id == out_id) {
+            bail!(
+                "two outputs are the same file, {} and {}: the second would overwrite the first",
+                out.display(),
+                other.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `path` with symbolic links followed, for [`check_distinct`]: the canonical path of an
+/// existing file, or of its folder joined with its name for a file yet to be written.
+fn resolved(path: &Path) -> PathBuf {
+    if let Ok(p) = path.canonicalize() {
+        return p;
+    }
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    let parent = parent.map_or_else(|| Path::new(".").canonicalize(), Path::canonicalize);
+    match (parent, path.file_name()) {
+        (Ok(dir), Some(name)) => dir.join(name),
+        _ => path.to_path_buf(),
+    }
+}
+
 /// A display name for an output path in messages (`-` is `<stdout>`).
 pub fn sink_name(path: &Path) -> String {
     if is_std_stream(path) {

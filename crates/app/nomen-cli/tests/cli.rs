@@ -440,12 +440,126 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
         report["intruder_anonymous_rate"]
     );
 
+    // Files that do not belong together are refused, not scored 0 %: a truth file without
+    // ground truth, a result without decisions, a result from another session.
+    let shifted = tmp.path().join("shifted.jsonl");
+    let moved: Vec<String> = std::fs::read_to_string(&result)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+            if let Some(t) = v.get("t").and_then(serde_json::Value::as_i64) {
+                v["t"] = (t + 1_000_000_000_000).into();
+            }
+            v.to_string()
+        })
+        .collect();
+    std::fs::write(&shifted, moved.join("\n") + "\n").unwrap();
+    let recording = scene.join("recording.jsonl");
+    let truth_path = scene.join("truth.jsonl");
+    for (t, r, want) in [
+        (&recording, &result, "no ground truth"),
+        (&truth_path, &recording, "no decisions"),
+        (&truth_path, &shifted, "not from the scene"),
+    ] {
+        let o = nomen(&[
+            "eval",
+            "--truth",
+            t.to_str().unwrap(),
+            "--result",
+            r.to_str().unwrap(),
+        ]);
+        assert!(
+            !o.status.success(),
+            "{} with {} was scored",
+            t.display(),
+            r.display()
+        );
+        assert!(text(&o.stderr).contains(want), "{}", text(&o.stderr));
+    }
+
     // The handshake conversion has no subjects and no wearables: the engine has nothing to do,
     // but a file without any registry cannot be run at all.
     let bare = tmp.path().join("bare.jsonl");
     std::fs::write(&bare, "{\"type\":\"header\",\"format\":\"nomen-recording\",\"version\":1,\"registry\":null,\"meta\":{}}\n").unwrap();
     let o = nomen(&["run", bare.to_str().unwrap(), "--out", "-"]);
     assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("no registry"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+#[test]
+fn an_output_that_is_an_input_or_another_output_is_refused_and_the_files_kept() {
+    let tmp = tempfile::tempdir().unwrap();
+    let rec = tmp.path().join("rec.jsonl");
+    let recording = "{\"type\":\"header\",\"format\":\"nomen-recording\",\"version\":1,\"registry\":null,\"meta\":{}}\n";
+    std::fs::write(&rec, recording).unwrap();
+    let csv = tmp.path().join("imu.csv");
+    let table = "t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps\n0.0,0,0,9.81,0,0,0\n0.01,0,0,9.81,0,0,0\n";
+    std::fs::write(&csv, table).unwrap();
+    let bvh = tmp.path().join("take.bvh");
+    std::fs::write(&bvh, "HIERARCHY\n").unwrap();
+    let path = |p: &Path| p.to_str().unwrap().to_owned();
+    // Through a symbolic link as well as by the same name.
+    #[cfg(unix)]
+    let link = {
+        let link = tmp.path().join("link.jsonl");
+        std::os::unix::fs::symlink(&rec, &link).unwrap();
+        link
+    };
+    #[cfg(not(unix))]
+    let link = rec.clone();
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec!["run".into(), path(&rec), "--out".into(), path(&rec)],
+            "is the input",
+        ),
+        (
+            vec!["run".into(), path(&rec), "--out".into(), path(&link)],
+            "is the input",
+        ),
+        (
+            vec![
+                "import".into(),
+                "imu".into(),
+                path(&csv),
+                "--device".into(),
+                "d".into(),
+                "--out".into(),
+                path(&csv),
+            ],
+            "is the input",
+        ),
+        (
+            vec![
+                "mocap".into(),
+                "convert".into(),
+                path(&bvh),
+                "--out".into(),
+                path(&tmp.path().join("o.jsonl")),
+                "--truth".into(),
+                path(&tmp.path().join(".").join("o.jsonl")),
+            ],
+            "two outputs are the same file",
+        ),
+    ];
+    for (args, want) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = nomen(&args);
+        assert!(!o.status.success(), "{args:?} was accepted");
+        let err = text(&o.stderr);
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        // Nothing was written over.
+        assert_eq!(std::fs::read_to_string(&rec).unwrap(), recording);
+        assert_eq!(std::fs::read_to_string(&csv).unwrap(), table);
+        assert!(!tmp.path().join("o.jsonl").exists());
+    }
+    // A standard stream is never the same file as anything.
+    let o = nomen(&["run", path(&rec).as_str(), "--out", "-"]);
     assert!(
         text(&o.stderr).contains("no registry"),
         "{}",

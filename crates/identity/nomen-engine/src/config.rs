@@ -942,13 +942,26 @@ impl Default for EngineConfig {
     }
 }
 
+/// Longest duration any setting may give, s (a day): longer ones would leave the engine
+/// stepping through empty time window by window.
+const MAX_DURATION_S: f64 = 86_400.0;
+
+/// Shortest non-zero duration, s (a microsecond): shorter ones round to nothing in
+/// nanoseconds, or nearly so.
+const MIN_DURATION_S: f64 = 1e-6;
+
+/// Shortest window and hop, s (a millisecond, far below a camera frame).
+const MIN_HOP_S: f64 = 1e-3;
+
 /// Seconds to integer nanoseconds.
 pub(crate) fn ns(s: f64) -> i64 {
     (s * 1e9).round() as i64
 }
 
 impl EngineConfig {
-    /// Checks every value is finite and in range.
+    /// Checks every value is finite and in range: every duration (a `_s` setting) at most a
+    /// day and, unless zero, at least a microsecond; `window_s` and `hop_s` at least a
+    /// millisecond.
     pub fn validate(&self) -> Result<()> {
         let positive = [
             ("window_s", self.window_s),
@@ -1035,6 +1048,31 @@ impl EngineConfig {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(EngineError::InvalidConfig(format!(
                     "{name} must be >= 0, got {v}"
+                )));
+            }
+        }
+        // Durations become integer nanoseconds and step the engine's clock: a positive one
+        // must stay positive once rounded (`hop_s = 1e-12` would be a zero step), and none may
+        // be so long that the engine steps through it window by window (or overflows).
+        for (name, v) in positive.iter().chain(&non_negative) {
+            if !name.ends_with("_s") {
+                continue;
+            }
+            if *v > MAX_DURATION_S {
+                return Err(EngineError::InvalidConfig(format!(
+                    "{name} must be at most {MAX_DURATION_S} s (a day), got {v}"
+                )));
+            }
+            if *v > 0.0 && *v < MIN_DURATION_S {
+                return Err(EngineError::InvalidConfig(format!(
+                    "{name} must be 0 or at least {MIN_DURATION_S} s, got {v}"
+                )));
+            }
+        }
+        for (name, v) in [("window_s", self.window_s), ("hop_s", self.hop_s)] {
+            if v < MIN_HOP_S {
+                return Err(EngineError::InvalidConfig(format!(
+                    "{name} must be at least {MIN_HOP_S} s, got {v}"
                 )));
             }
         }

@@ -1295,6 +1295,44 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
                 ..EngineConfig::default()
             },
         ),
+        // Rounds to a zero step in nanoseconds.
+        (
+            "hop_s",
+            EngineConfig {
+                hop_s: 1e-12,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "window_s",
+            EngineConfig {
+                window_s: 1e-4,
+                hop_s: 1e-4,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "offset_search_interval_s",
+            EngineConfig {
+                offset_search_interval_s: 1e-10,
+                ..EngineConfig::default()
+            },
+        ),
+        // Finite, but the engine would step through it window by window.
+        (
+            "decision_delay_s",
+            EngineConfig {
+                decision_delay_s: 1e300,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "silence_timeout_s",
+            EngineConfig {
+                silence_timeout_s: 1e6,
+                ..EngineConfig::default()
+            },
+        ),
     ] {
         let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), config) else {
             panic!("{name} out of range was accepted");

@@ -127,6 +127,8 @@ impl Bvh {
 
 /// Parses BVH text. `source` names the text in error messages (`walk.bvh:12: ...`).
 pub fn parse_bvh(text: &str, source: &str) -> Result<Bvh> {
+    // A byte-order mark (some Windows editors write one) is not part of the first keyword.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let lines: Vec<&str> = text.lines().collect();
     let motion_line = lines
         .iter()
@@ -496,6 +498,15 @@ Frame Time: .0083333
 
     fn err(text: &str) -> String {
         parse_bvh(text, "t.bvh").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn a_byte_order_mark_before_the_hierarchy_is_skipped() {
+        let marked = format!("\u{feff}{GOOD}");
+        assert_eq!(
+            parse_bvh(&marked, "t.bvh").unwrap(),
+            parse_bvh(GOOD, "t.bvh").unwrap()
+        );
     }
 
     #[test]

@@ -181,7 +181,10 @@ impl<R: BufRead> RecordingReader<R> {
                 problem: "empty file: expected a header line".to_owned(),
             });
         }
-        let header = Header::parse(&buf, &at)?;
+        // A byte-order mark, which some Windows editors put before the first line, is not
+        // part of the header's JSON.
+        let header_line = buf.strip_prefix(UTF8_BOM).unwrap_or(&buf);
+        let header = Header::parse(header_line, &at)?;
         let checker = match &options.id_check {
             IdCheck::Header => Checker::new(header.registry.as_ref(), options.global_tolerance_ns),
             IdCheck::Off => Checker::new(None, options.global_tolerance_ns),
@@ -382,6 +385,9 @@ impl<R: BufRead> RecordingReader<R> {
         Ok((msg, times))
     }
 }
+
+/// The UTF-8 byte-order mark.
+const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
 
 /// A message line that opens with `{"type":"imu",` or `{"type":"skeleton",` (as nomen writes
 /// them, and the two kinds that make up nearly every recording), parsed straight into its

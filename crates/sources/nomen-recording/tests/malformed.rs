@@ -270,6 +270,19 @@ fn empty_file_is_an_error_on_line_1() {
 }
 
 #[test]
+fn a_byte_order_mark_before_the_header_is_skipped() {
+    let text = format!("\u{feff}{}", file(&[line(&imu(S, "band1"))]));
+    let mut reader = RecordingReader::new(text.as_bytes(), "rec.jsonl").unwrap();
+    assert_eq!(reader.header(), &header());
+    assert_eq!(reader.by_ref().count(), 1);
+    // Only before the header: elsewhere it is a malformed line.
+    let text = file(&[format!("\u{feff}{}", line(&imu(S, "band1")))]);
+    let mut reader = RecordingReader::new(text.as_bytes(), "rec.jsonl").unwrap();
+    let err = reader.next().unwrap().unwrap_err().to_string();
+    assert!(err.starts_with("rec.jsonl:2:"), "{err}");
+}
+
+#[test]
 fn blank_lines_are_skipped_and_counted_as_lines() {
     let text = file(&[
         String::new(),

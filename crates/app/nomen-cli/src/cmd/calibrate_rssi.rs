@@ -47,6 +47,7 @@ pub struct CalibrateRssiArgs {
 
 /// Runs `nomen calibrate rssi`.
 pub fn run(args: CalibrateRssiArgs) -> Result<()> {
+    crate::io::check_distinct(&[Some(&args.recording)], &[args.out.as_deref()])?;
     let name = crate::io::source_name(&args.recording);
     let reader =
         RecordingReader::open(&args.recording).with_context(|| format!("reading {name}"))?;

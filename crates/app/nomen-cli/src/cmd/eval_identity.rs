@@ -1,6 +1,7 @@
 //! `nomen eval --truth ... --result ...`: identity metrics of an engine result.
 
 use anyhow::{Context, Result, bail};
+use nomen_core::Message;
 use nomen_eval::identity::{EvalConfig, EvalReport, SceneData, evaluate};
 use nomen_eval::plots::{PlotConfig, write_plots};
 use nomen_recording::RecordingReader;
@@ -50,22 +51,58 @@ pub fn evaluate_files(
         );
     }
     let mut scenes = Vec::with_capacity(truth.len());
+    let mut num_identified = 0;
     for (t, r) in truth.iter().zip(result) {
         let mut scene = SceneData::new(scene_name(t));
-        push_all(&mut scene, t)?;
-        push_all(&mut scene, r)?;
+        let truth_counts = push_all(&mut scene, t)?;
+        if truth_counts.truth == 0 {
+            bail!(
+                "{}: no ground truth in it (no truth_skeleton lines): give the truth.jsonl that \
+                 `nomen simulate` or `nomen mocap convert --truth` writes",
+                t.display()
+            );
+        }
+        let result_counts = push_all(&mut scene, r)?;
+        if result_counts.identified == 0 {
+            bail!(
+                "{}: no decisions in it (no identified lines): give the output of `nomen run`",
+                r.display()
+            );
+        }
+        num_identified += result_counts.identified;
         scenes.push(scene);
     }
-    Ok(evaluate(&scenes, config)?)
+    let report = evaluate(&scenes, config)?;
+    if report.overall.num_result_without_truth >= num_identified as u64 {
+        bail!(
+            "none of the {num_identified} decisions matches a ground-truth frame (same camera, \
+             track and time): the result is not from the scene of the truth file"
+        );
+    }
+    Ok(report)
 }
 
-fn push_all(scene: &mut SceneData, path: &Path) -> Result<()> {
+/// What a file gave a scene: its ground-truth skeletons and its decisions.
+#[derive(Debug, Default)]
+struct Counts {
+    truth: usize,
+    identified: usize,
+}
+
+fn push_all(scene: &mut SceneData, path: &Path) -> Result<Counts> {
     let reader =
         RecordingReader::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut counts = Counts::default();
     for m in reader {
-        scene.push(&m?);
+        let m = m?;
+        match &m {
+            Message::TruthSkeleton(_) => counts.truth += 1,
+            Message::Identified(_) => counts.identified += 1,
+            _ => {}
+        }
+        scene.push(&m);
     }
-    Ok(())
+    Ok(counts)
 }
 
 fn scene_name(truth: &Path) -> String {

@@ -77,6 +77,15 @@ pub struct SkeletonArgs {
 
 /// Runs `nomen import ...`.
 pub fn run(command: ImportCommand) -> Result<()> {
+    let common = match &command {
+        ImportCommand::Imu(a) => &a.common,
+        ImportCommand::Fixes(c) => c,
+        ImportCommand::Skeletons(a) => &a.common,
+    };
+    crate::io::check_distinct(
+        &[Some(&common.file), common.registry.as_deref()],
+        &[Some(&common.out)],
+    )?;
     let (common, mut messages) = match command {
         ImportCommand::Imu(a) => {
             let (spec, msgs) = import_imu_auto(
@@ -128,7 +137,7 @@ pub fn run(command: ImportCommand) -> Result<()> {
     eprintln!(
         "wrote {} messages to {}",
         messages.len(),
-        crate::io::source_name(&common.out)
+        crate::io::sink_name(&common.out)
     );
     Ok(())
 }

@@ -57,6 +57,8 @@ pub fn run(command: MocapCommand) -> Result<()> {
 /// Converts the files of `args` and writes the recording (and truth); returns a summary and the
 /// converted clips.
 pub fn convert_files(args: &ConvertArgs) -> Result<(String, Vec<MocapClip>)> {
+    let inputs: Vec<Option<&Path>> = args.files.iter().map(|f| Some(f.as_path())).collect();
+    crate::io::check_distinct(&inputs, &[Some(&args.out), args.truth.as_deref()])?;
     let options = ConvertOptions {
         scale: args.scale,
         fps_hz: args.fps,
@@ -120,7 +122,7 @@ pub fn convert_files(args: &ConvertArgs) -> Result<(String, Vec<MocapClip>)> {
     summary.push_str(&format!(
         "wrote {} skeleton messages to {}",
         skeletons.len(),
-        crate::io::source_name(&args.out)
+        crate::io::sink_name(&args.out)
     ));
     if let Some(truth_path) = &args.truth {
         sort_for_writing(&mut truth);
@@ -128,7 +130,10 @@ pub fn convert_files(args: &ConvertArgs) -> Result<(String, Vec<MocapClip>)> {
             .with_meta("generator", "nomen mocap convert")
             .with_meta("kind", "truth");
         write_recording(truth_path, &header, &truth)?;
-        summary.push_str(&format!("\nwrote ground truth to {}", truth_path.display()));
+        summary.push_str(&format!(
+            "\nwrote ground truth to {}",
+            crate::io::sink_name(truth_path)
+        ));
     }
     Ok((summary, clips))
 }

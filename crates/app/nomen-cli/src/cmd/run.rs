@@ -102,6 +102,15 @@ pub enum Method {
 
 /// Runs `nomen run`.
 pub fn run(args: RunArgs) -> Result<()> {
+    crate::io::check_distinct(
+        &[
+            Some(&args.recording),
+            args.config.as_deref(),
+            args.rssi_model.as_deref(),
+            args.environment.as_deref(),
+        ],
+        &[Some(&args.out)],
+    )?;
     let summary = match args.method {
         Method::Nomen => {
             if args.environment.is_some() && !args.refine_joints {

@@ -87,6 +87,8 @@ pub fn parse_motchallenge(
     let mut rows = Vec::new();
     let mut first_line_of: BTreeMap<(i64, i64), usize> = BTreeMap::new();
     let mut fields: Vec<&str> = Vec::with_capacity(MAX_FIELDS);
+    // A byte-order mark (some Windows editors write one) is not part of the first frame number.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (index, raw_line) in text.lines().enumerate() {
         let line = index + 1;
         let content = raw_line.trim();
@@ -348,6 +350,10 @@ mod tests {
         assert_eq!(rows[1].bbox.height, 41.0);
         assert_eq!(rows[1].trailing, [None; 3]);
         assert_eq!(rows[2].line, 4);
+        // A byte-order mark before the first row is skipped.
+        let marked = format!("\u{feff}{text}");
+        let again = parse_motchallenge(&marked, "t.txt", &MotChallengeConfig::default()).unwrap();
+        assert_eq!(again, rows);
     }
 
     #[test]
