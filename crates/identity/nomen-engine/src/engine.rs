@@ -510,6 +510,16 @@ pub struct Engine {
     warm_release: Option<i64>,
     next_end: Option<i64>,
     global_max: Option<i64>,
+    /// Which [`DATA_SLOT_NS`]-long slots of session time hold a message, from where a window
+    /// could still read on: for [`Engine::skip_idle`].
+    data_slots: BTreeSet<i64>,
+    /// The slot of the last message noted, so that a message in the same slot costs no insert.
+    last_slot: Option<i64>,
+    /// How far before its end a window may read anything, ns, generously (see
+    /// [`Engine::skip_idle`]).
+    idle_lookback_ns: i64,
+    /// How far before the next data a window may still be skipped, ns.
+    idle_lookahead_ns: i64,
     /// Refuses messages stamped implausibly far ahead of `global_max`.
     time_jumps: TimeJumpGuard,
     /// The session's first message, held until the next one vouches for its time.
@@ -649,6 +659,25 @@ impl Engine {
             warm_release: None,
             next_end: None,
             global_max: None,
+            data_slots: BTreeSet::new(),
+            last_slot: None,
+            idle_lookback_ns: ns(config.window_s
+                + config.history_pad_s
+                + config.offset_estimation_window_s
+                + 4.0 * config.max_clock_offset_s
+                + config.tag_window_s
+                + config.track_timeout_s
+                + config.stitch_max_gap_s
+                + config.stitch_velocity_span_s
+                + config.max_latency_s()
+                + config.silence_timeout_s
+                + 2.0 * config.hop_s)
+            .saturating_add(DATA_SLOT_NS),
+            idle_lookahead_ns: ns(2.0 * config.hop_s
+                + 4.0 * config.max_clock_offset_s
+                + config.reorder_window_s
+                + config.silence_timeout_s)
+            .saturating_add(DATA_SLOT_NS),
             time_jumps: TimeJumpGuard::new(ns(config.max_time_jump_s)),
             first: FirstMessage::Awaited,
             ready: Vec::new(),
@@ -1074,6 +1103,11 @@ impl Engine {
     }
 
     fn note_time(&mut self, t: i64) {
+        let slot = t.div_euclid(DATA_SLOT_NS);
+        if self.last_slot != Some(slot) {
+            self.data_slots.insert(slot);
+            self.last_slot = Some(slot);
+        }
         self.global_max = Some(self.global_max.map_or(t, |m| m.max(t)));
         if self.next_end.is_none() {
             self.next_end = Some(t.div_euclid(self.hop_ns) * self.hop_ns + self.hop_ns);
@@ -1129,9 +1163,49 @@ impl Engine {
             if !all_settled {
                 self.stats.num_windows_timed_out += 1;
             }
+            let end = self.skip_idle(end);
             self.process_window(end);
         }
         out.append(&mut self.ready);
+    }
+
+    /// Where to go on from window `end`: `end` itself, or past empty time. When no observation
+    /// waits to be sent and no message lies within [`EngineConfig::max_time_jump_s`]-scale reach
+    /// of the next windows (a recording paused for minutes, or a source whose clock jumped and
+    /// then went on from there), the windows in between could read nothing, and stepping
+    /// through them one hop at a time would take as long as the gap is wide (a day of gap is
+    /// 172,800 windows). The engine jumps to the last window on the same grid that still reads
+    /// nothing. A window that reads nothing changes nothing but what time alone changes: the
+    /// heading estimates decay by the windows skipped, and what `forget` drops at the landing
+    /// window is what it would have dropped by then. Only gaps of at least [`IDLE_SKIP_MIN_NS`]
+    /// are skipped, so a recording without long gaps is processed exactly as before.
+    fn skip_idle(&mut self, end: i64) -> i64 {
+        if !self.pending_out.is_empty() {
+            return end;
+        }
+        let from = end
+            .saturating_sub(self.idle_lookback_ns)
+            .div_euclid(DATA_SLOT_NS);
+        let Some(&next_slot) = self.data_slots.range(from..).next() else {
+            return end;
+        };
+        let last_idle = next_slot
+            .saturating_mul(DATA_SLOT_NS)
+            .saturating_sub(self.idle_lookahead_ns);
+        let room = last_idle.saturating_sub(end);
+        if room < IDLE_SKIP_MIN_NS {
+            return end;
+        }
+        let skipped = room / self.hop_ns;
+        let heading_decay = 0.5f64.powf(self.config.hop_s / self.config.heading_half_life_s);
+        let decay = heading_decay.powf(skipped as f64);
+        for imu in &mut self.imus {
+            imu.heading_sum = imu.heading_sum.map(|v| v * decay);
+            imu.heading_magnitude *= decay;
+            imu.heading_windows *= decay;
+        }
+        self.stats.num_windows_skipped += skipped.unsigned_abs();
+        end.saturating_add(skipped.saturating_mul(self.hop_ns))
     }
 
     /// Settles everything, processes every remaining window and emits every remaining decision.
@@ -1165,6 +1239,7 @@ impl Engine {
             if self.pending_out.is_empty() && !more_data {
                 break;
             }
+            let end = self.skip_idle(end);
             self.process_window(end);
         }
         // Fixes after the last skeleton decision still get their (uncorrected or corrected) line.
@@ -1494,6 +1569,12 @@ impl Engine {
 
     /// Drops samples no later window can use and tracks that went away.
     fn forget(&mut self, end: i64) {
+        // Slots no later window's reach goes back to.
+        let oldest_slot = end
+            .saturating_sub(self.idle_lookback_ns)
+            .div_euclid(DATA_SLOT_NS)
+            - 1;
+        self.data_slots = self.data_slots.split_off(&oldest_slot);
         let keep = ns(self
             .config
             .window_s
@@ -1529,6 +1610,12 @@ impl Engine {
         });
     }
 }
+
+/// Length of the slots of session time [`Engine::skip_idle`] marks as holding data, ns.
+const DATA_SLOT_NS: i64 = 1_000_000_000;
+
+/// Shortest run of empty windows [`Engine::skip_idle`] jumps over, ns.
+const IDLE_SKIP_MIN_NS: i64 = 60_000_000_000;
 
 /// Span of samples the orientation filter starts from, ns (see [`start_ahrs`]).
 const AHRS_START_NS: i64 = 1_000_000_000;

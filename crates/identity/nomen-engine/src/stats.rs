@@ -75,6 +75,10 @@ pub struct EngineStats {
     pub num_windows: u64,
     /// Windows processed because a source stayed silent past the timeout.
     pub num_windows_timed_out: u64,
+    /// Windows not processed because they lay in empty time, a minute or more without any
+    /// message within their reach (see `EngineConfig::max_time_jump_s` for how a gap that
+    /// wide is let in).
+    pub num_windows_skipped: u64,
     /// Identified skeletons emitted.
     pub num_decisions: u64,
     /// Of which with a subject.

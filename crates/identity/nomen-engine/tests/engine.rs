@@ -322,6 +322,81 @@ fn a_silent_imu_does_not_block_output() {
     assert!(accuracy(&people[..1], &out, 8.0) > 0.98);
 }
 
+/// `msgs` moved later by `shift_s`.
+fn shifted(msgs: &[Message], shift_s: f64) -> Vec<Message> {
+    let shift = SessionTime::from_secs_f64(shift_s).unwrap().as_ns();
+    msgs.iter()
+        .map(|m| {
+            let mut m = m.clone();
+            match &mut m {
+                Message::Imu(s) => s.t = SessionTime::from_ns(s.t.as_ns() + shift),
+                Message::Skeleton(s) => s.t = SessionTime::from_ns(s.t.as_ns() + shift),
+                _ => {}
+            }
+            m
+        })
+        .collect()
+}
+
+#[test]
+fn a_recording_that_pauses_for_months_is_run_past_the_gap_and_named_as_after_a_short_pause() {
+    let people = two_people();
+    let part = recording(&people, 12.0);
+    let config = EngineConfig::default();
+    // The same twelve seconds again after a pause: 100 s (stepped through, window by window)
+    // or about four months (10^7 s, 20 million windows: skipped).
+    let run = |pause_s: f64| {
+        let mut msgs = part.clone();
+        msgs.extend(shifted(&part, 12.0 + pause_s));
+        let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+        (msgs, out, stats)
+    };
+    let (short_msgs, short, short_stats) = run(100.0);
+    let (long_msgs, long, long_stats) = run(1e7);
+    assert_eq!(short_stats.num_windows_skipped, 0);
+    assert!(
+        long_stats.num_windows_skipped > 19_000_000,
+        "{long_stats:?}"
+    );
+    assert!(
+        long_stats.num_windows < 200,
+        "{} windows",
+        long_stats.num_windows
+    );
+    // Each source's first message after the pause is taken for a jump in time and refused
+    // (`max_time_jump_s`), after either pause; every other skeleton is decided.
+    for (msgs, out, stats) in [
+        (&short_msgs, &short, &short_stats),
+        (&long_msgs, &long, &long_stats),
+    ] {
+        let refused = stats.rejected.total() as usize;
+        assert!(refused <= 4, "{stats:?}");
+        assert!(
+            out.len() + refused >= num_skeletons(msgs),
+            "{} of {}",
+            out.len(),
+            num_skeletons(msgs)
+        );
+    }
+    // After the pause, the same names frame for frame: the skipped windows could read nothing.
+    let after = |out: &[Message], pause_s: f64| -> Vec<(i64, TrackId, Identity)> {
+        let cut = 12.0 + pause_s;
+        out.iter()
+            .filter_map(|m| match m {
+                Message::Identified(id) if id.t.as_secs_f64() >= cut => Some((
+                    id.t.as_ns() - SessionTime::from_secs_f64(cut).unwrap().as_ns(),
+                    id.track,
+                    id.identity.clone(),
+                )),
+                _ => None,
+            })
+            .collect()
+    };
+    let (a, b) = (after(&short, 100.0), after(&long, 1e7));
+    assert!(a.len() > 600, "{} decisions after the pause", a.len());
+    assert_eq!(a, b);
+}
+
 #[test]
 fn a_host_heartbeat_brings_out_the_last_decisions_when_every_source_falls_silent() {
     let people = two_people();
