@@ -1170,9 +1170,10 @@ impl Engine {
     }
 
     /// Where to go on from window `end`: `end` itself, or past empty time. When no observation
-    /// waits to be sent and no message lies within [`EngineConfig::max_time_jump_s`]-scale reach
-    /// of the next windows (a recording paused for minutes, or a source whose clock jumped and
-    /// then went on from there), the windows in between could read nothing, and stepping
+    /// waits to be sent and no message lies within reach of the next windows (`idle_lookback_ns`
+    /// before a window's end, `idle_lookahead_ns` after it: a recording paused for minutes, or
+    /// a source whose clock jumped and then went on from there), those windows could read
+    /// nothing, and stepping
     /// through them one hop at a time would take as long as the gap is wide (a day of gap is
     /// 172,800 windows). The engine jumps to the last window on the same grid that still reads
     /// nothing. A window that reads nothing changes nothing but what time alone changes: the
