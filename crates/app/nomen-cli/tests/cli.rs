@@ -771,6 +771,12 @@ fn run_writes_the_decisions_before_a_bad_line_and_a_corrupt_timestamp_costs_one_
         "{}",
         text(&o.stderr)
     );
+    // The skipped line is named with its file and line, as `validate --skip-bad` names it.
+    assert!(
+        text(&o.stderr).contains(&format!("skipped: {}:{}: time ", input.display(), k + 1)),
+        "{}",
+        text(&o.stderr)
+    );
     let num_skeletons = count(&scene.join("recording.jsonl"), "skeleton");
     assert_eq!(count(&out, "identified"), num_skeletons - 1);
 

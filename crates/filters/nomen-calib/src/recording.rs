@@ -44,6 +44,25 @@ pub struct KeyJointStreams {
     pub num_crowded_frames: usize,
 }
 
+/// The `what` (camera or tag) to calibrate: `chosen` if the recording has it, else the only one
+/// `seen` in the recording; an error that names what the recording has otherwise.
+fn pick(what: &'static str, chosen: Option<String>, seen: Vec<String>) -> Result<String> {
+    let reason = match (chosen, seen.as_slice()) {
+        (Some(c), _) if seen.contains(&c) => return Ok(c),
+        (None, [one]) => return Ok(one.clone()),
+        (_, []) => format!("the recording has no {what} data"),
+        (Some(c), _) => format!(
+            "no {what} '{c}' in the recording (it has: {})",
+            seen.join(", ")
+        ),
+        (None, _) => format!(
+            "the recording has several; choose one of: {}",
+            seen.join(", ")
+        ),
+    };
+    Err(CalibError::InvalidParameter { name: what, reason })
+}
+
 /// Collects the key-joint stream of `camera` and the fixes of `tag` (each `None`: the only one
 /// in the recording, else an error naming the choices).
 pub fn key_joint_streams(
@@ -52,18 +71,6 @@ pub fn key_joint_streams(
     camera: Option<&CameraId>,
     tag: Option<&TagId>,
 ) -> Result<KeyJointStreams> {
-    let pick = |what: &'static str, chosen: Option<String>, seen: Vec<String>| -> Result<String> {
-        if let Some(c) = chosen {
-            return Ok(c);
-        }
-        match seen.as_slice() {
-            [one] => Ok(one.clone()),
-            _ => Err(CalibError::InvalidParameter {
-                name: what,
-                reason: format!("choose one of [{}]", seen.join(", ")),
-            }),
-        }
-    };
     let mut cameras: Vec<String> = messages
         .iter()
         .filter_map(|m| match m {
@@ -190,4 +197,26 @@ pub fn calibrate_from_recording(
 ) -> Result<FramesCalibration> {
     let streams = key_joint_streams(registry, messages, camera, tag)?;
     calibrate_streams(&streams, config)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_camera_or_tag_to_calibrate_is_chosen_or_the_choices_are_named() {
+        let seen = |v: &[&str]| v.iter().map(|s| (*s).to_owned()).collect::<Vec<_>>();
+        assert_eq!(pick("tag", None, seen(&["t1"])).unwrap(), "t1");
+        assert_eq!(
+            pick("tag", Some("t2".into()), seen(&["t1", "t2"])).unwrap(),
+            "t2"
+        );
+        let why = |r: Result<String>| r.unwrap_err().to_string();
+        assert!(why(pick("tag", None, seen(&[]))).contains("no tag data"));
+        assert!(
+            why(pick("camera", Some("back".into()), seen(&["front"])))
+                .contains("no camera 'back' in the recording (it has: front)")
+        );
+        assert!(why(pick("tag", None, seen(&["t1", "t2"]))).contains("choose one of: t1, t2"));
+    }
 }

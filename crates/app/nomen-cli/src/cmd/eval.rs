@@ -100,6 +100,13 @@ fn run_mot(args: &MotArgs) -> Result<()> {
 pub fn evaluate_motchallenge(gt: &Path, test: &Path, iou: f64) -> Result<MotMetrics> {
     let loader = MotChallengeConfig::default();
     let gt_rows = parse_motchallenge(&read_text(gt)?, &source_name(gt), &loader)?;
+    if gt_rows.is_empty() {
+        // Every ratio would divide by zero (py-motmetrics prints -inf and NaN): a wrong file.
+        bail!(
+            "{}: no ground-truth boxes (an empty file, or every row below the confidence cut)",
+            source_name(gt)
+        );
+    }
     let test_rows = parse_motchallenge(&read_text(test)?, &source_name(test), &loader)?;
     let config = IouMatchConfig {
         max_iou_distance: iou,

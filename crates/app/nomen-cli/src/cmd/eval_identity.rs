@@ -20,6 +20,13 @@ pub fn run(
         near_distance_m: near_m,
         ..Default::default()
     };
+    // Before the work, so the table is not printed for a run that then fails.
+    if let Some(dir) = plots
+        && dir.exists()
+        && !dir.is_dir()
+    {
+        bail!("--plots {}: not a folder", dir.display());
+    }
     let report = evaluate_files(truth, result, &config)?;
     let mut stdout = crate::io::stdout();
     if json {

@@ -29,9 +29,9 @@ pub enum FitCommand {
 /// Arguments of `nomen fit all`.
 #[derive(Debug, Args)]
 pub struct AllArgs {
-    /// The shared data folder.
-    #[arg(default_value = "../shared/data")]
-    data: PathBuf,
+    /// The shared data folder (default: `$NOMEN_DATA`, else `../shared/data`, else the one
+    /// beside the source checkout, as for `nomen simulate`).
+    data: Option<PathBuf>,
     /// Print JSON instead of the markdown report.
     #[arg(long)]
     json: bool,
@@ -84,8 +84,10 @@ pub struct RssiArgs {
 pub fn run(command: FitCommand) -> Result<()> {
     match command {
         FitCommand::All(a) => {
-            let models = fit_all(&a.data, &FitAllConfig::default())
-                .with_context(|| format!("fitting the recordings in {}", a.data.display()))?;
+            let data = crate::io::find_data(a.data.as_deref())?;
+            eprintln!("fitting the recordings in {} ...", data.display());
+            let models = fit_all(&data, &FitAllConfig::default())
+                .with_context(|| format!("fitting the recordings in {}", data.display()))?;
             if a.json {
                 print_json(&models)
             } else {

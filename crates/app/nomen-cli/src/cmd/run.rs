@@ -280,12 +280,30 @@ pub fn run_baseline_file(
         .filter(|m| matches!(m, Message::Identified(_)))
         .count();
     Ok(format!(
-        "{}: {stats}; {} wrote {num_identified} decisions and {} other messages to {}",
+        "{}: {stats}; {} wrote {num_identified} decisions and {} other messages to {}{}",
         crate::io::source_name(recording),
         baseline.name(),
         decided.len() - num_identified,
-        crate::io::sink_name(out)
+        crate::io::sink_name(out),
+        skipped_lines(&stats)
     ))
+}
+
+/// The lines `--skip-bad` skipped, each with its file, line and reason (the first few, as
+/// `nomen validate --skip-bad` lists them), one per line; empty when none was skipped.
+fn skipped_lines(stats: &ReadStats) -> String {
+    let mut text: String = stats
+        .first_errors
+        .iter()
+        .map(|e| format!("\n  skipped: {e}"))
+        .collect();
+    let more = stats
+        .num_skipped()
+        .saturating_sub(stats.first_errors.len() as u64);
+    if more > 0 {
+        text.push_str(&format!("\n  ... and {more} more skipped lines"));
+    }
+    text
 }
 
 /// Where [`run_file`] takes its messages from.
@@ -555,6 +573,7 @@ pub fn run_file(
     if let Some(r) = &refinement {
         summary.push_str(&format!("; estimated {} occluded joints", r.num_estimated));
     }
+    summary.push_str(&skipped_lines(&stats));
     for (device, est) in &engine.stats().clock_offsets {
         summary.push_str(&format!(
             "\n  clock offset {device}: {:+.3} s (peak correlation {:.2}, {} updates)",

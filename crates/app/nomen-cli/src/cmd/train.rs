@@ -111,6 +111,13 @@ fn train_cnn(args: &CnnArgs) -> Result<()> {
             bail!("validation scene {v:?} is not among the --scenes folders");
         }
     }
+    if names.iter().all(|(n, _)| val_groups.contains(n)) {
+        bail!(
+            "every scene is held out for validation ({}): training needs at least one more \
+             scene (give two or more --scenes folders)",
+            val_groups.join(", ")
+        );
+    }
     let mut train = Vec::new();
     let mut val = Vec::new();
     for (i, (name, dir)) in names.iter().enumerate() {
