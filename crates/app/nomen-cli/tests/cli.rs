@@ -381,6 +381,45 @@ fn csv_imports_convert_units_and_reject_bad_rows_by_line() {
     let last: serde_json::Value = serde_json::from_str(rec.lines().last().unwrap()).unwrap();
     assert_eq!(last["t"], 100_000_000);
     assert_eq!(last["position_m"][0], 1.5);
+    // An IMU import checked against a registry that does not list its --device: the flag and
+    // the registry are named (the write's id check named only an output line).
+    let registry = tmp.path().join("reg.json");
+    std::fs::write(
+        &registry,
+        r#"{"subjects":[{"id":"ana","wears":[{"device":"band","kind":"imu","site":"left_wrist","clock":{"offset_ns":0,"drift_ppm":0.0}}]}],"cameras":[]}"#,
+    )
+    .unwrap();
+    let imu_csv = tmp.path().join("imu.csv");
+    std::fs::write(
+        &imu_csv,
+        "Time (s),Gyroscope X (deg/s),Gyroscope Y (deg/s),Gyroscope Z (deg/s),Accelerometer X (g),Accelerometer Y (g),Accelerometer Z (g)\n0,0,0,0,0,0,1\n0.01,0,0,0,0,0,1\n",
+    )
+    .unwrap();
+    let import = |device: &str| {
+        nomen(&[
+            "import",
+            "imu",
+            imu_csv.to_str().unwrap(),
+            "--device",
+            device,
+            "--registry",
+            registry.to_str().unwrap(),
+            "--out",
+            tmp.path().join("imu.jsonl").to_str().unwrap(),
+        ])
+    };
+    let o = import("nobody");
+    assert!(!o.status.success());
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains(&format!(
+            "--device nobody is not worn by anyone in the registry {}",
+            registry.display()
+        )),
+        "{stderr}"
+    );
+    let o = import("band");
+    assert!(o.status.success(), "{}", text(&o.stderr));
 }
 
 #[test]

@@ -346,6 +346,11 @@ impl<'a> HierarchyParser<'a> {
     }
 }
 
+/// Largest frame value taken: 10^5 file units is a kilometre in centimetres (100 km in
+/// metres), and 10^5 degrees is 278 turns of a joint. Larger values are corrupt numbers,
+/// caught here with their line instead of as positions out of range after the conversion.
+const MAX_FRAME_VALUE: f64 = 1e5;
+
 fn parse_finite(tok: &str, file: &str, line: usize, what: &str) -> Result<f64> {
     let value: f64 = tok.parse().map_err(|_| MocapError::NotANumber {
         file: file.to_owned(),
@@ -426,12 +431,18 @@ fn parse_motion(
         }
         let before = values.len();
         for (k, tok) in l.split_whitespace().enumerate() {
-            values.push(parse_finite(
-                tok,
-                file,
-                i + 1,
-                &format!("frame value {}", k + 1),
-            )?);
+            let what = || format!("frame value {}", k + 1);
+            let value = parse_finite(tok, file, i + 1, &what())?;
+            if value.abs() > MAX_FRAME_VALUE {
+                return Err(MocapError::Implausible {
+                    file: file.to_owned(),
+                    line: i + 1,
+                    what: what(),
+                    token: tok.to_owned(),
+                    max: MAX_FRAME_VALUE,
+                });
+            }
+            values.push(value);
         }
         let count = values.len() - before;
         if count != num_channels {
@@ -574,6 +585,12 @@ Frame Time: .0083333
         assert_eq!(
             err(&text),
             "t.bvh:8: OFFSET y is inf, expected a finite number"
+        );
+        // Finite but corrupt: named on its own line, not as a position out of range later.
+        let text = GOOD.replace("1 17 0 0 0 0 10 20 30", "1 17 0 1e300 0 0 10 20 30");
+        assert_eq!(
+            err(&text),
+            "t.bvh:20: frame value 4 is 1e300, beyond any motion capture (at most 100000 in size)"
         );
     }
 

@@ -97,6 +97,21 @@ pub enum MocapError {
         /// The value read.
         value: f64,
     },
+    /// A frame value far beyond any motion capture: a position beyond a kilometre in any
+    /// usual unit, or a rotation of thousands of turns (a corrupt number).
+    #[error("{file}:{line}: {what} is {token}, beyond any motion capture (at most {max} in size)")]
+    Implausible {
+        /// Source name (file name).
+        file: String,
+        /// Line of the value.
+        line: usize,
+        /// What the number was supposed to be.
+        what: String,
+        /// The value as written.
+        token: String,
+        /// The largest size accepted.
+        max: f64,
+    },
     /// A frame line with more or fewer values than the hierarchy has channels.
     #[error("{file}:{line}: frame line has {found} values, expected {expected} (one per channel)")]
     WrongValueCount {

@@ -1,7 +1,7 @@
 //! `nomen import`: CSV files → a nomen recording, with units read from the column names.
 
 use super::mocap::write_recording;
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use nomen_core::skeleton::sets::JointSet;
 use nomen_core::{DeviceId, Registry};
@@ -86,6 +86,10 @@ pub fn run(command: ImportCommand) -> Result<()> {
         &[Some(&common.file), common.registry.as_deref()],
         &[Some(&common.out)],
     )?;
+    let device = match &command {
+        ImportCommand::Imu(a) => Some(DeviceId::new(a.device.clone())),
+        _ => None,
+    };
     let (common, mut messages) = match command {
         ImportCommand::Imu(a) => {
             let (spec, msgs) = import_imu_auto(
@@ -126,6 +130,15 @@ pub fn run(command: ImportCommand) -> Result<()> {
         Some(path) => {
             let registry: Registry = serde_json::from_str(&crate::io::read_text(path)?)
                 .with_context(|| format!("{}: not a registry", path.display()))?;
+            // The one id an IMU import takes from the command line, named as such.
+            if let Some(device) = &device
+                && registry.wearer(device).is_none()
+            {
+                bail!(
+                    "--device {device} is not worn by anyone in the registry {}",
+                    path.display()
+                );
+            }
             Header::new(registry)
         }
         None => Header::without_registry(),
@@ -133,7 +146,14 @@ pub fn run(command: ImportCommand) -> Result<()> {
     .with_meta("generator", "nomen import")
     .with_meta("source", name(&common.file));
     sort_for_writing(&mut messages);
-    write_recording(&common.out, &header, &messages)?;
+    write_recording(&common.out, &header, &messages).with_context(|| match &common.registry {
+        Some(path) => format!(
+            "checking the ids of {} against the registry {}",
+            name(&common.file),
+            path.display()
+        ),
+        None => format!("converting {}", name(&common.file)),
+    })?;
     eprintln!(
         "wrote {} messages to {}",
         messages.len(),
