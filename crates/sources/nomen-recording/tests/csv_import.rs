@@ -118,6 +118,24 @@ fn imu_csv_errors_name_file_line_and_column() {
         "imu.csv:3: time 0.010000 s is not after the previous imu sample of 'd' at 0.010000 s (duplicate timestamp)"
     );
 
+    // A row whose time jumped ahead is named, not the good row after it.
+    let text =
+        format!("{head}0.00,0,0,1,0,0,0\n0.01,0,0,1,0,0,0\n999,0,0,1,0,0,0\n0.03,0,0,1,0,0,0\n");
+    let err = import_imu_auto(text.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "imu.csv:4: time 999.000000 s is after both the row before it (0.010000 s, line 3) and \
+         the row after it (0.030000 s, line 5): a corrupt time or a row out of place"
+    );
+    // A row that goes back in time with no jump before it is the row named.
+    let text = format!("{head}0.00,0,0,1,0,0,0\n0.02,0,0,1,0,0,0\n0.01,0,0,1,0,0,0\n");
+    let err = import_imu_auto(text.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
+    assert!(
+        err.to_string()
+            .starts_with("imu.csv:4: time 0.010000 s is not after"),
+        "{err}"
+    );
+
     // 100 g is beyond any wearable: probably m/s² labelled as g.
     let text = format!("{head}0.00,0,0,100,0,0,0\n");
     let err = import_imu_auto(text.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
@@ -206,6 +224,15 @@ t (s),camera,track,joint,x (m),y (m),z (m),confidence,state
     let wrist = first.joints.get(Joint::LeftWrist).unwrap();
     assert_eq!((wrist.confidence, wrist.state), (1.0, JointState::Inferred));
     assert_eq!(messages[2].t().as_ns(), 33_000_000);
+
+    // A bad value on a skeleton's second row is named on that row, not the skeleton's first.
+    let bad = text.replace("0.3,1.0,2.4,,inferred", "0.3,1.0,2.4,5,inferred");
+    let err = import_skeletons(bad.as_bytes(), "sk.csv", &spec).unwrap_err();
+    assert!(
+        err.to_string()
+            .starts_with("sk.csv:3: joints.left_wrist.confidence = 5"),
+        "{err}"
+    );
 
     let bad = text.replace("left_wrist", "left_pinky");
     let err = import_skeletons(bad.as_bytes(), "sk.csv", &spec).unwrap_err();

@@ -318,6 +318,39 @@ fn one() -> f64 {
 }
 
 impl JointObservation {
+    /// Checks the confidence is in `0..=1` and, unless the joint is `Missing`, that every value
+    /// is finite and every coordinate within [`MAX_COORDINATE_M`]; errors name the field as
+    /// `joints.{joint}.…`.
+    pub fn validate_as(&self, joint: impl std::fmt::Display) -> Result<()> {
+        check_range_lazy(
+            || format!("joints.{joint}.confidence"),
+            self.confidence,
+            0.0,
+            1.0,
+            "",
+        )?;
+        if self.state == JointState::Missing {
+            return Ok(());
+        }
+        let field = || format!("joints.{joint}.position_m");
+        check_finite_all_lazy(field, self.position_m.coords.as_slice())?;
+        if let Some(c) = &self.covariance_m2 {
+            check_finite_all_lazy(|| format!("joints.{joint}.covariance_m2"), c.as_flattened())?;
+        }
+        for (axis, v) in self.position_m.coords.iter().enumerate() {
+            check_range_lazy(
+                || format!("{}[{axis}]", field()),
+                *v,
+                -MAX_COORDINATE_M,
+                MAX_COORDINATE_M,
+                "m",
+            )?;
+        }
+        Ok(())
+    }
+}
+
+impl JointObservation {
     /// A tracked joint with full confidence.
     pub fn tracked(position_m: Point3<f64>) -> Self {
         Self {
@@ -350,30 +383,7 @@ impl SkeletonObservation {
     /// Checks finiteness and plausibility of every joint that is not `Missing`.
     pub fn validate(&self) -> Result<()> {
         for (j, obs) in self.joints.iter() {
-            check_range_lazy(
-                || format!("joints.{j}.confidence"),
-                obs.confidence,
-                0.0,
-                1.0,
-                "",
-            )?;
-            if obs.state == JointState::Missing {
-                continue;
-            }
-            let field = || format!("joints.{j}.position_m");
-            check_finite_all_lazy(field, obs.position_m.coords.as_slice())?;
-            if let Some(c) = &obs.covariance_m2 {
-                check_finite_all_lazy(|| format!("joints.{j}.covariance_m2"), c.as_flattened())?;
-            }
-            for (axis, v) in obs.position_m.coords.iter().enumerate() {
-                check_range_lazy(
-                    || format!("{}[{axis}]", field()),
-                    *v,
-                    -MAX_COORDINATE_M,
-                    MAX_COORDINATE_M,
-                    "m",
-                )?;
-            }
+            obs.validate_as(j)?;
         }
         Ok(())
     }

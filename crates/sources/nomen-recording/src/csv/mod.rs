@@ -16,10 +16,10 @@ pub use imu::{ImuColumn, ImuCsvSpec, ImuQuantity, import_imu, import_imu_auto};
 pub use skeleton::{FixCsvSpec, SkeletonCsvSpec, SkeletonLayout, import_fixes, import_skeletons};
 pub use units::{AccelUnit, GyroUnit, LengthUnit, MagUnit, STANDARD_GRAVITY_MPS2, TimeUnit};
 
-use crate::check::Checker;
+use crate::check::{Checker, DEFAULT_MAX_TIME_JUMP_NS};
 use crate::error::{Pos, RecordingError, Result};
 use csv::StringRecord;
-use nomen_core::Message;
+use nomen_core::{Message, SessionTime};
 use std::io::Read;
 use std::sync::Arc;
 
@@ -30,6 +30,9 @@ pub(crate) struct CsvInput<R> {
     pub(crate) headers: Vec<String>,
     /// Validates imported messages and checks per-source time order.
     checker: Checker,
+    /// The last two messages accepted, (time, line), oldest first: to name a row that jumped
+    /// ahead rather than the row after it.
+    recent: [Option<(SessionTime, u64)>; 2],
 }
 
 impl<R: Read> CsvInput<R> {
@@ -56,6 +59,7 @@ impl<R: Read> CsvInput<R> {
             file,
             headers,
             checker: Checker::new(None, i64::MAX),
+            recent: [None; 2],
         })
     }
 
@@ -101,9 +105,31 @@ impl<R: Read> CsvInput<R> {
         })
     }
 
-    /// Checks an imported message (values and per-source order) at `line`.
+    /// Checks an imported message (values and per-source order) at `line`. When it is out of
+    /// order because the row before it jumped ahead (that row is later than the row before it,
+    /// and later than this one by more than [`DEFAULT_MAX_TIME_JUMP_NS`]), the error names that
+    /// row: a corrupt time there, not here.
     pub(crate) fn check(&mut self, msg: &Message, line: u64) -> Result<()> {
-        self.checker.check(msg, &self.file, line)
+        let Err(e) = self.checker.check(msg, &self.file, line) else {
+            self.recent = [self.recent[1], Some((msg.t(), line))];
+            return Ok(());
+        };
+        if let RecordingError::SourceOrder { t, previous, .. } = &e
+            && let [Some((before, before_line)), Some((last, jumped_line))] = self.recent
+            && last == *previous
+            && before < *t
+            && previous.as_ns() - t.as_ns() > DEFAULT_MAX_TIME_JUMP_NS
+        {
+            return Err(self.error(
+                jumped_line,
+                &format!(
+                    "time {previous} is after both the row before it ({before}, line \
+                     {before_line}) and the row after it ({t}, line {line}): a corrupt time or \
+                     a row out of place"
+                ),
+            ));
+        }
+        Err(e)
     }
 
     pub(crate) fn error(&self, line: u64, detail: &str) -> RecordingError {

@@ -369,6 +369,9 @@ fn import_joint_rows<R: Read>(
             )
         })?;
         let obs = observation(&csv, &record, xyz, conf_col, state_col, line)?;
+        // Checked here, on the joint's own row: the skeleton's check names its first row.
+        obs.validate_as(name)
+            .map_err(|e| csv.error(line, &e.to_string()))?;
         if !joints.insert(joint, obs) {
             return Err(csv.error(
                 line,
