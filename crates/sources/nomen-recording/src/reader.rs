@@ -44,7 +44,8 @@ pub struct ReadOptions {
     /// there. A recording that really pauses loses nothing; one corrupt timestamp, or one line
     /// moved earlier, costs its own line instead of the lines it jumped over. The first
     /// message, which nothing precedes, is refused only when the next one is more than this
-    /// before it. At the end of the input, or before a bad line, a waiting message is taken.
+    /// before it. At the end of the input, or before a bad line, a waiting message is taken
+    /// (and reported in [`ReadStats::unconfirmed_jump`]).
     /// Live, a waiting message is delivered with the next one: a stream whose sources are all
     /// sparser than this is one message late. [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX` turns
     /// the check off.
@@ -86,6 +87,12 @@ pub struct ReadStats {
     pub skipped: BTreeMap<ErrorKind, u64>,
     /// The first few errors, in file order (up to [`ReadOptions::max_errors_kept`]).
     pub first_errors: Vec<RecordingError>,
+    /// A message that led every earlier one by more than [`ReadOptions::max_time_jump_ns`]
+    /// and was taken with nothing after it to confirm it (it was the last message, or the
+    /// last before a bad line that ended the stream): `(line, its time, the latest time
+    /// before it)`. Taken, since a recording may end after a pause, but worth a look: a
+    /// corrupt timestamp on a last line looks the same.
+    pub unconfirmed_jump: Option<(u64, SessionTime, SessionTime)>,
 }
 
 impl ReadStats {
@@ -114,6 +121,14 @@ impl fmt::Display for ReadStats {
                 write!(f, "{kind}: {n}")?;
             }
             f.write_str(")")?;
+        }
+        if let Some((line, t, latest)) = &self.unconfirmed_jump {
+            write!(
+                f,
+                "; line {line}, at {t}, is {:.3} s after every line before it, with no line after \
+                 it to confirm its time (taken)",
+                t.secs_since(*latest)
+            )?;
         }
         Ok(())
     }
@@ -349,6 +364,9 @@ impl<R: BufRead> RecordingReader<R> {
     /// A held jump with nothing after it to judge it by (the end of the input): taken.
     fn release_held(&mut self) -> Option<Result<Message>> {
         let held = self.held.take()?;
+        if let Some(latest) = held.latest {
+            self.stats.unconfirmed_jump = Some((held.line, held.times.t(), latest));
+        }
         self.checker.record(held.times);
         self.stats.num_accepted += 1;
         Some(Ok(held.msg))

@@ -609,6 +609,31 @@ fn a_recording_that_pauses_for_minutes_is_read_whole() {
 }
 
 #[test]
+fn a_last_line_after_a_jump_is_taken_and_reported_as_unconfirmed() {
+    let mut msgs = imus(S, 3);
+    let last = imu(2 * S + 300 * S, "band1");
+    msgs.push(last.clone());
+    let text = file(&lines(&msgs));
+    let mut reader = RecordingReader::new(text.as_bytes(), "rec.jsonl").unwrap();
+    assert_eq!(reader.by_ref().count(), 4);
+    let stats = reader.into_stats();
+    assert_eq!(stats.unconfirmed_jump, Some((5, last.t(), msgs[2].t())));
+    assert!(
+        stats.to_string().ends_with(
+            "; line 5, at 302.000000 s, is 300.980 s after every line before it, with no line \
+             after it to confirm its time (taken)"
+        ),
+        "{stats}"
+    );
+    // Confirmed by a line after it: nothing to report.
+    msgs.push(imu(2 * S + 300 * S + S / 100, "band1"));
+    let text = file(&lines(&msgs));
+    let mut reader = RecordingReader::new(text.as_bytes(), "rec.jsonl").unwrap();
+    assert_eq!(reader.by_ref().count(), 5);
+    assert_eq!(reader.into_stats().unconfirmed_jump, None);
+}
+
+#[test]
 fn a_line_after_a_jump_that_is_bad_for_another_reason_leaves_the_jump_standing() {
     let mut all = lines(&imus(S, 3));
     let jump = imu(2 * S + 300 * S, "band1");
