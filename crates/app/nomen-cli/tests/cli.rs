@@ -498,7 +498,6 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
     let truth_path = scene.join("truth.jsonl");
     for (t, r, want) in [
         (&recording, &result, "no ground truth"),
-        (&truth_path, &recording, "no decisions"),
         (&truth_path, &shifted, "not from the scene"),
     ] {
         let o = nomen(&[
@@ -516,6 +515,20 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
         );
         assert!(text(&o.stderr).contains(want), "{}", text(&o.stderr));
     }
+    // A result without decisions is scored (every frame unlabelled), with a warning.
+    let o = nomen(&[
+        "eval",
+        "--truth",
+        truth_path.to_str().unwrap(),
+        "--result",
+        recording.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("no decisions in it"),
+        "{}",
+        text(&o.stderr)
+    );
 
     // The handshake conversion has no subjects and no wearables: the engine has nothing to do,
     // but a file without any registry cannot be run at all.

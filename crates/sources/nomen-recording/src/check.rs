@@ -11,9 +11,9 @@ use std::sync::Arc;
 /// transport latency; the writer is strict (tolerance 0) unless told otherwise.
 pub const DEFAULT_GLOBAL_TOLERANCE_NS: i64 = 100_000_000;
 
-/// How far after every earlier message a reader takes a message only if the next one follows on
+/// How far after every earlier message a reader takes a message only if the next two follow on
 /// from it, by default (100 ms, as far as the global tolerance lets messages be out of order). A
-/// message further ahead is the first after a pause, which the next one confirms, or out of
+/// message further ahead is the first after a pause, which the next two confirm, or out of
 /// place (a corrupt timestamp, a line moved earlier): taken at once, it would put the lines it
 /// jumped over out of order, every source's beyond the global tolerance and its own source's
 /// all, when refusing it costs its own line only.
@@ -32,6 +32,7 @@ pub enum IdCheck {
 }
 
 /// Registry ids in hash sets, looked up by `&str` without allocating.
+#[derive(Clone)]
 struct IdIndex {
     devices: HashMap<String, DeviceKind>,
     cameras: HashSet<String>,
@@ -127,6 +128,7 @@ impl Times {
 }
 
 /// Validates messages one by one and remembers what time order requires.
+#[derive(Clone)]
 pub(crate) struct Checker {
     ids: Option<IdIndex>,
     global_tolerance_ns: i64,

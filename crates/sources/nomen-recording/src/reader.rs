@@ -7,7 +7,7 @@ use crate::error::{ErrorKind, Pos, RecordingError, Result, json_detail};
 use crate::header::Header;
 use nomen_core::{Message, SessionTime, SkeletonObservation};
 use serde_json::Value;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::fmt;
 use std::fs::File;
 use std::io::{self, BufRead, BufReader};
@@ -38,17 +38,19 @@ pub struct ReadOptions {
     /// How many errors [`ReadStats::first_errors`] keeps under [`ErrorPolicy::SkipAndCount`].
     pub max_errors_kept: usize,
     /// A message more than this after every message before it, nanoseconds, is taken only if
-    /// the next good message follows on from it (is not earlier than it by more than
+    /// the next two good messages follow on from it (are not earlier than it by more than
     /// `global_tolerance_ns`); otherwise it is refused as a time jump
-    /// ([`crate::RecordingError::TimeJump`]) and the lines after it are read as if it were not
-    /// there. A recording that really pauses loses nothing; one corrupt timestamp, or one line
-    /// moved earlier, costs its own line instead of the lines it jumped over. The first
-    /// message, which nothing precedes, is refused only when the next one is more than this
-    /// before it. At the end of the input, or before a bad line, a waiting message is taken
-    /// (and reported in [`ReadStats::unconfirmed_jump`]).
-    /// Live, a waiting message is delivered with the next one: a stream whose sources are all
-    /// sparser than this is one message late. [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX` turns
-    /// the check off.
+    /// ([`crate::RecordingError::TimeJump`]), with the one good message after it that did
+    /// follow on if there was one, and the lines after them are read as if they were not
+    /// there. A recording that really pauses loses nothing; one corrupt timestamp, or two in a
+    /// row, or one line moved earlier, costs its own lines instead of the lines it jumped over.
+    /// A message that leads the one it follows on from by more than this confirms that one and
+    /// waits in turn. The first message, which nothing precedes, is refused only when a
+    /// message after it is more than this before it. At the end of the input, or before a bad
+    /// line, a waiting message is taken (and reported in [`ReadStats::unconfirmed_jump`]).
+    /// Live, a waiting message is delivered with the second one after it: a stream whose
+    /// sources are all sparser than this is up to two messages late.
+    /// [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX` turns the check off.
     pub max_time_jump_ns: i64,
 }
 
@@ -156,11 +158,14 @@ pub struct RecordingReader<R> {
     /// A message line rebuilt without its `type` key ([`parse_leading_type`]).
     scratch: Vec<u8>,
     is_done: bool,
-    /// A message that jumped ahead of every earlier one, waiting for the next good message to
-    /// confirm it ([`ReadOptions::max_time_jump_ns`]).
+    /// A message that jumped ahead of every earlier one, waiting for [`JUMP_CONFIRMATIONS`]
+    /// good messages after it to confirm it ([`ReadOptions::max_time_jump_ns`]).
     held: Option<Held>,
+    /// The good messages after the held jump that follow on from it, with their lines: taken
+    /// with the jump, or refused with it.
+    followers: Vec<(Message, u64)>,
     /// What to yield next, after a held message was released.
-    queued: Option<Result<Message>>,
+    queued: VecDeque<Result<Message>>,
 }
 
 /// A message that jumped ahead of every earlier one: its line, its times (not yet recorded)
@@ -171,6 +176,10 @@ struct Held {
     times: Times,
     latest: Option<SessionTime>,
 }
+
+/// Good messages after a jump in time that must follow on from it before it is taken: one
+/// corrupt timestamp, or two in a row, is refused when the stream returns to where it was.
+const JUMP_CONFIRMATIONS: usize = 2;
 
 impl<R: BufRead> RecordingReader<R> {
     /// Reads the header of `input` with default options ([`ErrorPolicy::Stop`], ids checked
@@ -221,7 +230,8 @@ impl<R: BufRead> RecordingReader<R> {
             scratch: Vec::new(),
             is_done: false,
             held: None,
-            queued: None,
+            followers: Vec::new(),
+            queued: VecDeque::new(),
         })
     }
 
@@ -247,10 +257,7 @@ impl<R: BufRead> RecordingReader<R> {
 
     /// The next good message, the error that ends the stream, or `None` at the end.
     pub fn next_message(&mut self) -> Option<Result<Message>> {
-        if let Some(item) = self.queued.take() {
-            return Some(item);
-        }
-        while !self.is_done {
+        while self.queued.is_empty() && !self.is_done {
             self.buf.clear();
             let line = self.stats.num_lines + 1;
             let n = match self.input.read_until(b'\n', &mut self.buf) {
@@ -261,12 +268,14 @@ impl<R: BufRead> RecordingReader<R> {
                         at: Pos::new(&self.file, line),
                         source,
                     };
-                    return Some(self.release_before(Err(err)));
+                    self.release_before(Err(err));
+                    break;
                 }
             };
             if n == 0 {
                 self.is_done = true;
-                return self.release_held();
+                self.release_held(false);
+                break;
             }
             self.stats.num_lines = line;
             self.stats.num_bytes += n as u64;
@@ -275,32 +284,76 @@ impl<R: BufRead> RecordingReader<R> {
             }
             let (msg, times) = match self.parse_line(line) {
                 Ok(parsed) => parsed,
-                Err(err) => match self.fail(err) {
-                    Some(item) => return Some(self.release_before(item)),
-                    None => continue,
-                },
-            };
-            if let Some(held) = self.held.take() {
-                if self.follows_on(&msg, &held) {
-                    // The held message is confirmed, and this one is ordered after it.
-                    self.checker.record(held.times);
-                    self.stats.num_accepted += 1;
-                    match self.checker.check_order(&msg, &self.file, line) {
-                        Ok(times) => self.queued = self.admit(msg, line, times),
-                        Err(err) => self.queued = self.fail(err),
+                Err(err) => {
+                    if let Some(item) = self.fail(err) {
+                        self.release_before(item);
                     }
-                    return Some(Ok(held.msg));
+                    continue;
                 }
-                // Refused: this message was checked as if it had not been there.
-                if let Some(err) = self.refuse_jump(&held, &msg) {
-                    return Some(Err(err));
+            };
+            if let Some(held) = &self.held {
+                if self.follows_on(&msg, held) {
+                    self.follow(msg, line);
+                    continue;
+                }
+                // Refused with its followers: this message was checked as if they had not
+                // been there.
+                if let Some(err) = self.refuse_jump(&msg) {
+                    self.queued.push_back(Err(err));
+                    break;
                 }
             }
             if let Some(item) = self.admit(msg, line, times) {
-                return Some(item);
+                self.queued.push_back(item);
             }
         }
-        self.release_held()
+        self.queued.pop_front()
+    }
+
+    /// A good message after the held jump that follows on from it: checked in time order after
+    /// the jump and the followers before it (so its errors come in file order), then one more
+    /// follower. Enough followers confirm the jump; a follower that itself jumps ahead of them
+    /// confirms it too, and waits in turn.
+    fn follow(&mut self, msg: Message, line: u64) {
+        let Some(held) = &self.held else {
+            return;
+        };
+        // The order checks as they will be once the jump is taken, on a copy of the checker.
+        let mut probe = self.checker.clone();
+        probe.record(held.times);
+        for (m, l) in &self.followers {
+            if let Ok(times) = probe.check_order(m, &self.file, *l) {
+                probe.record(times);
+            }
+        }
+        match probe.check_order(&msg, &self.file, line) {
+            Err(err) => {
+                if let Some(item) = self.fail(err) {
+                    self.release_before(item);
+                }
+            }
+            Ok(times) if probe.leads(times.t(), self.options.max_time_jump_ns) => {
+                self.release_held(true);
+                match self.checker.check_order(&msg, &self.file, line) {
+                    Ok(times) => {
+                        if let Some(item) = self.admit(msg, line, times) {
+                            self.queued.push_back(item);
+                        }
+                    }
+                    Err(err) => {
+                        if let Some(item) = self.fail(err) {
+                            self.queued.push_back(item);
+                        }
+                    }
+                }
+            }
+            Ok(_) => {
+                self.followers.push((msg, line));
+                if self.followers.len() >= JUMP_CONFIRMATIONS {
+                    self.release_held(true);
+                }
+            }
+        }
     }
 
     /// Whether `msg`, the message after `held`, follows on from it: it is not earlier than
@@ -331,17 +384,27 @@ impl<R: BufRead> RecordingReader<R> {
         Some(Ok(msg))
     }
 
-    /// Refuses the held jump, which `next` does not follow on from: the error that ends the
-    /// stream under [`ErrorPolicy::Stop`], `None` (counted) under [`ErrorPolicy::SkipAndCount`].
-    fn refuse_jump(&mut self, held: &Held, next: &Message) -> Option<RecordingError> {
-        let err = RecordingError::TimeJump {
-            at: Pos::new(&self.file, held.line),
-            t: held.times.t(),
-            latest: held.latest,
-            next: next.t(),
-            max_jump_ns: self.options.max_time_jump_ns,
-        };
-        self.fail(err).and_then(Result::err)
+    /// Refuses the held jump and its followers, which `next` does not follow on from: the
+    /// jump's error ends the stream under [`ErrorPolicy::Stop`] (returned); under
+    /// [`ErrorPolicy::SkipAndCount`] each of their lines is counted (`None`).
+    fn refuse_jump(&mut self, next: &Message) -> Option<RecordingError> {
+        let held = self.held.take()?;
+        let followers = std::mem::take(&mut self.followers);
+        let lines = std::iter::once((held.line, held.times.t()))
+            .chain(followers.iter().map(|(m, l)| (*l, m.t())));
+        for (line, t) in lines {
+            let err = RecordingError::TimeJump {
+                at: Pos::new(&self.file, line),
+                t,
+                latest: held.latest,
+                next: next.t(),
+                max_jump_ns: self.options.max_time_jump_ns,
+            };
+            if let Some(err) = self.fail(err).and_then(Result::err) {
+                return Some(err);
+            }
+        }
+        None
     }
 
     /// A bad line under the policy: the error that ends the stream, or `None` once counted.
@@ -361,27 +424,42 @@ impl<R: BufRead> RecordingReader<R> {
         }
     }
 
-    /// A held jump with nothing after it to judge it by (the end of the input): taken.
-    fn release_held(&mut self) -> Option<Result<Message>> {
-        let held = self.held.take()?;
-        if let Some(latest) = held.latest {
+    /// Takes the held jump, confirmed or with nothing after it to judge it by (the end of the
+    /// input, or a bad line that ends the stream): it and its followers are recorded and
+    /// queued, in order.
+    fn release_held(&mut self, is_confirmed: bool) {
+        let Some(held) = self.held.take() else {
+            return;
+        };
+        if !is_confirmed && let Some(latest) = held.latest {
             self.stats.unconfirmed_jump = Some((held.line, held.times.t(), latest));
         }
         self.checker.record(held.times);
         self.stats.num_accepted += 1;
-        Some(Ok(held.msg))
+        self.queued.push_back(Ok(held.msg));
+        for (msg, line) in std::mem::take(&mut self.followers) {
+            // Checked on the probe already: the same checks, so they pass.
+            match self.checker.check_order(&msg, &self.file, line) {
+                Ok(times) => {
+                    self.checker.record(times);
+                    self.stats.num_accepted += 1;
+                    self.queued.push_back(Ok(msg));
+                }
+                Err(err) => {
+                    if let Some(item) = self.fail(err) {
+                        self.queued.push_back(item);
+                        return;
+                    }
+                }
+            }
+        }
     }
 
-    /// `item` (an error that ends the stream), after the held jump if there is one: a bad
-    /// line does not judge the jump, so it is taken.
-    fn release_before(&mut self, item: Result<Message>) -> Result<Message> {
-        match self.release_held() {
-            Some(held) => {
-                self.queued = Some(item);
-                held
-            }
-            None => item,
-        }
+    /// `item` (an error that ends the stream), after the held jump and its followers if there
+    /// are any: a bad line does not judge the jump, so it is taken.
+    fn release_before(&mut self, item: Result<Message>) {
+        self.release_held(false);
+        self.queued.push_back(item);
     }
 
     /// Parses and checks the line: the message and its times, not yet recorded.

@@ -367,7 +367,9 @@ fn skip_and_count_keeps_going_and_counts_per_kind() {
     assert_eq!(lines, vec![3, 4, 5]);
     assert_eq!(
         stats.to_string(),
-        "11 lines, 3 messages accepted, 7 skipped (invalid json: 1, truncated: 1, unknown type: 1, invalid value: 1, unknown id: 2, source time order: 1)"
+        "11 lines, 3 messages accepted, 7 skipped (invalid json: 1, truncated: 1, unknown type: 1, invalid value: 1, unknown id: 2, source time order: 1); \
+         line 8, at 2.000000 s, is 1.000 s after every line before it, with no line after it to \
+         confirm its time (taken)"
     );
 }
 
@@ -550,6 +552,65 @@ fn a_line_after_a_waiting_line_is_ordered_after_it() {
 }
 
 #[test]
+fn two_corrupt_timestamps_in_a_row_cost_their_own_lines_only() {
+    // Two IMUs at 100 Hz; two consecutive lines (one of each) stamped 1000 s late.
+    let band1 = imus(S, 50);
+    let band2: Vec<Message> = (0..50)
+        .map(|k| imu(S + k * S / 100 + S / 200, "band2"))
+        .collect();
+    let mut sorted: Vec<Message> = band1.iter().chain(&band2).cloned().collect();
+    sorted.sort_by_key(Message::t);
+    let mut corrupt = sorted.clone();
+    for k in [20, 21] {
+        let t = corrupt[k].t().as_ns() + 1000 * S;
+        corrupt[k] = match &corrupt[k] {
+            Message::Imu(s) => imu(t, s.device.as_str()),
+            _ => unreachable!(),
+        };
+    }
+    let text = file(&lines(&corrupt));
+    // Skipping: the two lines are refused, every other line read.
+    let mut reader =
+        RecordingReader::with_options(text.as_bytes(), "rec.jsonl", skip_options()).unwrap();
+    let good: Vec<Message> = reader.by_ref().map(Result::unwrap).collect();
+    let mut expected = sorted.clone();
+    expected.drain(20..22);
+    assert_eq!(good, expected);
+    let stats = reader.into_stats();
+    assert_eq!(stats.skipped.get(&ErrorKind::TimeJump), Some(&2));
+    let at: Vec<u64> = stats.first_errors.iter().map(|e| e.pos().line).collect();
+    assert_eq!(at, vec![22, 23]);
+    // Stopping: the stream ends at the first of them, with everything before it read.
+    let (good, err) = read_stop(&text);
+    assert_eq!(good, sorted[..20].to_vec());
+    assert!(err.unwrap().starts_with("rec.jsonl:22: time 1001.10"));
+
+    // A jump followed by a line that jumps further: the first is taken (the second confirms
+    // it), the second waits, and is refused when the stream comes back to the first's time.
+    let mut msgs = imus(S, 3);
+    msgs.push(imu(300 * S, "band1"));
+    msgs.push(imu(900 * S, "band2"));
+    msgs.extend((1..4).map(|k| imu(300 * S + k * S / 100, "band1")));
+    let text = file(&lines(&msgs));
+    let (good, err) = read_with(&text, skip_options());
+    assert_eq!(err, None);
+    let mut expected = msgs.clone();
+    expected.remove(4);
+    assert_eq!(good, expected);
+
+    // A follower that is out of order is named at its own line, in file order.
+    let mut msgs = imus(S, 3);
+    msgs.push(imu(300 * S, "band1"));
+    msgs.push(imu(300 * S, "band1"));
+    let (good, err) = read_stop(&file(&lines(&msgs)));
+    assert_eq!(good.len(), 4);
+    assert!(
+        err.unwrap()
+            .starts_with("rec.jsonl:6: time 300.000000 s is not after")
+    );
+}
+
+#[test]
 fn a_line_moved_earlier_costs_its_own_line_and_not_the_lines_it_jumped_over() {
     // Two IMUs at 100 Hz; one sample of band1 half a second early in the file (as if swapped
     // with an earlier line, or stamped wrong).
@@ -625,11 +686,16 @@ fn a_last_line_after_a_jump_is_taken_and_reported_as_unconfirmed() {
         ),
         "{stats}"
     );
-    // Confirmed by a line after it: nothing to report.
+    // One line after it is not enough to confirm it; two are, and there is nothing to report.
     msgs.push(imu(2 * S + 300 * S + S / 100, "band1"));
     let text = file(&lines(&msgs));
     let mut reader = RecordingReader::new(text.as_bytes(), "rec.jsonl").unwrap();
     assert_eq!(reader.by_ref().count(), 5);
+    assert!(reader.into_stats().unconfirmed_jump.is_some());
+    msgs.push(imu(2 * S + 300 * S + 2 * S / 100, "band1"));
+    let text = file(&lines(&msgs));
+    let mut reader = RecordingReader::new(text.as_bytes(), "rec.jsonl").unwrap();
+    assert_eq!(reader.by_ref().count(), 6);
     assert_eq!(reader.into_stats().unconfirmed_jump, None);
 }
 

@@ -32,8 +32,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Skip malformed input lines (counted and reported) instead of stopping. A bad line
-    /// includes a time jump: one more than 0.1 s after every earlier line that the next line
-    /// does not follow on from (a corrupt timestamp, a line out of place). Stopping still
+    /// includes a time jump: one more than 0.1 s after every earlier line that the next two
+    /// lines do not both follow on from (a corrupt timestamp, a line out of place). Stopping still
     /// decides and writes everything before the bad line.
     #[arg(long)]
     pub skip_bad: bool,

@@ -14,8 +14,8 @@ pub struct ValidateArgs {
     /// The recording (`-` for stdin).
     pub file: PathBuf,
     /// Skip bad lines and count them instead of stopping at the first one (a line more than
-    /// 0.1 s after every earlier one that the next line does not follow on from counts as a
-    /// time jump).
+    /// 0.1 s after every earlier one that the next two lines do not both follow on from counts
+    /// as a time jump).
     #[arg(long)]
     pub skip_bad: bool,
 }
