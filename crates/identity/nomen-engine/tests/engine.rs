@@ -137,10 +137,18 @@ fn a_history_pad_and_a_causal_lowpass_change_the_scores_and_still_name_both_peop
     assert_ne!(out_causal, out_padded);
     let acc = accuracy(&people, &out_causal, 8.0);
     assert!(acc > 0.95, "accuracy after the first windows, causal {acc}");
-    // A pad longer than the session (finite, so accepted) reaches back to the first sample: the
-    // same as a pad of the whole session, no overflow.
-    let huge = EngineConfig {
+    // A pad longer than the session reaches back to the first sample: the same as a pad of the
+    // whole session, no overflow. Longer than a day, it is refused by name.
+    let absurd = EngineConfig {
         history_pad_s: 1e300,
+        ..plain
+    };
+    let Err(EngineError::InvalidConfig(why)) = Engine::new(registry(&people), absurd) else {
+        panic!("a pad of 1e300 s was accepted");
+    };
+    assert!(why.contains("history_pad_s"), "{why}");
+    let huge = EngineConfig {
+        history_pad_s: 86_400.0,
         ..plain
     };
     let whole = EngineConfig {
