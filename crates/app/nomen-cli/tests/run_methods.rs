@@ -174,6 +174,22 @@ fn llorca_without_a_model_names_the_missing_flag() {
         "{}",
         text(&o.stderr)
     );
+
+    // Baptizo on a recording without a single tag fix runs, and says it could name nobody.
+    let o = nomen(&[
+        "run",
+        rec.to_str().unwrap(),
+        "--method",
+        "baptizo",
+        "--out",
+        "-",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("has no location-tag fixes: baptizo names nobody"),
+        "{}",
+        text(&o.stderr)
+    );
 }
 
 #[test]

@@ -73,6 +73,16 @@ pub fn parse_point_pairs(text: &str, source_name: &str) -> Result<Vec<PointPair>
             if !x.is_finite() {
                 return Err(err(line, format!("column '{}' is not finite", NAMES[k][0])));
             }
+            if x.abs() > nomen_core::skeleton::MAX_COORDINATE_M {
+                return Err(err(
+                    line,
+                    format!(
+                        "column '{}' = {f} m is beyond any room (at most {} m from the origin)",
+                        NAMES[k][0],
+                        nomen_core::skeleton::MAX_COORDINATE_M
+                    ),
+                ));
+            }
             v[k] = x;
         }
         out.push(PointPair {
@@ -106,5 +116,13 @@ mod tests {
         let text = "source_x,source_y,source_z,target_x,target_y,target_z\n1,2,x,4,5,6\n";
         let e = parse_point_pairs(text, "p.csv").unwrap_err().to_string();
         assert!(e.starts_with("p.csv:2: column 'source_z'"), "{e}");
+        // Finite but beyond any room: named, not dropped later as an outlier.
+        let text =
+            "source_x,source_y,source_z,target_x,target_y,target_z\n1,2,3,4,5,6\n1,2,3,1e300,5,6\n";
+        let e = parse_point_pairs(text, "p.csv").unwrap_err().to_string();
+        assert!(
+            e.starts_with("p.csv:3: column 'target_x' = 1e300 m is beyond any room"),
+            "{e}"
+        );
     }
 }

@@ -131,6 +131,7 @@ impl Registry {
         let mut subjects = BTreeSet::new();
         let mut devices = BTreeSet::new();
         for s in &self.subjects {
+            check_id("subject", s.id.as_str())?;
             if !subjects.insert(&s.id) {
                 return Err(CoreError::Invalid(format!(
                     "subject '{}' is listed twice",
@@ -138,18 +139,19 @@ impl Registry {
                 )));
             }
             for w in &s.wears {
+                check_id("device", w.device.as_str())?;
                 if !devices.insert(&w.device) {
                     return Err(CoreError::Invalid(format!(
                         "device '{}' is worn twice (second time by subject '{}')",
                         w.device, s.id
                     )));
                 }
-                check_finite_all_lazy(|| format!("clock of '{}'", w.device), &[w.clock.drift_ppm])?;
-                check_clock_offset(&w.clock, || format!("device '{}'", w.device))?;
+                check_clock(&w.clock, || format!("device '{}'", w.device))?;
             }
         }
         let mut cameras = BTreeSet::new();
         for c in &self.cameras {
+            check_id("camera", c.id.as_str())?;
             if !cameras.insert(&c.id) {
                 return Err(CoreError::Invalid(format!(
                     "camera '{}' is listed twice",
@@ -158,7 +160,7 @@ impl Registry {
             }
             c.world_from_camera
                 .validate(&format!("camera '{}'.world_from_camera", c.id))?;
-            check_clock_offset(&c.clock, || format!("camera '{}'", c.id))?;
+            check_clock(&c.clock, || format!("camera '{}'", c.id))?;
             if let Some(fps) = c.fps_hz {
                 check_range_lazy(
                     || format!("camera '{}'.fps_hz", c.id),
@@ -183,6 +185,7 @@ impl Registry {
         }
         let mut anchors = BTreeSet::new();
         for a in &self.anchors {
+            check_id("anchor", a.id.as_str())?;
             if !anchors.insert(&a.id) {
                 return Err(CoreError::Invalid(format!(
                     "anchor '{}' is listed twice",
@@ -196,6 +199,7 @@ impl Registry {
         }
         let mut antennas = BTreeSet::new();
         for a in &self.antennas {
+            check_id("antenna", a.id.as_str())?;
             if !antennas.insert(&a.id) {
                 return Err(CoreError::Invalid(format!(
                     "antenna '{}' is listed twice",
@@ -253,12 +257,31 @@ impl Registry {
 const MAX_CLOCK_OFFSET_NS: i64 = 1 << 62;
 
 /// Refuses a clock offset beyond [`MAX_CLOCK_OFFSET_NS`], naming its owner.
-fn check_clock_offset(clock: &ClockModel, owner: impl Fn() -> String) -> Result<()> {
+fn check_clock(clock: &ClockModel, owner: impl Fn() -> String) -> Result<()> {
     if clock.offset_ns.unsigned_abs() > MAX_CLOCK_OFFSET_NS.unsigned_abs() {
         return Err(CoreError::Invalid(format!(
             "clock of {}: offset_ns = {} is beyond ±2^62 ns (146 years)",
             owner(),
             clock.offset_ns
+        )));
+    }
+    check_range_lazy(
+        || format!("clock of {}: drift_ppm", owner()),
+        clock.drift_ppm,
+        -MAX_DRIFT_PPM,
+        MAX_DRIFT_PPM,
+        "ppm",
+    )
+}
+
+/// Largest clock drift accepted, ppm: 1 %, a hundred times a cheap crystal's.
+const MAX_DRIFT_PPM: f64 = 10_000.0;
+
+/// An id must name something: an empty one cannot be told apart in a log or a table.
+fn check_id(kind: &str, id: &str) -> Result<()> {
+    if id.trim().is_empty() {
+        return Err(CoreError::Invalid(format!(
+            "a {kind} id is empty (or only spaces)"
         )));
     }
     Ok(())
@@ -302,6 +325,29 @@ mod tests {
             ..Default::default()
         };
         assert!(reg.validate().is_ok());
+    }
+
+    #[test]
+    fn an_empty_id_and_an_absurd_drift_are_refused_by_name() {
+        let reg = |device: &str, drift_ppm: f64| {
+            let mut imu = wearable(device);
+            imu.clock.drift_ppm = drift_ppm;
+            Registry {
+                subjects: vec![Subject {
+                    id: "ana".into(),
+                    name: None,
+                    wears: vec![imu],
+                }],
+                ..Default::default()
+            }
+        };
+        assert!(reg("imu1", 50.0).validate().is_ok());
+        let err = reg("", 0.0).validate().unwrap_err().to_string();
+        assert!(err.contains("device id is empty"), "{err}");
+        let err = reg("imu1", 1e300).validate().unwrap_err().to_string();
+        assert!(err.contains("imu1") && err.contains("drift_ppm"), "{err}");
+        let err = reg("imu1", f64::NAN).validate().unwrap_err().to_string();
+        assert!(err.contains("drift_ppm"), "{err}");
     }
 
     #[test]

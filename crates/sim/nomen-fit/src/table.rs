@@ -127,6 +127,20 @@ impl Row<'_> {
         }
     }
 
+    /// A coordinate, m: finite and within [`nomen_core::skeleton::MAX_COORDINATE_M`] of the
+    /// origin (a larger one is a unit mistake or a corrupt number).
+    pub(crate) fn coordinate_m(&self, idx: usize, column: &str) -> Result<f64> {
+        let v = self.f64(idx, column)?;
+        let max = nomen_core::skeleton::MAX_COORDINATE_M;
+        if v.abs() > max {
+            let written = self.str(idx, column)?;
+            return Err(self.error(format!(
+                "column '{column}': {written} m is beyond any room (at most {max} m from the origin)"
+            )));
+        }
+        Ok(v)
+    }
+
     /// A number that must be finite, or `None` when the field is empty.
     pub(crate) fn f64_opt(&self, idx: usize, column: &str) -> Result<Option<f64>> {
         if self.str(idx, column)?.is_empty() {

@@ -145,6 +145,16 @@ fn kolakowski_nan_rssi_is_not_an_empty_read() {
         err,
         "calib.csv:3: column 'rssi_2': NaN where a finite value is required"
     );
+    // A tag position beyond any room is named at its row, not fitted.
+    let text = ",ts,x,heading,y,rssi_1,rssi_2,rssi_3,rssi_4,rssi_5,rssi_6\n0,1.6e18,4.2,4.19,3.64,-52,,-57,-49,-60,-61\n1,1.6e18,1e30,4.19,3.64,-52,-50,-57,-49,-60,-61\n";
+    let err = parse_rssi_csv(text, "calib.csv", &RssiCsvFormat::kolakowski())
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("calib.csv:3: column 'x': 1e30 m is beyond any room"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -253,6 +253,30 @@ pub fn run_baseline_file(
             }
         }
     }
+    // The evidence the method reads: without it every skeleton stays anonymous.
+    let (evidence, what) = match baseline {
+        Baseline::Baptizo => (
+            messages
+                .iter()
+                .filter(|m| matches!(m, Message::RtlsFix(_)))
+                .count(),
+            "location-tag fixes",
+        ),
+        Baseline::Llorca(_) => (
+            messages
+                .iter()
+                .filter(|m| matches!(m, Message::Rssi(_)))
+                .count(),
+            "RSSI reads",
+        ),
+    };
+    if evidence == 0 {
+        eprintln!(
+            "warning: {} has no {what}: {} names nobody, every skeleton stays anonymous",
+            crate::io::source_name(recording),
+            baseline.name()
+        );
+    }
     let mut decided = match baseline {
         Baseline::Baptizo => nomen_rtls::run_baptizo(&registry, &messages)
             .with_context(|| format!("{}: baptizo", crate::io::source_name(recording)))?,

@@ -82,10 +82,10 @@ pub fn parse_rssi_csv(text: &str, name: &str, format: &RssiCsvFormat) -> Result<
     let mut rows = Vec::new();
     while let Some(row) = csv.next_row()? {
         row.expect_len(headers.len())?;
-        let x = row.f64(x_col, &format.x_column)?;
-        let y = row.f64(y_col, &format.y_column)?;
+        let x = row.coordinate_m(x_col, &format.x_column)?;
+        let y = row.coordinate_m(y_col, &format.y_column)?;
         let z = match (z_col, &format.z_column) {
-            (Some(c), Some(n)) => row.f64(c, n)?,
+            (Some(c), Some(n)) => row.coordinate_m(c, n)?,
             _ => format.tag_height_m,
         };
         let mut rssi_dbm = Vec::with_capacity(rssi_cols.len());
@@ -131,9 +131,9 @@ pub fn parse_anchors_csv(text: &str, name: &str) -> Result<Vec<RssiAnchor>> {
         anchors.push(RssiAnchor {
             id,
             position_m: Vector3::new(
-                row.f64(cols[1], "x")?,
-                row.f64(cols[2], "y")?,
-                row.f64(cols[3], "z")?,
+                row.coordinate_m(cols[1], "x")?,
+                row.coordinate_m(cols[2], "y")?,
+                row.coordinate_m(cols[3], "z")?,
             ),
         });
     }
