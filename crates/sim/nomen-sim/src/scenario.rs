@@ -157,7 +157,11 @@ impl Scenario {
     pub fn from_toml(text: &str, source: &str) -> Result<Self> {
         let scenario: Scenario = toml::from_str(text)
             .map_err(|e| SimError::InvalidScenario(format!("{source}: {e}")))?;
-        scenario.validate()?;
+        // The checks name the field; the file is named here.
+        scenario.validate().map_err(|e| match e {
+            SimError::InvalidScenario(m) => SimError::InvalidScenario(format!("{source}: {m}")),
+            other => other,
+        })?;
         Ok(scenario)
     }
 

@@ -122,6 +122,8 @@ fn bad_scenarios_are_refused_naming_the_problem() {
             .unwrap_err()
             .to_string();
         assert!(err.contains(expected), "expected '{expected}' in: {err}");
+        // Every error names the file, the checks after parsing as well as the parser's.
+        assert!(err.contains("bad.toml"), "{err}");
     }
 }
 

@@ -184,7 +184,7 @@ fn tag_fixes_take_units_from_names_or_spec() {
     let err = import_fixes(bare.as_bytes(), "fixes.csv", &FixCsvSpec::default()).unwrap_err();
     assert_eq!(
         err.to_string(),
-        "fixes.csv:1: column 't' has no unit: name it like 't (s)' or give the unit in the spec"
+        "fixes.csv:1: column 't' has no unit: rename it like 't (s)' (the unit after an underscore or in brackets), or, from the library, give the unit in the import spec"
     );
     let spec = FixCsvSpec {
         time_unit: Some(TimeUnit::Seconds),

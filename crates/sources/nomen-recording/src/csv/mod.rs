@@ -212,7 +212,7 @@ impl<R: Read> CsvInput<R> {
                 self.error(
                     1,
                     &format!(
-                        "column '{}' has no unit: name it like '{example}' or give the unit in the spec",
+                        "column '{}' has no unit: rename it like '{example}' (the unit after an underscore or in brackets), or, from the library, give the unit in the import spec",
                         self.header(col)
                     ),
                 )
