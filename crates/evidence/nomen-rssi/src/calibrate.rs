@@ -134,6 +134,9 @@ pub fn tag_site(registry: &Registry, tag: &TagId) -> Option<Joint> {
     registry.wearer(tag).map(|(_, w)| w.site)
 }
 
+/// Highest fixed tag height accepted, m (a tag on a person, or on a pole near one).
+const MAX_TAG_HEIGHT_M: f64 = 5.0;
+
 /// Pairs reads with the single tracked person's position and fits every antenna.
 ///
 /// `messages` in time order (per camera at least); `source_name` names the recording in errors.
@@ -144,6 +147,13 @@ pub fn calibrate(
     source_name: &str,
 ) -> Result<CalibrationReport> {
     config.fit.validate()?;
+    if let TagPlacement::FixedHeight(h) = config.placement
+        && !(h.is_finite() && (0.0..=MAX_TAG_HEIGHT_M).contains(&h))
+    {
+        return Err(RssiError::InvalidConfig(format!(
+            "tag height {h} m: a height above the floor, 0 to {MAX_TAG_HEIGHT_M} m"
+        )));
+    }
     if !(config.max_frame_gap_s.is_finite() && config.max_frame_gap_s > 0.0) {
         return Err(RssiError::InvalidConfig(format!(
             "max_frame_gap_s = {} must be positive",

@@ -34,10 +34,15 @@ pub fn checked_rssi_dbm(read: &RssiRead, unit: RssiUnit) -> Result<f64> {
         RssiUnit::CentiDbm => raw / 100.0,
     };
     let (lo, hi) = RSSI_RANGE_DBM;
-    if (lo..=hi).contains(&v) {
+    // A read already in dBm, divided by 100, lands between −1.5 and +0.3 dBm: inside the range,
+    // but no receiver sees that much power from a tag; read as dBm, it is plausible.
+    let is_dbm_already = unit == RssiUnit::CentiDbm && (lo..=hi).contains(&raw);
+    if (lo..=hi).contains(&v) && !is_dbm_already {
         return Ok(v);
     }
-    let hint = if unit == RssiUnit::Dbm && (lo..=hi).contains(&(raw / 100.0)) {
+    let hint = if is_dbm_already {
+        format!("; it looks like dBm already ({raw} dBm): the unit is dBm, not dBm×100")
+    } else if unit == RssiUnit::Dbm && (lo..=hi).contains(&(raw / 100.0)) {
         format!(
             "; it looks like dBm×100 ({} dBm): set rssi_unit = \"centi_dbm\"",
             raw / 100.0
@@ -98,6 +103,11 @@ mod tests {
             .unwrap_or_default();
         assert!(err.contains("not finite") && err.contains("epc1"), "{err}");
         assert!(checked_rssi_dbm(&read(f64::INFINITY), RssiUnit::CentiDbm).is_err());
+        // Reads already in dBm, declared as dBm×100: refused with the hint, not taken as -0.6 dBm.
+        let err = checked_rssi_dbm(&read(-60.0), RssiUnit::CentiDbm)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("looks like dBm already"), "{err}");
         // Far outside either unit: no dBm×100 hint.
         let err = checked_rssi_dbm(&read(1e9), RssiUnit::Dbm)
             .err()

@@ -413,4 +413,16 @@ fn empty_input_gives_empty_output() {
         .map(|e| e.to_string())
         .unwrap_or_default();
     assert!(err.contains("empty.jsonl"), "{err}");
+    // A fixed tag height below the floor, absurdly high or not a number is refused by name.
+    for h in [-1.0, 1e9, f64::NAN] {
+        let config = CalibrationConfig {
+            placement: TagPlacement::FixedHeight(h),
+            ..CalibrationConfig::default()
+        };
+        let err = calibrate(&reg, &[], &config, "empty.jsonl")
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(err.contains("tag height"), "{h}: {err}");
+    }
 }
