@@ -9,6 +9,11 @@ const BROAD_HEADER: &str = "t_s,acc_x,acc_y,acc_z,gyr_x,gyr_y,gyr_z,mag_x,mag_y,
 const BROAD_ROW: &str =
     "0,0.11,0.007,9.86,0.0074,0.0010,-0.0053,0.63,15.0,-40.2,nan,nan,nan,nan,0.09,-0.56,1.22,0";
 
+/// [`BROAD_ROW`] at time `t_s`.
+fn broad_row_at(t_s: &str) -> String {
+    BROAD_ROW.replacen("0,", &format!("{t_s},"), 1)
+}
+
 fn imu_err(text: &str) -> String {
     match parse_imu_csv(text, "broad.csv", &ImuCsvFormat::broad()) {
         Ok(_) => String::from("(parsed)"),
@@ -27,8 +32,11 @@ fn broad_truncated_row_names_line_and_field_count() {
 
 #[test]
 fn broad_non_numeric_gyro_names_column() {
-    let bad = BROAD_ROW.replace("0.0074", "0.0O74");
-    let text = format!("{BROAD_HEADER}\n{BROAD_ROW}\n{BROAD_ROW}\n{bad}\n");
+    let bad = broad_row_at("0.007").replace("0.0074", "0.0O74");
+    let text = format!(
+        "{BROAD_HEADER}\n{BROAD_ROW}\n{}\n{bad}\n",
+        broad_row_at("0.0035")
+    );
     assert_eq!(
         imu_err(&text),
         "broad.csv:4: column 'gyr_x': '0.0O74' is not a number"
@@ -37,11 +45,20 @@ fn broad_non_numeric_gyro_names_column() {
 
 #[test]
 fn broad_nan_accelerometer_is_rejected_but_nan_truth_is_not() {
-    let bad = BROAD_ROW.replace("9.86", "nan");
+    let bad = broad_row_at("0.0035").replace("9.86", "nan");
     let text = format!("{BROAD_HEADER}\n{BROAD_ROW}\n{bad}\n");
     assert_eq!(
         imu_err(&text),
         "broad.csv:3: column 'acc_z': NaN where a finite value is required"
+    );
+}
+
+#[test]
+fn broad_duplicate_time_is_named() {
+    let text = format!("{BROAD_HEADER}\n{BROAD_ROW}\n{BROAD_ROW}\n");
+    assert_eq!(
+        imu_err(&text),
+        "broad.csv:3: duplicate time 0 s (the row before has it too)"
     );
 }
 
@@ -89,6 +106,16 @@ fn lias_uwb_bad_time_and_short_row() {
     assert_eq!(
         err,
         "uwb.csv:2: expected 25 fields, found 3 (truncated or malformed row)"
+    );
+    // Rows swapped: the one that goes back is named (equal times occur in the real logs).
+    let text = format!("{good}\n{good}\n2022-08-15 9:42:24.700,{ranges}\n");
+    let err = parse_uwb_csv(&text, "uwb.csv", &UwbCsvFormat::lias())
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        err,
+        "uwb.csv:3: column 'time': 2022-08-15 9:42:24.700 is before the row before (out of order)"
     );
 }
 

@@ -165,6 +165,11 @@ pub fn parse_imu_csv(text: &str, name: &str, format: &ImuCsvFormat) -> Result<Im
         if t_s < last_t {
             return Err(row.error(format!("time goes backwards ({t_s} s after {last_t} s)")));
         }
+        if t_s == last_t {
+            return Err(row.error(format!(
+                "duplicate time {t_s} s (the row before has it too)"
+            )));
+        }
         last_t = t_s;
         let vec3 = |cols: [usize; 3], names: &[String; 3], scale: f64, bound: f64, unit: &str| {
             let mut v = Vector3::zeros();

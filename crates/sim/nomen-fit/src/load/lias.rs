@@ -124,11 +124,20 @@ pub fn parse_uwb_csv(text: &str, name: &str, format: &UwbCsvFormat) -> Result<Uw
     }
     let mut rows = Vec::new();
     let mut skipped_lines = Vec::new();
+    let mut last_t = f64::NEG_INFINITY;
     while let Some(row) = csv.next_row()? {
         row.expect_len(1 + num_ranges)?;
         let time = row.str(0, "time")?;
         let t_s = parse_local_time_s(time)
             .ok_or_else(|| row.error(format!("column 'time': '{time}' is not a time")))?;
+        // Equal times occur in the LIAS logs themselves (two rows in one millisecond); going
+        // back does not.
+        if t_s < last_t {
+            return Err(row.error(format!(
+                "column 'time': {time} is before the row before (out of order)"
+            )));
+        }
+        last_t = t_s;
         if (1..=num_ranges).any(|i| row.str(i, "range").is_ok_and(str::is_empty)) {
             skipped_lines.push(row.line);
             continue;
