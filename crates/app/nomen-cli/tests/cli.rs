@@ -544,7 +544,7 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
 }
 
 #[test]
-fn an_output_that_is_an_input_or_another_output_is_refused_and_the_files_kept() {
+fn an_output_that_is_an_input_or_another_output_or_a_bad_flag_is_refused_and_the_files_kept() {
     let tmp = tempfile::tempdir().unwrap();
     let rec = tmp.path().join("rec.jsonl");
     let recording = "{\"type\":\"header\",\"format\":\"nomen-recording\",\"version\":1,\"registry\":null,\"meta\":{}}\n";
@@ -596,6 +596,31 @@ fn an_output_that_is_an_input_or_another_output_is_refused_and_the_files_kept() 
                 path(&tmp.path().join(".").join("o.jsonl")),
             ],
             "two outputs are the same file",
+        ),
+        // Bad flags are named as flags, not as the output header's registry.
+        (
+            vec![
+                "mocap".into(),
+                "convert".into(),
+                path(&bvh),
+                "--camera".into(),
+                "".into(),
+                "--out".into(),
+                path(&tmp.path().join("o.jsonl")),
+            ],
+            "--camera: the camera id is empty",
+        ),
+        (
+            vec![
+                "mocap".into(),
+                "convert".into(),
+                path(&bvh),
+                "--fps".into(),
+                "1e12".into(),
+                "--out".into(),
+                path(&tmp.path().join("o.jsonl")),
+            ],
+            "--fps 1000000000000: a camera's frame rate",
         ),
     ];
     for (args, want) in cases {

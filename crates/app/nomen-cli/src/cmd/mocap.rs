@@ -59,6 +59,15 @@ pub fn run(command: MocapCommand) -> Result<()> {
 pub fn convert_files(args: &ConvertArgs) -> Result<(String, Vec<MocapClip>)> {
     let inputs: Vec<Option<&Path>> = args.files.iter().map(|f| Some(f.as_path())).collect();
     crate::io::check_distinct(&inputs, &[Some(&args.out), args.truth.as_deref()])?;
+    // The flags, named as flags (the registry's checks would name the output's header).
+    if args.camera.trim().is_empty() {
+        bail!("--camera: the camera id is empty");
+    }
+    if let Some(fps) = args.fps
+        && !(fps.is_finite() && (0.1..=10_000.0).contains(&fps))
+    {
+        bail!("--fps {fps}: a camera's frame rate, 0.1 to 10000 Hz");
+    }
     let options = ConvertOptions {
         scale: args.scale,
         fps_hz: args.fps,
