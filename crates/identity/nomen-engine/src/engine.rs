@@ -1173,10 +1173,9 @@ impl Engine {
     /// waits to be sent and no message lies within reach of the next windows (`idle_lookback_ns`
     /// before a window's end, `idle_lookahead_ns` after it: a recording paused for minutes, or
     /// a source whose clock jumped and then went on from there), those windows could read
-    /// nothing, and stepping
-    /// through them one hop at a time would take as long as the gap is wide (a day of gap is
-    /// 172,800 windows). The engine jumps to the last window on the same grid that still reads
-    /// nothing. A window that reads nothing changes nothing but what time alone changes: the
+    /// nothing, and stepping through them one hop at a time would take as long as the gap is
+    /// wide (a day of gap is 172,800 windows). The engine jumps to the last window on the same
+    /// grid that still reads nothing. A window that reads nothing changes nothing but what time alone changes: the
     /// heading estimates decay by the windows skipped, and what `forget` drops at the landing
     /// window is what it would have dropped by then. Only gaps of at least [`IDLE_SKIP_MIN_NS`]
     /// are skipped, so a recording without long gaps is processed exactly as before.
@@ -1198,13 +1197,7 @@ impl Engine {
             return end;
         }
         let skipped = room / self.hop_ns;
-        let heading_decay = 0.5f64.powf(self.config.hop_s / self.config.heading_half_life_s);
-        let decay = heading_decay.powf(skipped as f64);
-        for imu in &mut self.imus {
-            imu.heading_sum = imu.heading_sum.map(|v| v * decay);
-            imu.heading_magnitude *= decay;
-            imu.heading_windows *= decay;
-        }
+        self.decay_headings(self.heading_decay_per_hop().powf(skipped as f64));
         self.stats.num_windows_skipped += skipped.unsigned_abs();
         end.saturating_add(skipped.saturating_mul(self.hop_ns))
     }

@@ -514,15 +514,24 @@ impl Engine {
         }
     }
 
+    /// How much an IMU's heading sums keep over one hop (`heading_half_life_s`).
+    pub(super) fn heading_decay_per_hop(&self) -> f64 {
+        0.5f64.powf(self.config.hop_s / self.config.heading_half_life_s)
+    }
+
+    /// Multiplies every IMU's heading sums by `factor`.
+    pub(super) fn decay_headings(&mut self, factor: f64) {
+        for imu in &mut self.imus {
+            imu.heading_sum = imu.heading_sum.map(|v| v * factor);
+            imu.heading_magnitude *= factor;
+            imu.heading_windows *= factor;
+        }
+    }
+
     /// Decays every IMU's heading sums by one hop, adds this window's normalised cross sums
     /// `(IMU, (re, im))`, and reports the headings that are coherent.
     pub(super) fn update_headings(&mut self, updates: Vec<(usize, [f64; 2])>) {
-        let heading_decay = 0.5f64.powf(self.config.hop_s / self.config.heading_half_life_s);
-        for imu in &mut self.imus {
-            imu.heading_sum = imu.heading_sum.map(|v| v * heading_decay);
-            imu.heading_magnitude *= heading_decay;
-            imu.heading_windows *= heading_decay;
-        }
+        self.decay_headings(self.heading_decay_per_hop());
         for (i, [re, im]) in updates {
             if let Some(imu) = self.imus.get_mut(i) {
                 imu.heading_sum[0] += re;
