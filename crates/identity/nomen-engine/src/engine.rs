@@ -513,8 +513,9 @@ pub struct Engine {
     /// Which [`DATA_SLOT_NS`]-long slots of session time hold a message, from where a window
     /// could still read on: for [`Engine::skip_idle`].
     data_slots: BTreeSet<i64>,
-    /// The slot of the last message noted, so that a message in the same slot costs no insert.
-    last_slot: Option<i64>,
+    /// The slots of the last messages noted, the newest first, so that a message in one of
+    /// them costs no insert (sources on clocks a little apart alternate between two slots).
+    recent_slots: [Option<i64>; 2],
     /// How far before its end a window may read anything, ns, generously (see
     /// [`Engine::skip_idle`]).
     idle_lookback_ns: i64,
@@ -660,7 +661,7 @@ impl Engine {
             next_end: None,
             global_max: None,
             data_slots: BTreeSet::new(),
-            last_slot: None,
+            recent_slots: [None; 2],
             idle_lookback_ns: ns(config.window_s
                 + config.history_pad_s
                 + config.offset_estimation_window_s
@@ -1103,10 +1104,10 @@ impl Engine {
     }
 
     fn note_time(&mut self, t: i64) {
-        let slot = t.div_euclid(DATA_SLOT_NS);
-        if self.last_slot != Some(slot) {
-            self.data_slots.insert(slot);
-            self.last_slot = Some(slot);
+        let slot = Some(t.div_euclid(DATA_SLOT_NS));
+        if !self.recent_slots.contains(&slot) {
+            self.data_slots.extend(slot);
+            self.recent_slots = [slot, self.recent_slots[0]];
         }
         self.global_max = Some(self.global_max.map_or(t, |m| m.max(t)));
         if self.next_end.is_none() {
