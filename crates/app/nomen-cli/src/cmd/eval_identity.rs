@@ -58,7 +58,7 @@ pub fn evaluate_files(
         );
     }
     let mut scenes = Vec::with_capacity(truth.len());
-    let mut num_identified = 0;
+    let mut num_identities = 0;
     for (t, r) in truth.iter().zip(result) {
         let mut scene = SceneData::new(scene_name(t));
         let truth_counts = push_all(&mut scene, t)?;
@@ -70,7 +70,7 @@ pub fn evaluate_files(
             );
         }
         let result_counts = push_all(&mut scene, r)?;
-        if result_counts.identified == 0 {
+        if result_counts.decisions == 0 {
             // Every frame then counts as unlabelled (anonymous): a baseline, or a wrong file.
             eprintln!(
                 "warning: {}: no decisions in it (no identified or tag_correction lines): every \
@@ -78,13 +78,13 @@ pub fn evaluate_files(
                 r.display()
             );
         }
-        num_identified += result_counts.identities;
+        num_identities += result_counts.identities;
         scenes.push(scene);
     }
     let report = evaluate(&scenes, config)?;
-    if num_identified > 0 && report.overall.num_result_without_truth >= num_identified as u64 {
+    if num_identities > 0 && report.overall.num_result_without_truth >= num_identities as u64 {
         bail!(
-            "none of the {num_identified} decisions matches a ground-truth frame (same camera, \
+            "none of the {num_identities} identities matches a ground-truth frame (same camera, \
              track and time): the result is not from the scene of the truth file"
         );
     }
@@ -96,7 +96,7 @@ pub fn evaluate_files(
 #[derive(Debug, Default)]
 struct Counts {
     truth: usize,
-    identified: usize,
+    decisions: usize,
     identities: usize,
 }
 
@@ -109,10 +109,10 @@ fn push_all(scene: &mut SceneData, path: &Path) -> Result<Counts> {
         match &m {
             Message::TruthSkeleton(_) | Message::TruthTag(_) => counts.truth += 1,
             Message::Identified(_) => {
-                counts.identified += 1;
+                counts.decisions += 1;
                 counts.identities += 1;
             }
-            Message::TagCorrection(_) => counts.identified += 1,
+            Message::TagCorrection(_) => counts.decisions += 1,
             _ => {}
         }
         scene.push(&m);
