@@ -31,10 +31,10 @@ pub struct RunArgs {
     /// pipe), each batch of decisions is flushed as soon as the engine makes it.
     #[arg(long)]
     pub out: PathBuf,
-    /// Skip malformed input lines (counted and reported) instead of stopping. A bad line
-    /// includes a time jump: one more than 0.1 s after every earlier line that the next two
-    /// lines do not both follow on from (a corrupt timestamp, a line out of place). Stopping still
-    /// decides and writes everything before the bad line.
+    /// Skip malformed input lines (counted, and listed with file and line) instead of stopping.
+    /// A bad line includes a time jump: one more than 0.1 s after every earlier line that the
+    /// next two lines do not both follow on from (a corrupt timestamp, a line out of place).
+    /// Stopping still decides and writes everything before the bad line.
     #[arg(long)]
     pub skip_bad: bool,
     /// Identity method: the nomen engine, or a published baseline.
