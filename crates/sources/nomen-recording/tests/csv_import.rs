@@ -194,6 +194,22 @@ fn tag_fixes_take_units_from_names_or_spec() {
     let messages = import_fixes(bare.as_bytes(), "fixes.csv", &spec).unwrap();
     assert_eq!(messages[0].t().as_ns(), 500_000_000);
 
+    // A unit the importer does not know is named as such, not as a missing column.
+    let feet = "t_s,tag,x_ft,y_m,z_m\n0.5,tag1,1,2,1.3\n";
+    let err = import_fixes(feet.as_bytes(), "fixes.csv", &FixCsvSpec::default()).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "fixes.csv:1: column 'x_ft': unknown unit 'ft' for 'x'"
+    );
+    // Another separator than the comma is named.
+    let semicolons = "t_s;tag;x_m;y_m;z_m\n0.5;tag1;1;2;1.3\n";
+    let err = import_fixes(semicolons.as_bytes(), "fixes.csv", &FixCsvSpec::default()).unwrap_err();
+    assert!(
+        err.to_string()
+            .starts_with("fixes.csv:1: the columns are separated by ';', not by commas"),
+        "{err}"
+    );
+
     let missing = "t (s),x (m),y (m),z (m)\n0,1,2,3\n";
     let err = import_fixes(missing.as_bytes(), "fixes.csv", &spec).unwrap_err();
     assert!(

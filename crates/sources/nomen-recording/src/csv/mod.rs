@@ -54,6 +54,19 @@ impl<R: Read> CsvInput<R> {
                 "empty csv file: expected a row of column names",
             ));
         }
+        // One column whose name holds another separator: the file is not comma-separated.
+        if let [only] = headers.as_slice()
+            && let Some(sep) = [';', '\t', '|'].into_iter().find(|c| only.contains(*c))
+        {
+            return Err(error_at(
+                &file,
+                1,
+                &format!(
+                    "the columns are separated by {sep:?}, not by commas: save the file as \
+                     comma-separated values"
+                ),
+            ));
+        }
         Ok(Self {
             reader,
             file,
@@ -93,15 +106,21 @@ impl<R: Read> CsvInput<R> {
         is_unit: impl Fn(&str) -> bool + Copy,
     ) -> Result<(usize, Option<String>)> {
         self.find(bases, is_unit).ok_or_else(|| {
-            error_at(
-                &self.file,
-                1,
-                &format!(
-                    "missing column '{}' (columns are: {})",
-                    bases.first().copied().unwrap_or_default(),
+            let base = bases.first().copied().unwrap_or_default();
+            // A column named for it with a unit the importer does not know (`x_ft`).
+            let unknown_unit = self.headers.iter().find_map(|h| {
+                let (name, unit) = h.trim().rsplit_once('_')?;
+                (bases.contains(&name.to_lowercase().as_str()) && !unit.is_empty())
+                    .then_some((h, unit))
+            });
+            let detail = match unknown_unit {
+                Some((h, unit)) => format!("column '{h}': unknown unit '{unit}' for '{base}'"),
+                None => format!(
+                    "missing column '{base}' (columns are: {})",
                     self.headers.join(", ")
                 ),
-            )
+            };
+            error_at(&self.file, 1, &detail)
         })
     }
 
