@@ -168,13 +168,17 @@ pub struct RecordingReader<R> {
     queued: VecDeque<Result<Message>>,
 }
 
-/// A message that jumped ahead of every earlier one: its line, its times (not yet recorded)
-/// and the latest time before it.
+/// A message that jumped ahead of every earlier one: its line, its times (not yet recorded),
+/// the latest time before it, and the time-order state as it will be once it and its
+/// followers are taken.
 struct Held {
     msg: Message,
     line: u64,
     times: Times,
     latest: Option<SessionTime>,
+    /// The reader's checker with the jump and its followers recorded: followers are checked
+    /// against it, and it becomes the reader's checker when the jump is taken.
+    checker_after: Checker,
 }
 
 /// Good messages after a jump in time that must follow on from it before it is taken: one
@@ -315,39 +319,30 @@ impl<R: BufRead> RecordingReader<R> {
     /// follower. Enough followers confirm the jump; a follower that itself jumps ahead of them
     /// confirms it too, and waits in turn.
     fn follow(&mut self, msg: Message, line: u64) {
-        let Some(held) = &self.held else {
+        let max_jump_ns = self.options.max_time_jump_ns;
+        let Some(held) = self.held.as_mut() else {
             return;
         };
-        // The order checks as they will be once the jump is taken, on a copy of the checker.
-        let mut probe = self.checker.clone();
-        probe.record(held.times);
-        for (m, l) in &self.followers {
-            if let Ok(times) = probe.check_order(m, &self.file, *l) {
-                probe.record(times);
-            }
-        }
-        match probe.check_order(&msg, &self.file, line) {
+        let after = &mut held.checker_after;
+        let checked = after
+            .check_order(&msg, &self.file, line)
+            .map(|times| (times, after.leads(times.t(), max_jump_ns)));
+        match checked {
             Err(err) => {
                 if let Some(item) = self.fail(err) {
                     self.release_before(item);
                 }
             }
-            Ok(times) if probe.leads(times.t(), self.options.max_time_jump_ns) => {
+            // Checked against the state the taken jump leaves, which the reader's checker
+            // then is: this message waits in turn.
+            Ok((times, true)) => {
                 self.release_held(true);
-                match self.checker.check_order(&msg, &self.file, line) {
-                    Ok(times) => {
-                        if let Some(item) = self.admit(msg, line, times) {
-                            self.queued.push_back(item);
-                        }
-                    }
-                    Err(err) => {
-                        if let Some(item) = self.fail(err) {
-                            self.queued.push_back(item);
-                        }
-                    }
+                if let Some(item) = self.admit(msg, line, times) {
+                    self.queued.push_back(item);
                 }
             }
-            Ok(_) => {
+            Ok((times, false)) => {
+                held.checker_after.record(times);
                 self.followers.push((msg, line));
                 if self.followers.len() >= JUMP_CONFIRMATIONS {
                     self.release_held(true);
@@ -371,11 +366,14 @@ impl<R: BufRead> RecordingReader<R> {
     /// one by more than [`ReadOptions::max_time_jump_ns`] (`None`).
     fn admit(&mut self, msg: Message, line: u64, times: Times) -> Option<Result<Message>> {
         if self.checker.leads(times.t(), self.options.max_time_jump_ns) {
+            let mut checker_after = self.checker.clone();
+            checker_after.record(times);
             self.held = Some(Held {
                 msg,
                 line,
                 times,
                 latest: self.checker.latest(),
+                checker_after,
             });
             return None;
         }
@@ -425,8 +423,8 @@ impl<R: BufRead> RecordingReader<R> {
     }
 
     /// Takes the held jump, confirmed or with nothing after it to judge it by (the end of the
-    /// input, or a bad line that ends the stream): it and its followers are recorded and
-    /// queued, in order.
+    /// input, or a bad line that ends the stream): it and its followers, already checked and
+    /// recorded in its `checker_after`, are queued in order.
     fn release_held(&mut self, is_confirmed: bool) {
         let Some(held) = self.held.take() else {
             return;
@@ -434,25 +432,12 @@ impl<R: BufRead> RecordingReader<R> {
         if !is_confirmed && let Some(latest) = held.latest {
             self.stats.unconfirmed_jump = Some((held.line, held.times.t(), latest));
         }
-        self.checker.record(held.times);
-        self.stats.num_accepted += 1;
+        self.checker = held.checker_after;
+        let followers = std::mem::take(&mut self.followers);
+        self.stats.num_accepted += 1 + followers.len() as u64;
         self.queued.push_back(Ok(held.msg));
-        for (msg, line) in std::mem::take(&mut self.followers) {
-            // Checked on the probe already: the same checks, so they pass.
-            match self.checker.check_order(&msg, &self.file, line) {
-                Ok(times) => {
-                    self.checker.record(times);
-                    self.stats.num_accepted += 1;
-                    self.queued.push_back(Ok(msg));
-                }
-                Err(err) => {
-                    if let Some(item) = self.fail(err) {
-                        self.queued.push_back(item);
-                        return;
-                    }
-                }
-            }
-        }
+        self.queued
+            .extend(followers.into_iter().map(|(msg, _)| Ok(msg)));
     }
 
     /// `item` (an error that ends the stream), after the held jump and its followers if there
