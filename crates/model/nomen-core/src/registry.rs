@@ -162,13 +162,8 @@ impl Registry {
                 .validate(&format!("camera '{}'.world_from_camera", c.id))?;
             check_clock(&c.clock, || format!("camera '{}'", c.id))?;
             if let Some(fps) = c.fps_hz {
-                check_range_lazy(
-                    || format!("camera '{}'.fps_hz", c.id),
-                    fps,
-                    0.1,
-                    10_000.0,
-                    "Hz",
-                )?;
+                let (lo, hi) = CAMERA_FPS_RANGE_HZ;
+                check_range_lazy(|| format!("camera '{}'.fps_hz", c.id), fps, lo, hi, "Hz")?;
             }
             if let Some(k) = &c.intrinsics {
                 check_finite_all_lazy(
@@ -255,6 +250,9 @@ impl Registry {
 /// stamps Unix-epoch time still fits, and sums of an offset with a session time or a lag cannot
 /// overflow.
 const MAX_CLOCK_OFFSET_NS: i64 = 1 << 62;
+
+/// The frame rates a camera may have, Hz (inclusive).
+pub const CAMERA_FPS_RANGE_HZ: (f64, f64) = (0.1, 10_000.0);
 
 /// Refuses a clock offset beyond [`MAX_CLOCK_OFFSET_NS`], naming its owner.
 fn check_clock(clock: &ClockModel, owner: impl Fn() -> String) -> Result<()> {

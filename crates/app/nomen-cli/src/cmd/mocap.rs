@@ -63,10 +63,11 @@ pub fn convert_files(args: &ConvertArgs) -> Result<(String, Vec<MocapClip>)> {
     if args.camera.trim().is_empty() {
         bail!("--camera: the camera id is empty");
     }
+    let (lo, hi) = nomen_core::registry::CAMERA_FPS_RANGE_HZ;
     if let Some(fps) = args.fps
-        && !(fps.is_finite() && (0.1..=10_000.0).contains(&fps))
+        && !(fps.is_finite() && (lo..=hi).contains(&fps))
     {
-        bail!("--fps {fps}: a camera's frame rate, 0.1 to 10000 Hz");
+        bail!("--fps {fps}: a camera's frame rate, {lo} to {hi} Hz");
     }
     let options = ConvertOptions {
         scale: args.scale,
