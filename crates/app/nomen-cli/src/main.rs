@@ -6,6 +6,7 @@
 mod cmd;
 mod io;
 mod refine;
+mod skip;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};

@@ -132,12 +132,39 @@ fn a_malformed_recording_is_reported_with_file_and_line() {
         text(&out.stdout)
     );
 
+    // Skipped, and counted; one line of two is more than the default limit (1 %), so the
+    // command fails after its summary, unless the limit allows it.
     let out = nomen(&["validate", "--skip-bad", rec.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(!out.status.success());
     assert!(
         text(&out.stdout).contains("1 skipped"),
         "{}",
         text(&out.stdout)
+    );
+    let stderr = text(&out.stderr);
+    assert!(
+        stderr
+            .contains("bad.jsonl: 1 of 2 lines (50.0 %) were skipped, more than --max-skipped 1%"),
+        "{stderr}"
+    );
+    for limit in ["1", "50%"] {
+        let out = nomen(&[
+            "validate",
+            "--skip-bad",
+            "--max-skipped",
+            limit,
+            rec.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{limit}: {}", text(&out.stderr));
+        assert!(text(&out.stdout).contains("1 skipped"));
+    }
+    // The limit means nothing without --skip-bad, and says so.
+    let out = nomen(&["validate", "--max-skipped", "1", rec.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("--skip-bad"),
+        "{}",
+        text(&out.stderr)
     );
 }
 
@@ -883,6 +910,54 @@ fn run_writes_the_decisions_before_a_bad_line_and_a_corrupt_timestamp_costs_one_
     assert_eq!(
         count(&out, "identified"),
         num_skeletons - num_first_skeletons
+    );
+
+    // Every twentieth line cut off (5 %): with --skip-bad the rest is still decided and
+    // written, then the run fails, since that is more than the default limit (1 %) allows; a
+    // limit of 6 % lets it pass with the same output.
+    let mut spoiled: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    let mut num_cut = 0;
+    for (k, line) in spoiled.iter_mut().enumerate().skip(1) {
+        if k % 20 == 0 {
+            line.truncate(30);
+            num_cut += 1;
+        }
+    }
+    let input = write("spoiled.jsonl", &spoiled);
+    let out = tmp.path().join("spoiled_result.jsonl");
+    let o = run(&input, &out, true);
+    let stderr = text(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains(&format!("{num_cut} skipped (truncated: {num_cut})")),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(&format!(
+            "spoiled.jsonl: {num_cut} of {} lines",
+            lines.len() - 1
+        )) && stderr.contains("more than --max-skipped 1%"),
+        "{stderr}"
+    );
+    let written = count(&out, "identified");
+    assert!(
+        written > num_skeletons * 9 / 10,
+        "{written} of {num_skeletons}"
+    );
+    let allowed = tmp.path().join("spoiled_allowed.jsonl");
+    let o = nomen(&[
+        "run",
+        input.to_str().unwrap(),
+        "--skip-bad",
+        "--max-skipped",
+        "6%",
+        "--out",
+        allowed.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert_eq!(
+        std::fs::read(&allowed).unwrap().len(),
+        std::fs::read(&out).unwrap().len()
     );
 }
 

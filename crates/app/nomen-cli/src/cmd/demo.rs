@@ -71,7 +71,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
             &recording,
             &result,
             nomen_engine::EngineConfig::default(),
-            false,
+            None,
             &super::run::EngineExtras::default(),
         )?
     )?;

@@ -7,6 +7,7 @@
 //! whole recording is read first, then decided, then written in time order.
 
 use crate::refine::Refinement;
+use crate::skip::SkipLimit;
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use nomen_core::{Message, Registry};
@@ -37,6 +38,11 @@ pub struct RunArgs {
     /// Stopping still decides and writes everything before the bad line.
     #[arg(long)]
     pub skip_bad: bool,
+    /// With `--skip-bad`: the most lines it may skip, a number (`10`) or a percentage of the
+    /// message lines read (`1%`). Beyond it the run still decides and writes everything it read,
+    /// then fails, saying how many lines were skipped.
+    #[arg(long, value_name = "N|P%", default_value = crate::skip::DEFAULT_SKIP_LIMIT, requires = "skip_bad")]
+    pub max_skipped: SkipLimit,
     /// Identity method: the nomen engine, or a published baseline.
     #[arg(long, value_enum, default_value_t = Method::Nomen)]
     pub method: Method,
@@ -111,6 +117,8 @@ pub fn run(args: RunArgs) -> Result<()> {
         ],
         &[Some(&args.out)],
     )?;
+    // Without `--skip-bad` the reading stops at the first bad line.
+    let skip = args.skip_bad.then_some(args.max_skipped);
     let summary = match args.method {
         Method::Nomen => {
             if args.environment.is_some() && !args.refine_joints {
@@ -128,7 +136,7 @@ pub fn run(args: RunArgs) -> Result<()> {
                 cnn: args.cnn.clone(),
                 live: args.live,
             };
-            run_file(&args.recording, &args.out, config, args.skip_bad, &extras)?
+            run_file(&args.recording, &args.out, config, skip, &extras)?
         }
         Method::Baptizo | Method::Llorca => {
             if args.refine_joints || args.environment.is_some() || args.cnn.is_some() || args.live {
@@ -153,7 +161,7 @@ pub fn run(args: RunArgs) -> Result<()> {
                 }
                 (_, None) => Baseline::Baptizo,
             };
-            run_baseline_file(&args.recording, &args.out, &baseline, args.skip_bad)?
+            run_baseline_file(&args.recording, &args.out, &baseline, skip)?
         }
     };
     eprintln!("{summary}");
@@ -178,12 +186,28 @@ impl Baseline {
     }
 }
 
-fn read_policy(skip_bad: bool) -> ErrorPolicy {
-    if skip_bad {
-        ErrorPolicy::SkipAndCount
-    } else {
-        ErrorPolicy::Stop
+fn read_policy(skip: Option<SkipLimit>) -> ErrorPolicy {
+    match skip {
+        Some(_) => ErrorPolicy::SkipAndCount,
+        None => ErrorPolicy::Stop,
     }
+}
+
+/// `summary`, or (printed first) the error of a reading that skipped more lines than `skip`
+/// allows.
+fn within_skip_limit(
+    summary: String,
+    skip: Option<SkipLimit>,
+    stats: &ReadStats,
+    recording: &Path,
+) -> Result<String> {
+    if let Some(limit) = skip
+        && let Err(e) = limit.check(stats, &crate::io::source_name(recording))
+    {
+        eprintln!("{summary}");
+        return Err(e);
+    }
+    Ok(summary)
 }
 
 fn open_writer(
@@ -222,17 +246,16 @@ fn stopped_reading(
 }
 
 /// Reads the whole of `recording`, decides it with `baseline` and writes the decisions to `out`
-/// in time order; returns a summary line.
+/// in time order; returns a summary line. `skip`: skip bad lines, up to this limit (`None`:
+/// stop at the first).
 pub fn run_baseline_file(
     recording: &Path,
     out: &Path,
     baseline: &Baseline,
-    skip_bad: bool,
+    skip: Option<SkipLimit>,
 ) -> Result<String> {
-    let mut reader = RecordingReader::open_with_options(
-        recording,
-        ReadOptions::with_policy(read_policy(skip_bad)),
-    )?;
+    let mut reader =
+        RecordingReader::open_with_options(recording, ReadOptions::with_policy(read_policy(skip)))?;
     let Some(registry) = reader.header().registry.clone() else {
         bail!(
             "{}: the header carries no registry, so {} does not know who wears what",
@@ -303,14 +326,15 @@ pub fn run_baseline_file(
         .iter()
         .filter(|m| matches!(m, Message::Identified(_)))
         .count();
-    Ok(format!(
+    let summary = format!(
         "{}: {stats}; {} wrote {num_identified} decisions and {} other messages to {}{}",
         crate::io::source_name(recording),
         baseline.name(),
         decided.len() - num_identified,
         crate::io::sink_name(out),
         skipped_lines(&stats)
-    ))
+    );
+    within_skip_limit(summary, skip, &stats, recording)
 }
 
 /// The lines `--skip-bad` skipped, each with its file, line and reason (the first few, as
@@ -461,15 +485,16 @@ pub fn load_config(path: Option<&Path>) -> Result<EngineConfig> {
     }
 }
 
-/// Streams `recording` through the engine into `out`; returns a summary line.
+/// Streams `recording` through the engine into `out`; returns a summary line. `skip`: skip bad
+/// lines, up to this limit (`None`: stop at the first).
 pub fn run_file(
     recording: &Path,
     out: &Path,
     config: EngineConfig,
-    skip_bad: bool,
+    skip: Option<SkipLimit>,
     extras: &EngineExtras,
 ) -> Result<String> {
-    let options = ReadOptions::with_policy(read_policy(skip_bad));
+    let options = ReadOptions::with_policy(read_policy(skip));
     let mut input = if extras.live {
         Input::live(recording, options)?
     } else {
@@ -613,5 +638,5 @@ pub fn run_file(
             est.coherence
         ));
     }
-    Ok(summary)
+    within_skip_limit(summary, skip, &stats, recording)
 }

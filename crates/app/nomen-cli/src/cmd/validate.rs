@@ -18,6 +18,10 @@ pub struct ValidateArgs {
     /// as a time jump).
     #[arg(long)]
     pub skip_bad: bool,
+    /// With `--skip-bad`: the most lines it may skip, a number (`10`) or a percentage of the
+    /// message lines read (`1%`); beyond it the summary is still printed, then the command fails.
+    #[arg(long, value_name = "N|P%", default_value = crate::skip::DEFAULT_SKIP_LIMIT, requires = "skip_bad")]
+    pub max_skipped: crate::skip::SkipLimit,
 }
 
 /// Per-type count and time span of a recording.
@@ -79,6 +83,10 @@ pub fn run(args: ValidateArgs) -> Result<()> {
     }
     if let Some(e) = first_error {
         bail!("{e}");
+    }
+    if args.skip_bad {
+        args.max_skipped
+            .check(&stats, &crate::io::source_name(&args.file))?;
     }
     Ok(())
 }
