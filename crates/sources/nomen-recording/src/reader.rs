@@ -13,6 +13,7 @@ use std::fs::File;
 use std::io::{self, BufRead, BufReader};
 use std::path::Path;
 use std::sync::Arc;
+use std::time::Instant;
 
 /// What a reader does with a bad message line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -49,9 +50,17 @@ pub struct ReadOptions {
     /// message after it is more than this before it. At the end of the input, or before a bad
     /// line, a waiting message is taken (and reported in [`ReadStats::unconfirmed_jump`]).
     /// Live, a waiting message is delivered with the second one after it: a stream whose
-    /// sources are all sparser than this is up to two messages late.
+    /// sources are all sparser than this is up to two messages late, unless the wall clock
+    /// vouches for the pause (`wall_clock`).
     /// [`DEFAULT_MAX_TIME_JUMP_NS`]; `i64::MAX` turns the check off.
     pub max_time_jump_ns: i64,
+    /// The input is a live stream whose session clock runs with the wall clock: a message that
+    /// leads every earlier one by no more than the wall-clock time since the latest of them was
+    /// read (plus `max_time_jump_ns`) came after a real pause, and is taken at once instead of
+    /// waiting for two more messages (a source sparser than `max_time_jump_ns`, or every source
+    /// silent for a while). A corrupt timestamp further ahead than that still waits, and is
+    /// refused as before. Default `false`: reading then depends on the input alone.
+    pub wall_clock: bool,
 }
 
 impl Default for ReadOptions {
@@ -62,6 +71,7 @@ impl Default for ReadOptions {
             global_tolerance_ns: DEFAULT_GLOBAL_TOLERANCE_NS,
             max_errors_kept: 10,
             max_time_jump_ns: DEFAULT_MAX_TIME_JUMP_NS,
+            wall_clock: false,
         }
     }
 }
@@ -166,6 +176,10 @@ pub struct RecordingReader<R> {
     followers: Vec<(Message, u64)>,
     /// What to yield next, after a held message was released.
     queued: VecDeque<Result<Message>>,
+    /// With [`ReadOptions::wall_clock`], when the latest message taken so far was read ...
+    taken_at: Option<Instant>,
+    /// ... and when the line being handled was.
+    line_read_at: Option<Instant>,
 }
 
 /// A message that jumped ahead of every earlier one: its line, its times (not yet recorded),
@@ -179,6 +193,9 @@ struct Held {
     /// The reader's checker with the jump and its followers recorded: followers are checked
     /// against it, and it becomes the reader's checker when the jump is taken.
     checker_after: Checker,
+    /// With [`ReadOptions::wall_clock`], when the jump's line, or its newest follower's, was
+    /// read.
+    read_at: Option<Instant>,
 }
 
 /// Good messages after a jump in time that must follow on from it before it is taken: one
@@ -236,6 +253,8 @@ impl<R: BufRead> RecordingReader<R> {
             held: None,
             followers: Vec::new(),
             queued: VecDeque::new(),
+            taken_at: None,
+            line_read_at: None,
         })
     }
 
@@ -283,6 +302,9 @@ impl<R: BufRead> RecordingReader<R> {
             }
             self.stats.num_lines = line;
             self.stats.num_bytes += n as u64;
+            if self.options.wall_clock {
+                self.line_read_at = Some(Instant::now());
+            }
             if self.buf.iter().all(u8::is_ascii_whitespace) {
                 continue;
             }
@@ -343,6 +365,7 @@ impl<R: BufRead> RecordingReader<R> {
             }
             Ok((times, false)) => {
                 held.checker_after.record(times);
+                held.read_at = self.line_read_at;
                 self.followers.push((msg, line));
                 if self.followers.len() >= JUMP_CONFIRMATIONS {
                     self.release_held(true);
@@ -365,7 +388,9 @@ impl<R: BufRead> RecordingReader<R> {
     /// A checked message: taken (recorded and counted), or held while it leads every earlier
     /// one by more than [`ReadOptions::max_time_jump_ns`] (`None`).
     fn admit(&mut self, msg: Message, line: u64, times: Times) -> Option<Result<Message>> {
-        if self.checker.leads(times.t(), self.options.max_time_jump_ns) {
+        if self.checker.leads(times.t(), self.options.max_time_jump_ns)
+            && !self.is_vouched_by_wall_clock(times.t())
+        {
             let mut checker_after = self.checker.clone();
             checker_after.record(times);
             self.held = Some(Held {
@@ -374,12 +399,25 @@ impl<R: BufRead> RecordingReader<R> {
                 times,
                 latest: self.checker.latest(),
                 checker_after,
+                read_at: self.line_read_at,
             });
             return None;
         }
         self.checker.record(times);
         self.stats.num_accepted += 1;
+        self.taken_at = self.line_read_at;
         Some(Ok(msg))
+    }
+
+    /// With [`ReadOptions::wall_clock`]: whether `t` leads the latest message by no more than
+    /// the wall-clock time since that one was read, plus the jump threshold.
+    fn is_vouched_by_wall_clock(&self, t: SessionTime) -> bool {
+        let (Some(latest), Some(at)) = (self.checker.latest(), self.taken_at) else {
+            return false;
+        };
+        let elapsed_ns = i64::try_from(at.elapsed().as_nanos()).unwrap_or(i64::MAX);
+        t.as_ns().saturating_sub(latest.as_ns())
+            <= elapsed_ns.saturating_add(self.options.max_time_jump_ns)
     }
 
     /// Refuses the held jump and its followers, which `next` does not follow on from: the
@@ -435,6 +473,7 @@ impl<R: BufRead> RecordingReader<R> {
         self.checker = held.checker_after;
         let followers = std::mem::take(&mut self.followers);
         self.stats.num_accepted += 1 + followers.len() as u64;
+        self.taken_at = held.read_at;
         self.queued.push_back(Ok(held.msg));
         self.queued
             .extend(followers.into_iter().map(|(msg, _)| Ok(msg)));

@@ -714,3 +714,99 @@ fn a_line_after_a_jump_that_is_bad_for_another_reason_leaves_the_jump_standing()
     let (good, err) = read_with(&text, skip_options());
     assert_eq!((good.len(), err), (6, None));
 }
+
+/// An input that hands out one line per read, each after a pause, and counts the lines handed
+/// out: a live stream, as a pipe delivers it.
+struct SlowLines {
+    lines: std::collections::VecDeque<Vec<u8>>,
+    pause: std::time::Duration,
+    num_read: std::rc::Rc<std::cell::Cell<usize>>,
+    current: Vec<u8>,
+    at: usize,
+}
+
+impl std::io::Read for SlowLines {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        use std::io::BufRead;
+        let available = self.fill_buf()?;
+        let n = available.len().min(buf.len());
+        buf[..n].copy_from_slice(&available[..n]);
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl std::io::BufRead for SlowLines {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        if self.at == self.current.len()
+            && let Some(next) = self.lines.pop_front()
+        {
+            // The header comes at once; every message line after a pause.
+            if self.num_read.get() > 0 {
+                std::thread::sleep(self.pause);
+            }
+            self.current = next;
+            self.at = 0;
+            self.num_read.set(self.num_read.get() + 1);
+        }
+        Ok(&self.current[self.at..])
+    }
+
+    fn consume(&mut self, n: usize) {
+        self.at = (self.at + n).min(self.current.len());
+    }
+}
+
+#[test]
+fn live_a_pause_the_wall_clock_vouches_for_is_taken_at_once_and_a_corrupt_jump_still_waits() {
+    // One IMU sending a sample every 0.3 s (sparser than the 0.1-s jump threshold), read live:
+    // each line arrives 0.35 s after the one before it.
+    let mut msgs: Vec<Message> = (0..4).map(|k| imu(S + k * 3 * S / 10, "band1")).collect();
+    // Then one stamped an hour ahead: not vouched for by 0.35 s, it waits and is refused when
+    // the next line comes back to the stream's time.
+    msgs.push(imu(3600 * S, "band1"));
+    msgs.extend((4..6).map(|k| imu(S + k * 3 * S / 10, "band1")));
+    let text = file(&lines(&msgs));
+    let read = |wall_clock: bool| {
+        let num_read = std::rc::Rc::new(std::cell::Cell::new(0));
+        let input = SlowLines {
+            lines: text
+                .lines()
+                .map(|l| format!("{l}\n").into_bytes())
+                .collect(),
+            pause: std::time::Duration::from_millis(350),
+            num_read: num_read.clone(),
+            current: Vec::new(),
+            at: 0,
+        };
+        let options = ReadOptions {
+            wall_clock,
+            ..skip_options()
+        };
+        let mut reader = RecordingReader::with_options(input, "live", options).unwrap();
+        // Per message taken, how many message lines had been read when it came out.
+        let mut taken = Vec::new();
+        while let Some(m) = reader.next_message() {
+            taken.push((m.unwrap(), num_read.get() - 1));
+        }
+        (taken, reader.into_stats())
+    };
+    let mut expected = msgs.clone();
+    expected.remove(4);
+    // With the wall clock, each sample comes out as soon as its line is read, but the first,
+    // which has no earlier line to measure a pause from and waits for the next one.
+    let (taken, stats) = read(true);
+    let got: Vec<Message> = taken.iter().map(|(m, _)| m.clone()).collect();
+    assert_eq!(got, expected);
+    let lines_read: Vec<usize> = taken.iter().map(|(_, n)| *n).collect();
+    assert_eq!(lines_read, vec![2, 2, 3, 4, 6, 7]);
+    assert_eq!(stats.skipped.get(&ErrorKind::TimeJump), Some(&1));
+    // Without it, each sample waits for the next line (which, 0.3 s later, confirms it and
+    // waits in turn), and the last one for the end of the input.
+    let (taken, stats) = read(false);
+    let got: Vec<Message> = taken.iter().map(|(m, _)| m.clone()).collect();
+    assert_eq!(got, expected);
+    let lines_read: Vec<usize> = taken.iter().map(|(_, n)| *n).collect();
+    assert_eq!(lines_read, vec![2, 3, 4, 5, 7, 7]);
+    assert_eq!(stats.skipped.get(&ErrorKind::TimeJump), Some(&1));
+}

@@ -67,7 +67,10 @@ pub struct RunArgs {
     /// clock: while no line arrives, the engine is told that time passes
     /// (`Engine::advance_to`), so when every source falls silent the last decisions still come
     /// out, a few seconds later (`latency_s` + `silence_timeout_s`), instead of at the end of
-    /// the input. Output then depends on when lines arrive; without it a run is reproducible.
+    /// the input; and a line that leads the others after a pause is taken when it comes, not
+    /// held until the next two lines confirm it (the pause is vouched for by the wall clock,
+    /// `ReadOptions::wall_clock`). Output then depends on when lines arrive; without it a run
+    /// is reproducible.
     #[arg(long)]
     pub live: bool,
 }
@@ -494,7 +497,12 @@ pub fn run_file(
     skip: Option<SkipLimit>,
     extras: &EngineExtras,
 ) -> Result<String> {
-    let options = ReadOptions::with_policy(read_policy(skip));
+    // Live, the wall clock vouches for a pause: a line after one is not held for the two lines
+    // that would otherwise confirm it (while the engine's clock runs on without it).
+    let options = ReadOptions {
+        wall_clock: extras.live,
+        ..ReadOptions::with_policy(read_policy(skip))
+    };
     let mut input = if extras.live {
         Input::live(recording, options)?
     } else {
