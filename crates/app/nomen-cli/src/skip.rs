@@ -57,7 +57,7 @@ impl SkipLimit {
         let read = stats.num_accepted + skipped;
         let exceeded = match *self {
             SkipLimit::Lines(n) => skipped > n,
-            // In integers where possible: 1 of 100 lines is within 1 %.
+            // Cross-multiplied, so that 1 line of 100 is within 1 % exactly.
             SkipLimit::Percent(p) => skipped as f64 * 100.0 > p * read as f64,
         };
         if exceeded {
