@@ -28,4 +28,4 @@ pub use registry::{
 };
 pub use sensor::{ImuSample, RssiRead, RtlsFix, UwbRange};
 pub use skeleton::{Joint, JointObservation, JointState, SkeletonObservation};
-pub use time::{ClockModel, SessionTime};
+pub use time::{ClockModel, MAX_ABS_SESSION_TIME_S, SessionTime};

@@ -183,9 +183,21 @@ impl Message {
         }
     }
 
-    /// Checks the message's own values (finiteness, units sanity). Cross-message checks (known
-    /// ids, monotonic time) belong to readers.
+    /// Checks the message's own values (finiteness, units sanity, a time within
+    /// [`crate::time::MAX_ABS_SESSION_TIME_S`] of the session's origin). Cross-message checks
+    /// (known ids, monotonic time) belong to readers.
     pub fn validate(&self) -> Result<()> {
+        // The sensor messages' own checks include the time.
+        if !matches!(
+            self,
+            Message::Skeleton(_)
+                | Message::Imu(_)
+                | Message::RtlsFix(_)
+                | Message::UwbRange(_)
+                | Message::Rssi(_)
+        ) {
+            self.t().check_plausible()?;
+        }
         match self {
             Message::Skeleton(m) => m.validate(),
             Message::Imu(m) => m.validate(),

@@ -38,6 +38,7 @@ pub struct ImuSample {
 impl ImuSample {
     /// Checks finiteness and plausible ranges.
     pub fn validate(&self) -> Result<()> {
+        self.t.check_plausible()?;
         check_finite_all("accel_mps2", self.accel_mps2.as_slice())?;
         check_finite_all("gyro_radps", self.gyro_radps.as_slice())?;
         for (i, v) in self.accel_mps2.iter().enumerate() {
@@ -96,6 +97,7 @@ pub struct RtlsFix {
 impl RtlsFix {
     /// Checks finiteness, coordinate bounds and a symmetric covariance with non-negative diagonal.
     pub fn validate(&self) -> Result<()> {
+        self.t.check_plausible()?;
         for (i, v) in self.position_m.iter().enumerate() {
             check_range_lazy(
                 || format!("position_m[{i}]"),
@@ -144,6 +146,7 @@ pub struct UwbRange {
 impl UwbRange {
     /// Checks the range is finite and in `0..=1000` m.
     pub fn validate(&self) -> Result<()> {
+        self.t.check_plausible()?;
         check_range("range_m", self.range_m, 0.0, 1000.0, "m")
     }
 }
@@ -170,6 +173,7 @@ pub struct RssiRead {
 impl RssiRead {
     /// Checks the RSSI is a plausible dBm value (rejects dBm×100 and NaN).
     pub fn validate(&self) -> Result<()> {
+        self.t.check_plausible()?;
         check_range(
             "rssi_dbm",
             self.rssi_dbm,

@@ -1,5 +1,6 @@
 //! Time on the session clock.
 
+use crate::error::{Result, check_range};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::ops::{Add, Sub};
@@ -13,6 +14,11 @@ use std::ops::{Add, Sub};
 )]
 #[serde(transparent)]
 pub struct SessionTime(pub i64);
+
+/// The furthest a message may be stamped from the session's origin, s: 150 years. Unix-epoch
+/// nanoseconds (about 56 years in 2026) fit; the nanosecond clock's own ends (±292 years), at
+/// which an engine's window and reorder arithmetic would leave the clock, stay far away.
+pub const MAX_ABS_SESSION_TIME_S: f64 = 150.0 * 365.25 * 86_400.0;
 
 impl SessionTime {
     /// The session origin.
@@ -32,6 +38,17 @@ impl SessionTime {
         } else {
             None
         }
+    }
+
+    /// Refuses (as field `t`) a time further than [`MAX_ABS_SESSION_TIME_S`] from the origin.
+    pub fn check_plausible(self) -> Result<()> {
+        check_range(
+            "t",
+            self.as_secs_f64(),
+            -MAX_ABS_SESSION_TIME_S,
+            MAX_ABS_SESSION_TIME_S,
+            "s",
+        )
     }
 
     /// Nanoseconds since the origin.
@@ -108,6 +125,18 @@ impl ClockModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_time_within_150_years_of_the_origin_is_plausible_and_the_clocks_ends_are_not() {
+        // Unix-epoch nanoseconds in 2026, and a day before the origin.
+        for ns in [1_764_000_000_000_000_000, -86_400_000_000_000, 0] {
+            assert!(SessionTime::from_ns(ns).check_plausible().is_ok(), "{ns}");
+        }
+        for ns in [i64::MIN, i64::MAX, 5_000_000_000_000_000_000] {
+            let e = SessionTime::from_ns(ns).check_plausible().unwrap_err();
+            assert!(e.to_string().starts_with("t = "), "{e}");
+        }
+    }
 
     #[test]
     fn seconds_round_trip_to_the_nanosecond() {

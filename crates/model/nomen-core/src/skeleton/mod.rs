@@ -380,8 +380,10 @@ pub struct SkeletonObservation {
 pub const MAX_COORDINATE_M: f64 = 10_000.0;
 
 impl SkeletonObservation {
-    /// Checks finiteness and plausibility of every joint that is not `Missing`.
+    /// Checks the time ([`SessionTime::check_plausible`]) and the finiteness and plausibility of
+    /// every joint that is not `Missing`.
     pub fn validate(&self) -> Result<()> {
+        self.t.check_plausible()?;
         for (j, obs) in self.joints.iter() {
             obs.validate_as(j)?;
         }
