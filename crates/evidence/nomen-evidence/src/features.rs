@@ -405,7 +405,7 @@ impl SegmentFeatures {
                 let head = if a == 0 && keep_grid_start {
                     a
                 } else {
-                    (a + samples).min(b)
+                    a.saturating_add(samples).min(b)
                 };
                 let tail = if b == n {
                     b
@@ -993,10 +993,14 @@ mod tests {
         let mut seg = fresh();
         seg.drop_run_edges(3, false);
         assert_eq!(present(&seg.vertical_accel), vec![8, 9]);
-        // Nothing dropped at zero samples.
+        // Nothing dropped at zero samples; every run dropped at `usize::MAX` (whose sum with a
+        // run's start used to wrap, and panic on the slice).
         let mut seg = fresh();
         seg.drop_run_edges(0, false);
         assert_eq!(present(&seg.vertical_velocity), present(&signal));
+        let mut seg = fresh();
+        seg.drop_run_edges(usize::MAX, false);
+        assert_eq!(present(&seg.accel_magnitude), Vec::<usize>::new());
     }
 
     #[test]

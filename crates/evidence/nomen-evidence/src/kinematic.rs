@@ -308,17 +308,27 @@ pub fn body_turn_rate_signal(skel: &SkeletonWindow, cfg: &KinematicConfig) -> Ve
     skeleton_yaw_rate_radps(skel, &belmonte)
 }
 
-/// The turn-rate smoothing in samples of a grid (at least one).
+/// The turn-rate smoothing in samples of a grid (at least one, and no more than the grid has
+/// plus one: an average longer than its series is that series' running mean, and a grid of
+/// stamps a nanosecond apart would otherwise ask for billions).
 fn smoothing_samples(t_s: &[f64], cfg: &KinematicConfig) -> usize {
     grid_rate_hz(t_s)
-        .map(|r| (cfg.turn_smoothing_s * r).round().max(1.0) as usize)
+        .map(|r| {
+            (cfg.turn_smoothing_s * r)
+                .round()
+                .clamp(1.0, t_s.len() as f64 + 1.0) as usize
+        })
         .unwrap_or(1)
 }
 
 /// The swing lag in samples of a grid (at least one).
 pub(crate) fn lag_samples(t_s: &[f64], cfg: &KinematicConfig) -> usize {
     grid_rate_hz(t_s)
-        .map(|r| (cfg.swing_lag_s * r).round().max(1.0) as usize)
+        .map(|r| {
+            (cfg.swing_lag_s * r)
+                .round()
+                .clamp(1.0, t_s.len().max(1) as f64) as usize
+        })
         .unwrap_or(1)
 }
 
@@ -327,6 +337,31 @@ mod tests {
     use super::*;
     use nalgebra::Point3;
     use nomen_core::skeleton::Joints;
+
+    #[test]
+    fn a_grid_of_stamps_a_nanosecond_apart_smooths_and_lags_within_its_own_length() {
+        // The smoothing (0.7 s) and the swing lag (0.2 s) in samples of a 1-GHz grid are
+        // hundreds of millions: the turn rate used to ask for gigabytes (at 1 ps, an abort).
+        for dt_s in [1e-9, 1e-12, 1e-300] {
+            let n = 3;
+            let imu = ImuWindow {
+                device: None,
+                t_s: (0..n).map(|i| i as f64 * dt_s).collect(),
+                accel_mps2: vec![Vector3::new(0.0, 0.0, 9.81); n],
+                gyro_radps: vec![Vector3::new(0.0, 0.0, 0.5); n],
+                world_from_sensor: vec![UnitQuaternion::identity(); n],
+            };
+            let cfg = KinematicConfig::default();
+            let turn = imu_turn_rate_signal(&imu, &cfg);
+            assert_eq!(turn.len(), n);
+            assert!(
+                turn.iter().all(|v| (v - 0.5).abs() < 1e-12),
+                "{dt_s}: {turn:?}"
+            );
+            assert_eq!(lag_samples(&imu.t_s, &cfg), n);
+            assert_eq!(smoothing_samples(&imu.t_s, &cfg), n + 1);
+        }
+    }
 
     /// A forearm (elbow fixed, wrist on a 0.3 m arc) swinging by `angle(t)` about the world y
     /// axis, seen by the camera, and an IMU on it with its orientation and specific force.

@@ -448,13 +448,24 @@ impl BoxcarState {
     }
 }
 
+/// The longest [`MovingAverage`], samples (its buffer is allocated up front).
+pub const MAX_MOVING_AVERAGE_LEN: usize = 1 << 20;
+
 impl MovingAverage {
-    /// A moving average over `len` samples (`len` ≥ 1).
+    /// A moving average over `len` samples (1 to [`MAX_MOVING_AVERAGE_LEN`]).
     pub fn new(len: usize) -> Result<Self> {
         if len == 0 {
             return Err(FilterError::InvalidParameter {
                 name: "len",
                 reason: "moving average needs at least one sample".into(),
+            });
+        }
+        if len > MAX_MOVING_AVERAGE_LEN {
+            return Err(FilterError::InvalidParameter {
+                name: "len",
+                reason: format!(
+                    "a moving average of at most {MAX_MOVING_AVERAGE_LEN} samples, got {len}"
+                ),
             });
         }
         Ok(Self {
@@ -481,6 +492,9 @@ pub fn moving_average_in_place(x: &mut [f64], len: usize) {
     if len <= 1 {
         return;
     }
+    // An average longer than the series never fills: it is the series' running mean whatever
+    // its length, so a huge `len` allocates no more than the series.
+    let len = len.min(x.len().saturating_add(1));
     let mut inline = [0.0; INLINE_LEN];
     let mut heap = Vec::new();
     let ring = match inline.get_mut(..len) {
@@ -633,6 +647,26 @@ mod tests {
             assert_eq!(a.process(f64::NAN), None);
             assert_eq!(ya, b.process(x));
         }
+    }
+
+    #[test]
+    fn a_moving_average_longer_than_anything_allocates_nothing_it_cannot() {
+        // In place: longer than the series is the series' running mean, whatever the length
+        // (`usize::MAX` had panicked with a capacity overflow).
+        let series = [1.0, 2.0, f64::NAN, 6.0];
+        for len in [5, 1000, usize::MAX] {
+            let mut x = series;
+            moving_average_in_place(&mut x, len);
+            assert_eq!(x[..2], [1.0, 1.5]);
+            assert!(x[2].is_nan());
+            assert_eq!(x[3], 3.0);
+        }
+        // Streaming, its buffer is allocated up front: refused beyond the bound.
+        assert!(MovingAverage::new(MAX_MOVING_AVERAGE_LEN).is_ok());
+        assert!(matches!(
+            MovingAverage::new(usize::MAX),
+            Err(FilterError::InvalidParameter { name: "len", .. })
+        ));
     }
 
     #[test]
