@@ -171,9 +171,9 @@ pub struct EngineConfig {
     pub silence_timeout_s: f64,
     /// How far ahead of every time the engine has seen a message may be stamped, s; one stamped
     /// further is refused ([`crate::EngineError::TimeJump`]) unless the message of its source
-    /// before it was refused for the same reason, less than this much earlier (a clock that
-    /// really jumped, or a session that resumed after everyone was silent, costs one message
-    /// per source). Without it, one corrupt timestamp an hour ahead would put its source's
+    /// before it was refused for the same reason, less than this much earlier, with no message
+    /// at the old time since (a session that resumed after everyone was silent costs one
+    /// message per source; a source that jumps while the others go on is refused throughout). Without it, one corrupt timestamp an hour ahead would put its source's
     /// reorder window an hour ahead, so that every later message of that source is refused as
     /// late, and every window until then would time out waiting for the others. The session's
     /// first message waits for the next one and is dropped if that is stamped more than this
@@ -946,6 +946,10 @@ impl Default for EngineConfig {
 /// stepping through empty time window by window.
 const MAX_DURATION_S: f64 = 86_400.0;
 
+/// The most samples a model's setting may count (a moving average's length, a correlation's
+/// minimum): far beyond any window, and small enough to allocate.
+const MAX_MODEL_SAMPLES: usize = 100_000;
+
 /// Shortest non-zero duration, s (a microsecond): shorter ones round to nothing in
 /// nanoseconds, or nearly so.
 const MIN_DURATION_S: f64 = 1e-6;
@@ -959,9 +963,47 @@ pub(crate) fn ns(s: f64) -> i64 {
 }
 
 impl EngineConfig {
+    /// The models' own settings ([`EngineConfig::geometric`], [`EngineConfig::kinematic`],
+    /// [`EngineConfig::belmonte`]): lengths and times that a window's signals can hold. Beyond
+    /// them a moving average asked for billions of samples, and the engine ran out of memory.
+    fn validate_models(&self) -> Result<()> {
+        let (g, k, b) = (&self.geometric, &self.kinematic, &self.belmonte);
+        for (name, v) in [
+            ("geometric.moving_average_len", g.moving_average_len),
+            ("belmonte.moving_average_len", b.moving_average_len),
+            ("geometric.min_samples", g.min_samples),
+            ("belmonte.min_samples", b.min_samples),
+        ] {
+            if v > MAX_MODEL_SAMPLES {
+                return Err(EngineError::InvalidConfig(format!(
+                    "{name} must be at most {MAX_MODEL_SAMPLES} samples, got {v}"
+                )));
+            }
+        }
+        for (name, v, max) in [
+            ("kinematic.turn_smoothing_s", k.turn_smoothing_s, 60.0),
+            ("kinematic.swing_lag_s", k.swing_lag_s, 60.0),
+            (
+                "geometric.leak_time_constant_s",
+                g.leak_time_constant_s,
+                3600.0,
+            ),
+            ("geometric.lowpass_cutoff_hz", g.lowpass_cutoff_hz, 1000.0),
+            ("geometric.gravity_mps2", g.gravity_mps2, 100.0),
+            ("belmonte.min_heading_line_m", b.min_heading_line_m, 10.0),
+        ] {
+            if !(v.is_finite() && (0.0..=max).contains(&v)) {
+                return Err(EngineError::InvalidConfig(format!(
+                    "{name} must be in 0..={max}, got {v}"
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// Checks every value is finite and in range: every duration (a `_s` setting) at most a
     /// day and, unless zero, at least a microsecond; `window_s` and `hop_s` at least a
-    /// millisecond.
+    /// millisecond; the models' own settings within what a window can hold.
     pub fn validate(&self) -> Result<()> {
         let positive = [
             ("window_s", self.window_s),
@@ -1120,6 +1162,7 @@ impl EngineConfig {
                 self.inferred_joint_noise_factor
             )));
         }
+        self.validate_models()?;
         if self.hop_s > self.window_s {
             return Err(EngineError::InvalidConfig(format!(
                 "hop_s ({}) must not exceed window_s ({})",

@@ -134,10 +134,14 @@ const SWAP_RETURN_WINDOW_NS: i64 = 100_000_000;
 
 /// Refuses a message stamped more than `max_ns` ahead of every time seen so far, unless the
 /// message of its source before it was refused for that too and lies before it, less than
-/// `max_ns` earlier: a corrupt timestamp is refused, and a clock that really jumped (or a
-/// session resuming after a general silence) is followed from its source's second message on.
-/// Messages at the same time as the refused one (a camera frame's other tracks) are refused
-/// as well: they are the same frame, not a second one.
+/// `max_ns` earlier, and no message since (of any source) was at the old time: a corrupt
+/// timestamp is refused, and a session resuming after a general silence is followed from each
+/// source's second message on. A source whose stamps jump while the others go on where they
+/// were contradicts them: each of its messages is refused (two corrupt frames in a row, with
+/// the other sources' samples between them, are two refusals, not a jump taken that would
+/// leave every later frame of that camera late). Messages at the same time as the refused one
+/// (a camera frame's other tracks) are refused as well: they are the same frame, not a second
+/// one.
 struct TimeJumpGuard {
     max_ns: i64,
     /// Per source, the time of its last message, if that was refused as a jump.
@@ -190,9 +194,9 @@ impl TimeJumpGuard {
     ) -> Result<()> {
         let ahead_ns = newest.map_or(0, |n| t.saturating_sub(n));
         if ahead_ns <= self.max_ns {
-            if !self.refused.is_empty() {
-                self.refused.remove(source);
-            }
+            // A message at the old time: no jump waiting for confirmation is confirmed by it,
+            // and the sources that jumped are contradicted.
+            self.refused.clear();
             return Ok(());
         }
         if let Some(&before) = self.refused.get(source)
@@ -670,7 +674,6 @@ impl Engine {
                 + config.track_timeout_s
                 + config.stitch_max_gap_s
                 + config.stitch_velocity_span_s
-                + config.max_latency_s()
                 + config.silence_timeout_s
                 + 2.0 * config.hop_s)
             .saturating_add(DATA_SLOT_NS),
@@ -765,7 +768,7 @@ impl Engine {
                         first.type_name(),
                         message_source(&first),
                         first.t(),
-                        (first_t - t) as f64 * 1e-9
+                        first_t.saturating_sub(t) as f64 * 1e-9
                     ));
                 }
                 Some(_) => {
@@ -870,7 +873,7 @@ impl Engine {
             }
         }
         imu.newest = Some(imu.newest.map_or(t, |n| n.max(t)));
-        imu.frontier = imu.frontier.max(t - self.reorder_ns);
+        imu.frontier = imu.frontier.max(t.saturating_sub(self.reorder_ns));
         self.stats.num_imu_samples += 1;
         settle_imu(imu, &self.config);
         self.note_time(session);
@@ -937,7 +940,7 @@ impl Engine {
             },
         );
         tag.newest = Some(tag.newest.map_or(t, |n| n.max(t)));
-        tag.frontier = tag.frontier.max(t - self.reorder_ns);
+        tag.frontier = tag.frontier.max(t.saturating_sub(self.reorder_ns));
         tag.settle();
         self.stats.num_tag_fixes += 1;
         self.note_time(t);
@@ -986,7 +989,7 @@ impl Engine {
             .check(self.global_max, "rssi", &source, t, r.t)?;
         rssi.pending.insert(key, r.clone());
         rssi.newest = Some(rssi.newest.map_or(t, |n| n.max(t)));
-        rssi.frontier = rssi.frontier.max(t - reorder);
+        rssi.frontier = rssi.frontier.max(t.saturating_sub(reorder));
         let rejected = rssi.settle();
         self.stats.num_rssi_reads += 1;
         self.note_time(t);
@@ -1045,7 +1048,7 @@ impl Engine {
             }
         }
         cam.newest = Some(cam.newest.map_or(t, |n| n.max(t)));
-        cam.frontier = cam.frontier.max(t - self.reorder_ns);
+        cam.frontier = cam.frontier.max(t.saturating_sub(self.reorder_ns));
         let anchor = joint_centroid(&world);
         // A new track's predecessor, if any, is chosen later (`stitch_new_tracks`).
         let track = self
@@ -1111,7 +1114,11 @@ impl Engine {
         }
         self.global_max = Some(self.global_max.map_or(t, |m| m.max(t)));
         if self.next_end.is_none() {
-            self.next_end = Some(t.div_euclid(self.hop_ns) * self.hop_ns + self.hop_ns);
+            self.next_end = Some(
+                t.div_euclid(self.hop_ns)
+                    .saturating_mul(self.hop_ns)
+                    .saturating_add(self.hop_ns),
+            );
         }
     }
 
@@ -1145,8 +1152,8 @@ impl Engine {
 
     /// Appends the decisions that are final (every window they depend on is processed).
     pub fn poll(&mut self, out: &mut Vec<Message>) {
-        while let Some(end) = self.next_end {
-            let settle = end + self.reorder_ns;
+        while let Some(end) = self.next_window() {
+            let settle = end.saturating_add(self.reorder_ns);
             let all_settled = self
                 .cameras
                 .iter()
@@ -1157,7 +1164,7 @@ impl Engine {
                 .all(|n| n >= settle);
             let timed_out = self
                 .global_max
-                .is_some_and(|m| m >= settle + self.silence_ns);
+                .is_some_and(|m| m >= settle.saturating_add(self.silence_ns));
             if !(all_settled || timed_out) {
                 break;
             }
@@ -1170,10 +1177,17 @@ impl Engine {
         out.append(&mut self.ready);
     }
 
-    /// Where to go on from window `end`: `end` itself, or past empty time. When no observation
-    /// waits to be sent and no message lies within reach of the next windows (`idle_lookback_ns`
-    /// before a window's end, `idle_lookahead_ns` after it: a recording paused for minutes, or
-    /// a source whose clock jumped and then went on from there), those windows could read
+    /// The end of the next window to process: none before the first message, nor at the end
+    /// of the clock (a session stamped up to `i64::MAX` has no window after it).
+    fn next_window(&self) -> Option<i64> {
+        self.next_end.filter(|&end| end < i64::MAX)
+    }
+
+    /// Where to go on from window `end`: `end` itself, or past empty time. When no message lies
+    /// within reach of the next windows (`idle_lookback_ns` before a window's end,
+    /// `idle_lookahead_ns` after it: a recording paused for minutes, or a source whose clock
+    /// jumped and then went on from there) and no observation waiting to be sent is due in
+    /// them (`idle_lookahead_ns` before its window at the latest), those windows could read
     /// nothing, and stepping through them one hop at a time would take as long as the gap is
     /// wide (a day of gap is 172,800 windows). The engine jumps to the last window on the same
     /// grid that still reads nothing. A window that reads nothing changes nothing but what time alone changes: the
@@ -1181,18 +1195,33 @@ impl Engine {
     /// window is what it would have dropped by then. Only gaps of at least [`IDLE_SKIP_MIN_NS`]
     /// are skipped, so a recording without long gaps is processed exactly as before.
     fn skip_idle(&mut self, end: i64) -> i64 {
-        if !self.pending_out.is_empty() {
-            return end;
-        }
         let from = end
             .saturating_sub(self.idle_lookback_ns)
             .div_euclid(DATA_SLOT_NS);
-        let Some(&next_slot) = self.data_slots.range(from..).next() else {
-            return end;
+        // With no message ahead, only observations waiting to be sent keep windows coming.
+        let mut last_idle = match self.data_slots.range(from..).next() {
+            Some(&next_slot) => next_slot
+                .saturating_mul(DATA_SLOT_NS)
+                .saturating_sub(self.idle_lookahead_ns),
+            None if self.pending_out.is_empty()
+                && self.tags.iter().all(|tag| tag.to_correct.is_empty()) =>
+            {
+                return end;
+            }
+            None => i64::MAX,
         };
-        let last_idle = next_slot
-            .saturating_mul(DATA_SLOT_NS)
-            .saturating_sub(self.idle_lookahead_ns);
+        // An observation (or a tag fix) waiting to be sent lands as far before its own window
+        // as a message would: the windows that decide and send it are processed one by one.
+        // (A session resumed far ahead of its first messages, or a decision delay of hours,
+        // would otherwise step through the time between.)
+        let waiting = self.pending_out.first().map(|p| p.0).into_iter().chain(
+            self.tags
+                .iter()
+                .filter_map(|tag| tag.to_correct.front().map(|f| f.t)),
+        );
+        for t in waiting {
+            last_idle = last_idle.min(self.due_at(t).saturating_sub(self.idle_lookahead_ns));
+        }
         let room = last_idle.saturating_sub(end);
         if room < IDLE_SKIP_MIN_NS {
             return end;
@@ -1229,8 +1258,10 @@ impl Engine {
         for c in 0..self.cameras.len() {
             self.settle_camera(c, i64::MAX);
         }
-        while let Some(end) = self.next_end {
-            let more_data = self.global_max.is_some_and(|m| m >= end - self.hop_ns);
+        while let Some(end) = self.next_window() {
+            let more_data = self
+                .global_max
+                .is_some_and(|m| m >= end.saturating_sub(self.hop_ns));
             if self.pending_out.is_empty() && !more_data {
                 break;
             }
@@ -1243,7 +1274,9 @@ impl Engine {
     }
 
     fn process_window(&mut self, end: i64) {
-        self.next_end = Some(end + self.hop_ns);
+        // At the end of the clock the next window ends at `i64::MAX`, which is never processed
+        // (see `next_window`).
+        self.next_end = Some(end.saturating_add(self.hop_ns));
         self.stats.num_windows += 1;
         for imu in &mut self.imus {
             imu.make_contiguous();
@@ -1672,7 +1705,7 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
         .range(..imu.frontier)
         .next_back()
         .map(|(&t, _)| t);
-    if !is_finishing && newest_settled.is_none_or(|t| t - first < AHRS_START_NS) {
+    if !is_finishing && newest_settled.is_none_or(|t| t.saturating_sub(first) < AHRS_START_NS) {
         return false;
     }
     // The current sample's frame as seen from the first one's.

@@ -10,9 +10,11 @@
 
 mod common;
 
-use common::{Person, accuracy, num_skeletons, recording, registry};
+use common::{
+    Person, accuracy, num_skeletons, recording, registry, restamped, restamped_identified,
+};
 use nomen_core::skeleton::{JointState, Joints};
-use nomen_core::{CameraId, DeviceId, Joint, Message, SessionTime};
+use nomen_core::{CameraId, DeviceId, Joint, Message};
 use nomen_engine::{Engine, EngineConfig, EngineError};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -153,16 +155,6 @@ fn from_stranger(m: &Message) -> Message {
     match &mut m {
         Message::Imu(s) => s.device = DeviceId::new("stranger_imu"),
         Message::Skeleton(s) => s.camera = CameraId::new("stranger_cam"),
-        _ => {}
-    }
-    m
-}
-
-fn restamped(m: &Message, t_ns: i64) -> Message {
-    let mut m = m.clone();
-    match &mut m {
-        Message::Imu(s) => s.t = SessionTime::from_ns(t_ns),
-        Message::Skeleton(s) => s.t = SessionTime::from_ns(t_ns),
         _ => {}
     }
     m
@@ -446,13 +438,4 @@ fn num_decided(out: &[Message]) -> usize {
     out.iter()
         .filter(|m| matches!(m, Message::Identified(_)))
         .count()
-}
-
-/// An output moved back by `shift_ns`, to compare with the scene's tracks.
-fn restamped_identified(m: &Message, shift_ns: i64) -> Message {
-    let mut m = m.clone();
-    if let Message::Identified(id) = &mut m {
-        id.t = SessionTime::from_ns(id.t.as_ns() + shift_ns);
-    }
-    m
 }

@@ -351,15 +351,15 @@ fn a_recording_that_pauses_for_months_is_run_past_the_gap_and_named_as_after_a_s
     let people = two_people();
     let part = recording(&people, 12.0);
     let config = EngineConfig::default();
-    // The same twelve seconds again after a pause: 100 s (stepped through, window by window)
-    // or about four months (10^7 s, 20 million windows: skipped).
+    // The same twelve seconds again after a pause: 75 s (more than a time jump, and stepped
+    // through, window by window) or about four months (10^7 s, 20 million windows: skipped).
     let run = |pause_s: f64| {
         let mut msgs = part.clone();
         msgs.extend(shifted(&part, 12.0 + pause_s));
         let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
         (msgs, out, stats)
     };
-    let (short_msgs, short, short_stats) = run(100.0);
+    let (short_msgs, short, short_stats) = run(75.0);
     let (long_msgs, long, long_stats) = run(1e7);
     assert_eq!(short_stats.num_windows_skipped, 0);
     assert!(
@@ -400,7 +400,7 @@ fn a_recording_that_pauses_for_months_is_run_past_the_gap_and_named_as_after_a_s
             })
             .collect()
     };
-    let (a, b) = (after(&short, 100.0), after(&long, 1e7));
+    let (a, b) = (after(&short, 75.0), after(&long, 1e7));
     assert!(a.len() > 600, "{} decisions after the pause", a.len());
     assert_eq!(a, b);
 }
@@ -1413,6 +1413,39 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             "silence_timeout_s",
             EngineConfig {
                 silence_timeout_s: 1e6,
+                ..EngineConfig::default()
+            },
+        ),
+        // The models' own settings: a moving average of `usize::MAX` samples had panicked
+        // ("capacity overflow"), one of 4 billion aborted the process, and an infinite
+        // turn-rate smoothing panicked.
+        (
+            "geometric.moving_average_len",
+            EngineConfig {
+                geometric: GeometricConfig {
+                    moving_average_len: usize::MAX,
+                    ..GeometricConfig::default()
+                },
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "belmonte.moving_average_len",
+            EngineConfig {
+                belmonte: nomen_evidence::BelmonteConfig {
+                    moving_average_len: 1 << 32,
+                    ..Default::default()
+                },
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "kinematic.turn_smoothing_s",
+            EngineConfig {
+                kinematic: nomen_engine::KinematicConfig {
+                    turn_smoothing_s: f64::INFINITY,
+                    ..Default::default()
+                },
                 ..EngineConfig::default()
             },
         ),

@@ -273,3 +273,23 @@ pub fn num_skeletons(msgs: &[Message]) -> usize {
         .filter(|m| matches!(m, Message::Skeleton(_)))
         .count()
 }
+
+/// `m` (an IMU sample or a skeleton) stamped `t_ns` instead.
+pub fn restamped(m: &Message, t_ns: i64) -> Message {
+    let mut m = m.clone();
+    match &mut m {
+        Message::Imu(s) => s.t = SessionTime::from_ns(t_ns),
+        Message::Skeleton(s) => s.t = SessionTime::from_ns(t_ns),
+        _ => {}
+    }
+    m
+}
+
+/// An output moved by `shift_ns`, to compare with the scene's tracks.
+pub fn restamped_identified(m: &Message, shift_ns: i64) -> Message {
+    let mut m = m.clone();
+    if let Message::Identified(id) = &mut m {
+        id.t = SessionTime::from_ns(id.t.as_ns() + shift_ns);
+    }
+    m
+}
