@@ -195,8 +195,11 @@ impl TimeJumpGuard {
         let ahead_ns = newest.map_or(0, |n| t.saturating_sub(n));
         if ahead_ns <= self.max_ns {
             // A message at the old time: no jump waiting for confirmation is confirmed by it,
-            // and the sources that jumped are contradicted.
-            self.refused.clear();
+            // and the sources that jumped are contradicted. (Most messages find nothing to
+            // clear.)
+            if !self.refused.is_empty() {
+                self.refused.clear();
+            }
             return Ok(());
         }
         if let Some(&before) = self.refused.get(source)
