@@ -182,7 +182,8 @@ fn a_decision_delay_of_a_day_jumps_to_the_decisions() {
     };
     let (errors, out, stats) = run(&clean, config, None);
     assert!(errors.is_empty(), "{errors:?}");
-    // Every skeleton decided a day after its frame, named as with the default delay.
+    // Every skeleton decided a day after its frame (in the stream, not on the clock), and
+    // named right.
     assert_eq!(num_decided(&out), num_skeletons(&clean));
     assert!(out.iter().all(|m| m.t().as_ns() < 10_000_000_000));
     assert!(accuracy(&people(), &out, 4.0) > 0.95);
