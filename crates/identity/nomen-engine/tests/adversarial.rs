@@ -11,7 +11,8 @@
 mod common;
 
 use common::{
-    Person, accuracy, num_skeletons, recording, registry, restamped, restamped_identified,
+    Person, accuracy, num_decided, num_skeletons, recording, registry, restamped,
+    restamped_identified,
 };
 use nomen_core::skeleton::{JointState, Joints};
 use nomen_core::{CameraId, DeviceId, Joint, Message};
@@ -432,10 +433,4 @@ fn a_first_message_stamped_an_hour_ahead_is_dropped_when_the_next_one_comes() {
     assert_eq!(result.errors.keys().copied().collect::<Vec<_>>(), vec![1]);
     assert!(result.first_dropped.is_some());
     assert_eq!(num_decided(&result.out), num_clean);
-}
-
-fn num_decided(out: &[Message]) -> usize {
-    out.iter()
-        .filter(|m| matches!(m, Message::Identified(_)))
-        .count()
 }

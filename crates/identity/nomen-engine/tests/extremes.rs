@@ -9,7 +9,8 @@
 mod common;
 
 use common::{
-    Person, accuracy, num_skeletons, recording, registry, restamped, restamped_identified,
+    Person, accuracy, num_decided, num_skeletons, recording, registry, restamped,
+    restamped_identified,
 };
 use nomen_core::{Message, SessionTime};
 use nomen_engine::{Engine, EngineConfig, EngineError, EngineStats};
@@ -45,12 +46,6 @@ fn run(
     }
     engine.finish(&mut out);
     (errors, out, engine.stats().clone())
-}
-
-fn num_decided(out: &[Message]) -> usize {
-    out.iter()
-        .filter(|m| matches!(m, Message::Identified(_)))
-        .count()
 }
 
 /// The clean stream moved by `shift_ns`, run: the refusals, how many skeletons were decided,

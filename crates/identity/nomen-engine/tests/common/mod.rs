@@ -268,6 +268,13 @@ pub fn accuracy(people: &[Person], out: &[Message], from_s: f64) -> f64 {
     right as f64 / n.max(1) as f64
 }
 
+/// How many skeletons `out` names (or leaves anonymous): its identified messages.
+pub fn num_decided(out: &[Message]) -> usize {
+    out.iter()
+        .filter(|m| matches!(m, Message::Identified(_)))
+        .count()
+}
+
 pub fn num_skeletons(msgs: &[Message]) -> usize {
     msgs.iter()
         .filter(|m| matches!(m, Message::Skeleton(_)))
