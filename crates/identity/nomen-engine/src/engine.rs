@@ -1201,30 +1201,30 @@ impl Engine {
         let from = end
             .saturating_sub(self.idle_lookback_ns)
             .div_euclid(DATA_SLOT_NS);
-        // With no message ahead, only observations waiting to be sent keep windows coming.
-        let mut last_idle = match self.data_slots.range(from..).next() {
-            Some(&next_slot) => next_slot
-                .saturating_mul(DATA_SLOT_NS)
-                .saturating_sub(self.idle_lookahead_ns),
-            None if self.pending_out.is_empty()
-                && self.tags.iter().all(|tag| tag.to_correct.is_empty()) =>
-            {
-                return end;
-            }
-            None => i64::MAX,
-        };
+        let next_data = self.data_slots.range(from..).next().map(|&slot| {
+            slot.saturating_mul(DATA_SLOT_NS)
+                .saturating_sub(self.idle_lookahead_ns)
+        });
         // An observation (or a tag fix) waiting to be sent lands as far before its own window
         // as a message would: the windows that decide and send it are processed one by one.
         // (A session resumed far ahead of its first messages, or a decision delay of hours,
         // would otherwise step through the time between.)
-        let waiting = self.pending_out.first().map(|p| p.0).into_iter().chain(
-            self.tags
-                .iter()
-                .filter_map(|tag| tag.to_correct.front().map(|f| f.t)),
-        );
-        for t in waiting {
-            last_idle = last_idle.min(self.due_at(t).saturating_sub(self.idle_lookahead_ns));
-        }
+        let first_due = self
+            .pending_out
+            .first()
+            .map(|p| p.0)
+            .into_iter()
+            .chain(
+                self.tags
+                    .iter()
+                    .filter_map(|tag| tag.to_correct.front().map(|f| f.t)),
+            )
+            .map(|t| self.due_at(t).saturating_sub(self.idle_lookahead_ns))
+            .min();
+        // The earlier of the two; with neither a message ahead nor anything waiting, no jump.
+        let Some(last_idle) = next_data.into_iter().chain(first_due).min() else {
+            return end;
+        };
         let room = last_idle.saturating_sub(end);
         if room < IDLE_SKIP_MIN_NS {
             return end;
