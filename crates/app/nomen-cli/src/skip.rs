@@ -6,7 +6,7 @@
 //! summary printed) and then fail when more lines were skipped than the limit allows.
 
 use anyhow::{Result, bail};
-use nomen_recording::ReadStats;
+use nomen_recording::{ErrorPolicy, ReadStats};
 use std::fmt;
 use std::str::FromStr;
 
@@ -68,6 +68,15 @@ impl SkipLimit {
             );
         }
         Ok(())
+    }
+}
+
+/// The reader's policy for a command's `--skip-bad` (`Some` limit: skip and count bad lines)
+/// or its absence (stop at the first).
+pub fn read_policy(skip: Option<SkipLimit>) -> ErrorPolicy {
+    match skip {
+        Some(_) => ErrorPolicy::SkipAndCount,
+        None => ErrorPolicy::Stop,
     }
 }
 

@@ -7,14 +7,14 @@
 //! whole recording is read first, then decided, then written in time order.
 
 use crate::refine::Refinement;
-use crate::skip::SkipLimit;
+use crate::skip::{SkipLimit, read_policy};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use nomen_core::{Message, Registry};
 use nomen_engine::{Engine, EngineConfig};
 use nomen_recording::{
-    DEFAULT_GLOBAL_TOLERANCE_NS, ErrorPolicy, Header, IdCheck, ReadOptions, ReadStats,
-    RecordingReader, RecordingWriter, WriteOptions,
+    DEFAULT_GLOBAL_TOLERANCE_NS, Header, IdCheck, ReadOptions, ReadStats, RecordingReader,
+    RecordingWriter, WriteOptions,
 };
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
@@ -186,13 +186,6 @@ impl Baseline {
             Baseline::Baptizo => "baptizo",
             Baseline::Llorca(_) => "llorca",
         }
-    }
-}
-
-fn read_policy(skip: Option<SkipLimit>) -> ErrorPolicy {
-    match skip {
-        Some(_) => ErrorPolicy::SkipAndCount,
-        None => ErrorPolicy::Stop,
     }
 }
 

@@ -1,9 +1,10 @@
 //! `nomen validate`: read a recording line by line, check everything, and summarise it.
 
+use crate::skip::read_policy;
 use anyhow::{Result, bail};
 use clap::Args;
 use nomen_core::{Message, SessionTime};
-use nomen_recording::{ErrorPolicy, ReadOptions, RecordingReader};
+use nomen_recording::{ReadOptions, RecordingReader};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::PathBuf;
@@ -47,13 +48,11 @@ impl Summary {
 
 /// Runs `nomen validate`.
 pub fn run(args: ValidateArgs) -> Result<()> {
-    let policy = if args.skip_bad {
-        ErrorPolicy::SkipAndCount
-    } else {
-        ErrorPolicy::Stop
-    };
-    let mut reader =
-        RecordingReader::open_with_options(&args.file, ReadOptions::with_policy(policy))?;
+    let skip = args.skip_bad.then_some(args.max_skipped);
+    let mut reader = RecordingReader::open_with_options(
+        &args.file,
+        ReadOptions::with_policy(read_policy(skip)),
+    )?;
     let mut summary = Summary::default();
     let mut first_error = None;
     for m in reader.by_ref() {
@@ -84,9 +83,8 @@ pub fn run(args: ValidateArgs) -> Result<()> {
     if let Some(e) = first_error {
         bail!("{e}");
     }
-    if args.skip_bad {
-        args.max_skipped
-            .check(&stats, &crate::io::source_name(&args.file))?;
+    if let Some(limit) = skip {
+        limit.check(&stats, &crate::io::source_name(&args.file))?;
     }
     Ok(())
 }
