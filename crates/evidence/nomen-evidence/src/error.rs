@@ -20,6 +20,23 @@ pub enum EvidenceError {
         /// Number of subjects.
         num_subjects: usize,
     },
+    /// A tensor with more entries than [`crate::fusion::MAX_TENSOR_ENTRIES`] (or more than the
+    /// address space holds).
+    #[error(
+        "a score tensor of {num_skeletons} skeletons × {num_subjects} subjects × {num_joints} joints × {num_models} models is too large (at most {max} entries)"
+    )]
+    TooLarge {
+        /// Number of skeletons asked for.
+        num_skeletons: usize,
+        /// Number of subjects asked for.
+        num_subjects: usize,
+        /// Number of distinct joints asked for.
+        num_joints: usize,
+        /// Number of models per entry.
+        num_models: usize,
+        /// The largest number of entries allowed.
+        max: usize,
+    },
     /// A joint the tensor was not built with.
     #[error("joint {joint} is not instrumented in this score tensor")]
     UnknownJoint {

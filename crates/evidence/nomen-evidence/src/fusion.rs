@@ -89,6 +89,10 @@ impl Model {
     }
 }
 
+/// The most entries a [`ScoreTensor`] may hold: 2^26, a gigabyte (a window of the engine holds
+/// tracks × subjects × sites × 4, thousands).
+pub const MAX_TENSOR_ENTRIES: usize = 1 << 26;
+
 /// Scores of one window indexed by (skeleton, subject, joint, model); `None` = missing.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScoreTensor {
@@ -100,21 +104,33 @@ pub struct ScoreTensor {
 
 impl ScoreTensor {
     /// An all-missing tensor for `num_skeletons` skeletons, `num_subjects` subjects and the
-    /// instrumented `joints` (duplicates are dropped; order kept).
-    pub fn new(num_skeletons: usize, num_subjects: usize, joints: &[Joint]) -> Self {
+    /// instrumented `joints` (duplicates are dropped; order kept). Refuses more than
+    /// [`MAX_TENSOR_ENTRIES`] entries.
+    pub fn new(num_skeletons: usize, num_subjects: usize, joints: &[Joint]) -> Result<Self> {
         let mut unique = Vec::with_capacity(joints.len());
         for &j in joints {
             if !unique.contains(&j) {
                 unique.push(j);
             }
         }
-        let len = num_skeletons * num_subjects * unique.len() * Model::ALL.len();
-        Self {
+        let len = num_skeletons
+            .checked_mul(num_subjects)
+            .and_then(|n| n.checked_mul(unique.len()))
+            .and_then(|n| n.checked_mul(Model::ALL.len()))
+            .filter(|&n| n <= MAX_TENSOR_ENTRIES)
+            .ok_or(EvidenceError::TooLarge {
+                num_skeletons,
+                num_subjects,
+                num_joints: unique.len(),
+                num_models: Model::ALL.len(),
+                max: MAX_TENSOR_ENTRIES,
+            })?;
+        Ok(Self {
             num_skeletons,
             num_subjects,
             joints: unique,
             scores: vec![None; len],
-        }
+        })
     }
 
     /// Number of skeletons (rows of the fused matrix).
@@ -433,7 +449,7 @@ mod tests {
     /// Two skeletons, two subjects, one joint. Skeleton s is subject s. Acceleration and velocity
     /// agree, modestly; orientation is strongly wrong.
     fn two_models_right_one_wrong() -> ScoreTensor {
-        let mut t = ScoreTensor::new(2, 2, &[Joint::LeftWrist]);
+        let mut t = ScoreTensor::new(2, 2, &[Joint::LeftWrist]).unwrap();
         let j = Joint::LeftWrist;
         t.set(0, 0, j, scores(0.6, 0.7, -0.9)).unwrap();
         t.set(0, 1, j, scores(0.5, 0.6, 0.9)).unwrap();
@@ -472,7 +488,7 @@ mod tests {
 
     #[test]
     fn ties_share_the_vote_and_missing_rows_abstain() {
-        let mut t = ScoreTensor::new(3, 2, &[Joint::LeftWrist, Joint::RightAnkle]);
+        let mut t = ScoreTensor::new(3, 2, &[Joint::LeftWrist, Joint::RightAnkle]).unwrap();
         let (w, a) = (Joint::LeftWrist, Joint::RightAnkle);
         t.set(0, 0, w, scores(0.5, 0.5, 0.5)).unwrap();
         t.set(0, 1, w, scores(0.5, 0.5, 0.5)).unwrap();
@@ -498,7 +514,7 @@ mod tests {
     /// subject 1, velocity is missing: the geometric ballots tie.
     fn split_geometry(dl: Option<[f64; 2]>) -> ScoreTensor {
         let joints = [Joint::LeftWrist, Joint::RightAnkle];
-        let mut t = ScoreTensor::new(1, 2, &joints);
+        let mut t = ScoreTensor::new(1, 2, &joints).unwrap();
         for &j in &joints {
             for b in 0..2 {
                 let (acc, ori) = if b == 0 { (0.8, 0.3) } else { (0.4, 0.7) };
@@ -566,7 +582,7 @@ mod tests {
 
     #[test]
     fn bad_indices_are_errors_and_nan_is_missing() {
-        let mut t = ScoreTensor::new(1, 1, &[Joint::Pelvis]);
+        let mut t = ScoreTensor::new(1, 1, &[Joint::Pelvis]).unwrap();
         assert!(t.set(1, 0, Joint::Pelvis, ModelScores::default()).is_err());
         assert!(t.set(0, 0, Joint::Chest, ModelScores::default()).is_err());
         t.set(0, 0, Joint::Pelvis, scores(f64::NAN, 0.3, 0.2))
@@ -577,12 +593,12 @@ mod tests {
             None
         );
         let empty = fuse(
-            &ScoreTensor::new(0, 0, &[]),
+            &ScoreTensor::new(0, 0, &[]).unwrap(),
             Fusion::ModelVote,
             &FusionConfig::default(),
         );
         assert!(empty.scores.is_empty());
-        let mut u = ScoreTensor::new(1, 1, &[Joint::Pelvis]);
+        let mut u = ScoreTensor::new(1, 1, &[Joint::Pelvis]).unwrap();
         u.set(
             0,
             0,
@@ -592,5 +608,23 @@ mod tests {
         .unwrap();
         assert_eq!(u.get(0, 0, Joint::Pelvis, Model::Dl), None);
         assert_eq!(u.get(0, 0, Joint::Pelvis, Model::Acc), Some(0.1));
+    }
+
+    #[test]
+    fn a_tensor_too_large_to_hold_is_refused_by_its_sizes() {
+        let joints = [Joint::Pelvis, Joint::LeftWrist];
+        // The product wraps past usize::MAX, or does not but is past the limit.
+        for (skeletons, subjects) in [(usize::MAX, 3), (1 << 20, 1 << 10)] {
+            let e = ScoreTensor::new(skeletons, subjects, &joints).unwrap_err();
+            assert!(
+                matches!(e, EvidenceError::TooLarge { num_skeletons, num_subjects, num_joints: 2, .. }
+                    if num_skeletons == skeletons && num_subjects == subjects),
+                "{e:?}"
+            );
+            assert!(e.to_string().contains("too large"), "{e}");
+        }
+        // One skeleton past the limit (at the limit it would take a gigabyte).
+        let per_skeleton = 2 * Model::ALL.len();
+        assert!(ScoreTensor::new(MAX_TENSOR_ENTRIES / per_skeleton + 1, 1, &joints).is_err());
     }
 }

@@ -40,7 +40,7 @@ pub use features::{
     compare_features, compare_prepared, horizontal_cross, imu_lag_models, segment_lag_models,
     segment_site_lag_models,
 };
-pub use fusion::{Fusion, FusionConfig, Model, ScoreMatrix, ScoreTensor, fuse};
+pub use fusion::{Fusion, FusionConfig, MAX_TENSOR_ENTRIES, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{
     GeometricConfig, carrying_segment, geometric_scores, imu_accel_magnitude,
     imu_linear_accel_world, imu_orientation_magnitude, imu_velocity_magnitude,
