@@ -12,8 +12,9 @@
 //! - A sample may arrive out of order by up to [`SyncConfig::reorder_window_ns`] behind the newest
 //!   sample of its source; older samples, and samples before the window being assembled, are
 //!   rejected as late. A second sample with the same (offset) timestamp is rejected as a
-//!   duplicate. A sample with a non-finite value is rejected as missing. All three are counted
-//!   per source ([`SourceCounters`]); none is an error.
+//!   duplicate. A sample with a non-finite value is rejected as missing, and one stamped more
+//!   than 150 years from the origin as implausible (no window ends beyond that either). All
+//!   four are counted per source ([`SourceCounters`]); none is an error.
 //!
 //! # Completeness
 //! A source *covers* a window `[start, end)` when its first sample in the window is at most
@@ -118,6 +119,10 @@ pub enum PushOutcome {
     RejectedLate,
     /// A value was not finite (missing data).
     RejectedNonFinite,
+    /// The time, on the session clock, is further than
+    /// [`MAX_ABS_SESSION_TIME_S`](nomen_core::time::MAX_ABS_SESSION_TIME_S) from the origin: a
+    /// corrupt stamp, which would otherwise take the windows to the clock's end.
+    RejectedImplausibleTime,
 }
 
 /// Per-source counts of what happened on ingest.
@@ -131,6 +136,8 @@ pub struct SourceCounters {
     pub num_late: u64,
     /// Samples with non-finite values rejected.
     pub num_non_finite: u64,
+    /// Samples stamped implausibly far from the origin rejected.
+    pub num_implausible_time: u64,
 }
 
 /// Whether a source covered a window.
@@ -300,6 +307,10 @@ impl WindowSync {
             return Ok(PushOutcome::RejectedNonFinite);
         }
         let t = device_t + src.config.clock_offset_ns;
+        if t.check_plausible().is_err() {
+            src.counters.num_implausible_time += 1;
+            return Ok(PushOutcome::RejectedImplausibleTime);
+        }
         let window_start =
             first_start.unwrap_or(SessionTime::from_ns(t.as_ns().div_euclid(hop_ns) * hop_ns));
         let is_late = t < window_start || src.newest.is_some_and(|newest| t < newest - reorder_ns);
@@ -336,6 +347,11 @@ impl WindowSync {
         };
         let cfg = self.config;
         let end = start + cfg.window_ns;
+        // No window ends past the plausible range: at the clock's end, saturating arithmetic
+        // would emit the same window for ever.
+        if end.check_plausible().is_err() {
+            return false;
+        }
         let timed_out = now >= end + cfg.silence_timeout_ns;
         let all_settled = self
             .sources

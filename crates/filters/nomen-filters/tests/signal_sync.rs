@@ -234,3 +234,51 @@ fn clock_offset_is_applied_on_ingest() {
             .is_err()
     );
 }
+
+#[test]
+fn stamps_beyond_150_years_are_refused_and_no_window_leaves_the_clock() {
+    let edge_ns = (nomen_core::MAX_ABS_SESSION_TIME_S * 1e9) as i64;
+    let mut sync = WindowSync::new(SyncConfig {
+        first_window_start: Some(SessionTime::from_ns(edge_ns - 3_200 * MS)),
+        ..config()
+    })
+    .unwrap();
+    let a = sync
+        .add_source(SourceConfig {
+            dim: 1,
+            clock_offset_ns: 0,
+        })
+        .unwrap();
+    let shifted = sync
+        .add_source(SourceConfig {
+            dim: 1,
+            clock_offset_ns: i64::MAX / 2,
+        })
+        .unwrap();
+    // 100 Hz up to 10 ms before the edge; then the clock's end, directly and by an offset.
+    for i in (1..=320).rev() {
+        let t = SessionTime::from_ns(edge_ns - i * 10 * MS);
+        assert_eq!(sync.push(a, t, &[1.0]).unwrap(), PushOutcome::Accepted);
+    }
+    for (source, t) in [
+        (a, i64::MAX),
+        (a, edge_ns + MS),
+        (shifted, edge_ns / 2 + MS),
+    ] {
+        assert_eq!(
+            sync.push(source, SessionTime::from_ns(t), &[1.0]).unwrap(),
+            PushOutcome::RejectedImplausibleTime,
+            "{t}"
+        );
+    }
+    assert_eq!(sync.counters(a).unwrap().num_implausible_time, 2);
+    assert_eq!(sync.counters(shifted).unwrap().num_implausible_time, 1);
+    // Polled at the clock's end, the windows stop where the plausible range does: the five
+    // that end within it (the next would end 0.3 s past it), not the same window for ever.
+    let mut w = SyncedWindow::default();
+    let mut ends = Vec::new();
+    while ends.len() < 100 && sync.poll(SessionTime::from_ns(i64::MAX), &mut w) {
+        ends.push(w.end.as_ns() - edge_ns);
+    }
+    assert_eq!(ends, [-2_200, -1_700, -1_200, -700, -200].map(|ms| ms * MS));
+}
