@@ -1,8 +1,9 @@
 //! Streams at the edges of time: a session stamped far from its origin or at the clock's ends, a first message
 //! a year before the rest, two camera frames stamped a year ahead, and a decision delay of a
-//! day. The engine must neither hang (step through the empty time one window at a time, or
-//! loop at the end of the clock) nor lose a source for good. No test is timed: the number of
-//! windows the engine processed says whether it stepped through the empty time.
+//! day; and a frame of thousands of tracks. The engine must neither hang (step through the
+//! empty time one window at a time, or loop at the end of the clock) nor lose a source for
+//! good. No test is timed: the number of windows the engine processed says whether it stepped
+//! through the empty time.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -12,7 +13,7 @@ use common::{
     Person, accuracy, num_decided, num_skeletons, recording, registry, restamped,
     restamped_identified,
 };
-use nomen_core::{Message, SessionTime};
+use nomen_core::{Message, SessionTime, TrackId};
 use nomen_engine::{Engine, EngineConfig, EngineError, EngineStats};
 
 const YEAR_NS: i64 = 365 * 86_400_000_000_000;
@@ -185,4 +186,40 @@ fn a_decision_delay_of_a_day_jumps_to_the_decisions() {
     // 172,800 windows of a day between the last frame and the decisions, jumped over.
     assert!(stats.num_windows < 1_000, "{} windows", stats.num_windows);
     assert!(stats.num_windows_skipped > 170_000, "{stats:?}");
+}
+
+#[test]
+fn a_frame_of_thousands_of_new_tracks_is_decided_whole_and_the_people_keep_their_names() {
+    let clean = recording(&people(), 10.0);
+    // At 4 s, 3,000 more tracks in one frame: copies of a person, 1 cm apart.
+    let Some(Message::Skeleton(person)) = clean
+        .iter()
+        .find(|m| matches!(m, Message::Skeleton(_)) && m.t().as_ns() >= 4_000_000_000)
+    else {
+        panic!("the recording has frames after 4 s");
+    };
+    const FIRST_COPY: u64 = 1_000;
+    let copies = (0..3_000u64).map(|k| {
+        let mut copy = person.clone();
+        copy.track = TrackId(FIRST_COPY + k);
+        for j in nomen_core::Joint::ALL {
+            if let Some(o) = copy.joints.get_mut(j) {
+                o.position_m.x += 0.01 * (k + 1) as f64;
+            }
+        }
+        Message::Skeleton(copy)
+    });
+    let mut stream: Vec<Message> = clean.iter().cloned().chain(copies).collect();
+    stream.sort_by_key(|m| m.t());
+    let (errors, out, _) = run(&stream, EngineConfig::default(), None);
+    assert!(errors.is_empty(), "{errors:?}");
+    assert_eq!(num_decided(&out), num_skeletons(&clean) + 3_000);
+    // Each copy was seen once, which names nobody.
+    let named_copies = out.iter().filter(|m| {
+        matches!(m, Message::Identified(id)
+            if id.track.0 >= FIRST_COPY && id.identity.subject().is_some())
+    });
+    assert_eq!(named_copies.count(), 0);
+    assert!(accuracy(&people(), &out, 4.0) > 0.95);
+    assert!(accuracy(&people(), &out, 6.0) > 0.95);
 }

@@ -118,11 +118,9 @@ impl Engine {
             let tag_decay = self.tag_decay_per_hop;
             let rssi_decay = self.rssi_decay_per_hop;
             let matrix = match self.config.motion_score {
-                MotionScore::DeMarchi => Some(fuse(
-                    &tensor,
-                    self.config.fusion,
-                    &self.config.fusion_config,
-                )),
+                MotionScore::DeMarchi => tensor
+                    .as_ref()
+                    .map(|t| fuse(t, self.config.fusion, &self.config.fusion_config)),
                 MotionScore::Nomen | MotionScore::Belmonte => None,
             };
             let rssi_matrix = match self.rssi.as_mut() {
@@ -216,7 +214,9 @@ impl Engine {
         let imu_cache = &mut window.imu_cache;
         let imu_bases = &mut window.imu_bases;
         let heading_updates = &mut window.heading_updates;
-        let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &window.sites);
+        // Tracks × subjects × sites × 4 entries: thousands, far below the tensor's limit; past
+        // it (an absurd stream) the camera gets no De Marchi fusion in this window.
+        let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &window.sites).ok();
         let mut device_scores: Vec<((usize, TrackId), usize, f64)> = Vec::new();
         // (row, subject) → (sum, count) of every correlation ([`MotionScore::Nomen`]).
         let mut nomen_sums: BTreeMap<(usize, usize), (f64, f64)> = BTreeMap::new();
@@ -504,7 +504,9 @@ impl Engine {
                     device_scores.push((*key, i, sum / n as f64));
                 }
                 // The indices are in range by construction; a failure only drops a score.
-                let _ = tensor.set(row, imu.subject, imu.site, scores);
+                if let Some(tensor) = tensor.as_mut() {
+                    let _ = tensor.set(row, imu.subject, imu.site, scores);
+                }
             }
         }
         CameraScores {
@@ -604,7 +606,8 @@ const RUN_EDGE_S: f64 = 0.2;
 
 /// One camera's pair scores in a window ([`Engine::score_camera_pairs`]).
 struct CameraScores {
-    tensor: ScoreTensor,
+    /// `None` past [`nomen_evidence::MAX_TENSOR_ENTRIES`].
+    tensor: Option<ScoreTensor>,
     /// `(track, IMU, mean of De Marchi's three correlations)`.
     device_scores: Vec<(TrackKey, usize, f64)>,
     /// (row, subject) → (sum, count) of every correlation ([`MotionScore::Nomen`]).

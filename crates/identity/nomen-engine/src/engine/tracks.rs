@@ -36,11 +36,15 @@ impl Engine {
         let pairs_views = self.config.camera_pair_distance_m > 0.0;
         let wants_view = pairs_views
             || (self.config.stitch_across_cameras && self.config.stitch_max_gap_s > 0.0);
+        if new.is_empty() {
+            return;
+        }
+        let last_seen = LastSeen::before(self, end);
         for (t0, key) in new {
             let view = wants_view
                 .then(|| self.view_from_other_camera(key, t0, end))
                 .flatten();
-            let prev = self.predecessor(key, view, end);
+            let prev = self.predecessor(key, view, &last_seen);
             if let Some(tr) = self.tracks.get_mut(&key) {
                 tr.is_stitch_pending = false;
                 if let Some(view) = view.filter(|v| pairs_views && !tr.views.contains(v)) {
@@ -75,7 +79,7 @@ impl Engine {
     }
 
     /// The ended track of its camera that the new track `key` continues, from the observations
-    /// before `end`. Another camera decides first: when one of its tracks follows the new
+    /// `last_seen` holds. Another camera decides first: when one of its tracks follows the new
     /// track's person (`view`, see [`Engine::view_from_other_camera`]), the predecessor is the
     /// ended track that this view followed when it ended, and there is none if the view
     /// followed no ended track (the person was not seen by this camera just before). Without
@@ -87,7 +91,7 @@ impl Engine {
         &self,
         key: TrackKey,
         view: Option<TrackKey>,
-        end: i64,
+        last_seen: &LastSeen,
     ) -> Option<TrackKey> {
         if self.config.stitch_max_gap_s <= 0.0 {
             return None;
@@ -96,9 +100,9 @@ impl Engine {
         if self.config.stitch_across_cameras
             && let Some(view) = view
         {
-            return self.ended_track_followed_by(key, view, first.t, end);
+            return self.ended_track_followed_by(key, view, first.t, last_seen);
         }
-        self.stitch_candidate(key.0, first.t, &joint_centroid(&first.joints)?, end)
+        self.stitch_candidate(key.0, first.t, &joint_centroid(&first.joints)?, last_seen)
     }
 
     /// The track of another camera that shows the person of the new track `key` (first seen at
@@ -140,11 +144,11 @@ impl Engine {
         key: TrackKey,
         view: TrackKey,
         t0: i64,
-        end: i64,
+        last_seen: &LastSeen,
     ) -> Option<TrackKey> {
         let view = self.tracks.get(&view)?;
         let distances = self
-            .ended_before(key.0, t0, end)
+            .ended_before(key.0, t0, last_seen)
             .filter_map(|(k, tr, last)| {
                 let lo = last.t - STITCH_VIEW_LOOKBACK_NS;
                 let theirs = anchor_path(tr, lo, last.t + 1);
@@ -158,27 +162,37 @@ impl Engine {
     }
 
     /// The tracks of camera `c` that a track first seen at `t0` may continue, as the
-    /// observations before `end` tell: not continued already, last seen at least
-    /// `STITCH_MIN_GAP_NS` and at most `stitch_max_gap_s` before `t0`; with that last sample.
+    /// observations `last_seen` holds tell: not continued already, last seen at least
+    /// `STITCH_MIN_GAP_NS` and at most `stitch_max_gap_s` before `t0`; with that last sample, in
+    /// the order of their ids.
     pub(super) fn ended_before(
         &self,
         c: usize,
         t0: i64,
-        end: i64,
+        last_seen: &LastSeen,
     ) -> impl Iterator<Item = (TrackKey, &TrackState, &TrackSample)> {
         let max_gap = ns(self.config.stitch_max_gap_s);
-        self.tracks
-            .range((c, TrackId(0))..)
-            .take_while(move |(k, _)| k.0 == c)
-            .filter(|(_, tr)| tr.superseded_by.is_none())
-            .filter_map(move |(k, tr)| {
-                let (_, b) = sample_range(tr, i64::MIN, end);
-                let last = tr.samples.get(b.checked_sub(1)?)?;
-                let gap = t0 - last.t;
-                (STITCH_MIN_GAP_NS..=max_gap)
-                    .contains(&gap)
-                    .then_some((*k, tr, last))
-            })
+        let lo = (c, t0.saturating_sub(max_gap), TrackId(0));
+        let hi = (c, t0.saturating_sub(STITCH_MIN_GAP_NS), TrackId(u64::MAX));
+        let from = last_seen
+            .0
+            .partition_point(|&(c, t, id, _)| (c, t, id) < lo);
+        let to = last_seen
+            .0
+            .partition_point(|&(c, t, id, _)| (c, t, id) <= hi);
+        let mut ids: Vec<(TrackId, usize)> = last_seen
+            .0
+            .get(from..to)
+            .unwrap_or(&[])
+            .iter()
+            .map(|&(_, _, id, b)| (id, b))
+            .collect();
+        ids.sort_unstable();
+        ids.into_iter().filter_map(move |(id, b)| {
+            let tr = self.tracks.get(&(c, id))?;
+            let last = tr.samples.get(b)?;
+            tr.superseded_by.is_none().then_some(((c, id), tr, last))
+        })
     }
 
     /// The ended track of camera `c` (see [`Engine::ended_before`]) that a new track first
@@ -195,16 +209,19 @@ impl Engine {
         c: usize,
         t: i64,
         anchor: &Point3<f64>,
-        end: i64,
+        last_seen: &LastSeen,
     ) -> Option<TrackKey> {
-        let relative = self.ended_before(c, t, end).filter_map(|(k, tr, last)| {
-            let gap = t - last.t;
-            let reach =
-                self.config.stitch_radius_m + self.config.stitch_max_speed_mps * gap as f64 * 1e-9;
-            let relative = (anchor - heading_point(tr, last, gap, &self.config)?).norm() / reach;
-            // Out of reach is no rival either.
-            (relative <= 1.0).then_some((k, relative))
-        });
+        let relative = self
+            .ended_before(c, t, last_seen)
+            .filter_map(|(k, tr, last)| {
+                let gap = t - last.t;
+                let reach = self.config.stitch_radius_m
+                    + self.config.stitch_max_speed_mps * gap as f64 * 1e-9;
+                let relative =
+                    (anchor - heading_point(tr, last, gap, &self.config)?).norm() / reach;
+                // Out of reach is no rival either.
+                (relative <= 1.0).then_some((k, relative))
+            });
         unique_nearest(relative, 1.0)
     }
 
@@ -289,19 +306,21 @@ impl Engine {
     /// of another track, and if so the two tracks exchange their people.
     pub(super) fn settle_camera(&mut self, c: usize, frontier: i64) {
         let noise = self.config.joint_noise_std_m;
-        loop {
-            let next = self
-                .tracks
-                .range((c, TrackId(0))..)
-                .take_while(|(k, _)| k.0 == c)
-                .filter_map(|(k, tr)| {
-                    let (&t, frame) = tr.pending.first_key_value()?;
-                    (t < frontier).then(|| (t, k.1, joint_centroid(&frame.joints_world_m)))
-                })
-                .min_by_key(|(t, id, _)| (*t, *id));
-            let Some((t, id, anchor)) = next else {
-                break;
+        // Every observation due, in (time, track) order. Settling one neither adds nor moves
+        // another (an id swap exchanges people, not the observations still pending), so the
+        // order is fixed here once, not by a scan of every track per observation.
+        let mut due: Vec<(i64, TrackId)> = self
+            .tracks
+            .range((c, TrackId(0))..)
+            .take_while(|(k, _)| k.0 == c)
+            .flat_map(|(k, tr)| tr.pending.range(..frontier).map(move |(&t, _)| (t, k.1)))
+            .collect();
+        due.sort_unstable();
+        for (t, id) in due {
+            let Some(frame) = self.tracks.get(&(c, id)).and_then(|tr| tr.pending.get(&t)) else {
+                continue;
             };
+            let anchor = joint_centroid(&frame.joints_world_m);
             if let Some(x) = anchor
                 && let Some((other, returned)) = self.swapped_with(c, id, t, &x)
                 && let Some(mut mine) = self.tracks.remove(&(c, id))
@@ -500,6 +519,29 @@ pub(super) fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.is_stitch_pending, &mut b.is_stitch_pending);
     std::mem::swap(&mut a.warm_labels, &mut b.warm_labels);
     std::mem::swap(&mut a.views, &mut b.views);
+}
+
+/// Every track's newest settled observation before a time, as `(camera, its time, track,
+/// index in the track's samples)`, sorted: the tracks a new one may continue are a range of it
+/// ([`Engine::ended_before`]), so stitching many new tracks at once does not scan every track
+/// for each. Stitching moves no observation, so it holds for a whole round of stitching.
+pub(super) struct LastSeen(Vec<(usize, i64, TrackId, usize)>);
+
+impl LastSeen {
+    /// The newest observation of each track of `engine` settled before `end`.
+    fn before(engine: &Engine, end: i64) -> Self {
+        let mut v: Vec<_> = engine
+            .tracks
+            .iter()
+            .filter_map(|(&(c, id), tr)| {
+                let (_, b) = sample_range(tr, i64::MIN, end);
+                let b = b.checked_sub(1)?;
+                Some((c, tr.samples.get(b)?.t, id, b))
+            })
+            .collect();
+        v.sort_unstable();
+        Self(v)
+    }
 }
 
 /// The key with the smallest value when that value is at most `limit` and every other value is
