@@ -53,6 +53,18 @@ pub enum RecordingError {
         /// What is wrong with it.
         problem: String,
     },
+    /// The line is longer than [`crate::ReadOptions::max_line_bytes`]: not a recording (a
+    /// binary file, a stream of zeros) or lines run together. Its bytes are read to its end
+    /// but not kept.
+    #[error(
+        "{at}: line longer than {max_bytes} bytes (not a recording, or its newlines are missing)"
+    )]
+    LineTooLong {
+        /// Where.
+        at: Pos,
+        /// The longest line the reader takes, bytes.
+        max_bytes: usize,
+    },
     /// The line is not valid JSON (includes `NaN` tokens and numbers out of `f64` range).
     #[error("{at}: invalid json: {detail}")]
     Json {
@@ -252,6 +264,8 @@ pub enum ErrorKind {
     Io,
     /// [`RecordingError::Header`].
     Header,
+    /// [`RecordingError::LineTooLong`].
+    LineTooLong,
     /// [`RecordingError::Json`].
     Json,
     /// [`RecordingError::Truncated`].
@@ -286,6 +300,7 @@ impl ErrorKind {
         match self {
             ErrorKind::Io => "i/o",
             ErrorKind::Header => "header",
+            ErrorKind::LineTooLong => "line too long",
             ErrorKind::Json => "invalid json",
             ErrorKind::Truncated => "truncated",
             ErrorKind::MissingType => "missing type",
@@ -315,6 +330,7 @@ impl RecordingError {
         match self {
             RecordingError::Io { .. } => ErrorKind::Io,
             RecordingError::Header { .. } => ErrorKind::Header,
+            RecordingError::LineTooLong { .. } => ErrorKind::LineTooLong,
             RecordingError::Json { .. } => ErrorKind::Json,
             RecordingError::Truncated { .. } => ErrorKind::Truncated,
             RecordingError::MissingType { .. } => ErrorKind::MissingType,
@@ -336,6 +352,7 @@ impl RecordingError {
         match self {
             RecordingError::Io { at, .. }
             | RecordingError::Header { at, .. }
+            | RecordingError::LineTooLong { at, .. }
             | RecordingError::Json { at, .. }
             | RecordingError::Truncated { at }
             | RecordingError::MissingType { at }

@@ -807,3 +807,78 @@ fn live_a_pause_the_wall_clock_vouches_for_is_taken_at_once_and_a_corrupt_jump_s
         assert_eq!(stats.skipped.get(&ErrorKind::TimeJump), Some(&1));
     }
 }
+
+/// `text` read with lines capped at `max_line_bytes`, through a 64-byte buffer (so a long
+/// line is skipped over many refills), skipping bad lines: the good messages and the counts.
+fn read_capped(text: &[u8], max_line_bytes: usize) -> (Vec<Message>, nomen_recording::ReadStats) {
+    let options = ReadOptions {
+        max_line_bytes,
+        ..skip_options()
+    };
+    let input = std::io::BufReader::with_capacity(64, text);
+    let mut reader = RecordingReader::with_options(input, "rec.jsonl", options).unwrap();
+    let good = reader.by_ref().map(Result::unwrap).collect();
+    (good, reader.into_stats())
+}
+
+#[test]
+fn a_line_longer_than_the_cap_is_refused_by_line_and_the_next_lines_are_read() {
+    let fits = line(&imu(2 * S, "band1"));
+    // The longest good line, the header, exactly at the cap.
+    let cap = header_line().len().max(fits.len());
+    // A 10-kB line of one JSON string: valid, but past the cap.
+    let long = format!("\"{}\"", "x".repeat(10_000));
+    let text = file(&[
+        line(&imu(S, "band1")),
+        long.clone(),
+        fits,
+        line(&imu(3 * S, "band1")),
+    ]);
+    let (good, stats) = read_capped(text.as_bytes(), cap);
+    assert_eq!(
+        good,
+        vec![imu(S, "band1"), imu(2 * S, "band1"), imu(3 * S, "band1")]
+    );
+    assert_eq!(stats.skipped.get(&ErrorKind::LineTooLong), Some(&1));
+    assert_eq!(stats.num_skipped(), 1);
+    assert_eq!(stats.num_bytes, text.len() as u64);
+    assert_eq!(
+        stats.first_errors[0].to_string(),
+        format!(
+            "rec.jsonl:3: line longer than {cap} bytes (not a recording, or its newlines are missing)"
+        )
+    );
+    // Stopping at it, the messages before it are delivered.
+    let options = ReadOptions {
+        max_line_bytes: cap,
+        ..ReadOptions::default()
+    };
+    let (good, err) = read_with(&text, options);
+    assert_eq!(good, vec![imu(S, "band1")]);
+    assert!(err.unwrap().starts_with("rec.jsonl:3: line longer than"));
+}
+
+#[test]
+fn an_endless_line_is_consumed_without_being_kept_and_a_long_first_line_is_no_header() {
+    // 10 MB without a newline after the header, the cap at 1 KiB: refused, every byte read.
+    let mut text = file(&[line(&imu(S, "band1"))]).into_bytes();
+    let header_len = text.len();
+    text.resize(header_len + 10_000_000, b'7');
+    let (good, stats) = read_capped(&text, 1024);
+    assert_eq!(good, vec![imu(S, "band1")]);
+    assert_eq!(stats.skipped.get(&ErrorKind::LineTooLong), Some(&1));
+    assert_eq!(stats.num_bytes, text.len() as u64);
+    // As the first line, it is no header.
+    let zeros = vec![0u8; 5_000];
+    let options = ReadOptions {
+        max_line_bytes: 1024,
+        ..ReadOptions::default()
+    };
+    let Err(e) = RecordingReader::with_options(&zeros[..], "zeros.bin", options) else {
+        panic!("five thousand zeros taken for a header");
+    };
+    assert_eq!(
+        e.to_string(),
+        "zeros.bin:1: the first line is longer than 1024 bytes: not a nomen recording"
+    );
+}
