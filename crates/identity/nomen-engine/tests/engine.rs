@@ -330,6 +330,26 @@ fn a_silent_imu_does_not_block_output() {
     assert!(accuracy(&people[..1], &out, 8.0) > 0.98);
 }
 
+#[test]
+fn a_registered_wearer_who_never_comes_changes_nothing() {
+    // Ana wears two bands (a body-area network), Ben one; their clocks are off.
+    let mut people = two_people_off_by_0_4_and_minus_0_25_s();
+    people[0].right_wrist_imu = true;
+    let msgs = recording(&people, 12.0);
+    // Zoe is registered with two bands, but neither she nor her bands are ever there.
+    let mut zoe = Person::new(Some("zoe"), 1.1, 3.0, 3);
+    zoe.right_wrist_imu = true;
+    let with_zoe: Vec<Person> = people.iter().cloned().chain([zoe]).collect();
+    let config = EngineConfig::default();
+    let (out, stats) = run_batch(&registry(&people), &msgs, &config).unwrap();
+    let (out_with_zoe, stats_with_zoe) = run_batch(&registry(&with_zoe), &msgs, &config).unwrap();
+    // Her bands, never heard, used to keep the clock search in its blind mode (every window
+    // instead of every second) all session, which moved everyone else's offsets and scores.
+    assert_eq!(out_with_zoe, out);
+    assert_eq!(stats_with_zoe.clock_offsets, stats.clock_offsets);
+    assert!(accuracy(&people, &out, 8.0) > 0.95);
+}
+
 /// `msgs` moved later by `shift_s`.
 fn shifted(msgs: &[Message], shift_s: f64) -> Vec<Message> {
     let shift = SessionTime::from_secs_f64(shift_s).unwrap().as_ns();

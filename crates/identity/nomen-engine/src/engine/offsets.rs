@@ -79,13 +79,18 @@ impl Engine {
         // One search phase for everyone: subjects whose offsets are withdrawn or who are new
         // join the next search instead of adding their own.
         // A network IMU with nothing to be scored at searches at every window (see
-        // `EngineConfig::offset_search_while_blind`).
+        // `EngineConfig::offset_search_while_blind`), if it has samples the search can read: a
+        // registered device that is not there (its wearer absent, or gone) would otherwise
+        // keep every search at every window.
         let is_blind = self.config.offset_search_while_blind
             && self.imus.iter().any(|m| {
                 !m.is_offset_known
                     && m.pair_offsets.is_empty()
                     && m.lag_hypotheses.is_empty()
                     && self.is_network(m.subject)
+                    && m.t
+                        .back()
+                        .is_some_and(|&t| t.saturating_add(m.offset_ns) >= lo - max_off)
             });
         let is_search_time = is_blind || end.saturating_sub(self.last_search_end) >= search_every;
         let any_due = is_search_time && self.imus.iter().any(|m| !m.is_offset_known);
