@@ -702,6 +702,44 @@ fn a_clock_offset_of_0_4_s_is_estimated_within_15_ms() {
 }
 
 #[test]
+fn clock_offsets_of_50_hz_and_25_hz_bands_are_estimated_as_well_as_of_100_hz_ones() {
+    // The bands' samples thinned to every second (50 Hz) or fourth (25 Hz). The lag search
+    // used to keep every third IMU sample whatever the rate: 17 Hz from a 50-Hz band, 8 Hz
+    // from a 25-Hz one, whose offsets were then not accepted at all in 20 s. Now 100 Hz:
+    // +5.6 and +3.1 ms; 50 Hz: +9.9 and +6.1 ms; 25 Hz: +15.0 and +11.9 ms, within half a
+    // sample's interval.
+    let people = two_people_off_by_0_4_and_minus_0_25_s();
+    for keep_every in [1, 2, 4] {
+        let mut num_seen = std::collections::BTreeMap::new();
+        let msgs: Vec<Message> = recording(&people, 20.0)
+            .into_iter()
+            .filter(|m| match m {
+                Message::Imu(s) => {
+                    let n = num_seen.entry(s.device.clone()).or_insert(0usize);
+                    *n += 1;
+                    (*n - 1) % keep_every == 0
+                }
+                _ => true,
+            })
+            .collect();
+        let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+        let ana = offset_s(&stats, "ana_imu") - 0.4;
+        let ben = offset_s(&stats, "ben_imu") + 0.25;
+        let rate_hz = 100 / keep_every;
+        let tolerance_s = OFFSET_TOLERANCE_S.max(0.5 / rate_hz as f64);
+        assert!(
+            ana.abs() <= tolerance_s,
+            "{rate_hz} Hz: Ana's offset error {ana}"
+        );
+        assert!(
+            ben.abs() <= tolerance_s,
+            "{rate_hz} Hz: Ben's offset error {ben}"
+        );
+        assert!(accuracy(&people, &out, 12.0) > 0.98, "{rate_hz} Hz");
+    }
+}
+
+#[test]
 fn a_causal_offset_search_keeps_time_on_a_track_that_misses_frames() {
     // A causal low-pass delays a signal by a time that scales with the rate it is designed at.
     // On the track's own samples, whose mean rate is 0.9 of the camera's when it misses 10 % of

@@ -3,9 +3,8 @@
 //! and curves.
 
 use super::{
-    COARSE_LAG_STEPS, Engine, IMU_LAG_DECIMATION, ImuState, LAG_DECIMATION, LAG_STEP_NS,
-    MAX_IMU_GAP_NS, OFFSET_PEAK_SEPARATION_NS, TrackKey, TrackSample, TrackState, covered_span,
-    sample_range,
+    COARSE_LAG_STEPS, Engine, ImuState, LAG_DECIMATION, LAG_STEP_NS, MAX_IMU_GAP_NS,
+    OFFSET_PEAK_SEPARATION_NS, TrackKey, TrackSample, TrackState, covered_span, sample_range,
 };
 use crate::config::{EngineConfig, OFFSET_CONFIRM_HISTORY, ns};
 use crate::lag_memo::{self, ImuLagMemo};
@@ -1469,7 +1468,7 @@ pub(super) fn imu_lag_signals(
         memo,
         &imu.series(),
         imu.num_forgotten,
-        IMU_LAG_DECIMATION,
+        imu.lag_step.unwrap_or(1),
         lo - cut_offset_ns,
         (hi - cut_offset_ns).min(imu.settled_until_ns),
         &lag_geometric(config),
