@@ -224,6 +224,7 @@ pub(crate) fn imu_lag_signals(
     Some(LagSignals {
         t_ns: kept.iter().map(|(t, _)| *t).collect(),
         models: vec![column(0), orientation, column(1), column(2), column(3)],
+        sample_scale: 1.0,
     })
 }
 

@@ -141,6 +141,9 @@ impl LagWeight {
 pub(crate) struct LagSignals {
     pub(crate) t_ns: Vec<i64>,
     pub(crate) models: Vec<Vec<f64>>,
+    /// A track's camera rate over 30 Hz, which the sample counts a lag curve needs are set
+    /// for (see `REFERENCE_CAMERA_RATE_HZ` in the engine); 1 for an IMU's signals.
+    pub(crate) sample_scale: f64,
 }
 
 impl LagSignals {
@@ -150,6 +153,7 @@ impl LagSignals {
         LagSignals {
             t_ns: t_ns.iter().step_by(step.max(1)).copied().collect(),
             models,
+            sample_scale: 1.0,
         }
     }
 }
@@ -550,10 +554,12 @@ mod tests {
         let imu = LagSignals {
             t_ns: t.clone(),
             models: vec![wave.clone(), wave.clone()],
+            sample_scale: 1.0,
         };
         let blind = LagSignals {
             t_ns: t.clone(),
             models: vec![vec![f64::NAN; t.len()], wave.clone()],
+            sample_scale: 1.0,
         };
         let (mut weights, mut out) = (Vec::new(), Vec::new());
         lag_curve(&imu, &blind, &[-20, 0, 20], 50, 16, &mut weights, &mut out);
@@ -561,6 +567,7 @@ mod tests {
         let seen = LagSignals {
             t_ns: t,
             models: vec![wave.clone(), wave],
+            sample_scale: 1.0,
         };
         lag_curve(&imu, &seen, &[-20, 0, 20], 50, 16, &mut weights, &mut out);
         assert!((out[1] - 1.0).abs() < 1e-9, "{out:?}");

@@ -740,6 +740,29 @@ fn clock_offsets_of_50_hz_and_25_hz_bands_are_estimated_as_well_as_of_100_hz_one
 }
 
 #[test]
+fn a_15_hz_camera_names_people_as_a_30_hz_one_does() {
+    // Every other frame dropped. The correlations' sample counts were set for 30 Hz: a 2-s
+    // window at 15 Hz held 30 samples at most, all of which a correlation needed, and the
+    // lag search's 2 s of samples took 4 s.
+    let people = two_people_off_by_0_4_and_minus_0_25_s();
+    let msgs: Vec<Message> = recording(&people, 20.0)
+        .into_iter()
+        .filter(|m| match m {
+            Message::Skeleton(s) => (s.t.as_secs_f64() * 30.0).round() as i64 % 2 == 0,
+            _ => true,
+        })
+        .collect();
+    let (out, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    assert_eq!(out.len(), num_skeletons(&msgs));
+    let named = accuracy(&people, &out, 6.0);
+    assert!(named > 0.98, "{named:.3} of frames after 6 s named right");
+    let ana = offset_s(&stats, "ana_imu") - 0.4;
+    let ben = offset_s(&stats, "ben_imu") + 0.25;
+    assert!(ana.abs() <= OFFSET_TOLERANCE_S, "Ana's offset error {ana}");
+    assert!(ben.abs() <= OFFSET_TOLERANCE_S, "Ben's offset error {ben}");
+}
+
+#[test]
 fn a_causal_offset_search_keeps_time_on_a_track_that_misses_frames() {
     // A causal low-pass delays a signal by a time that scales with the rate it is designed at.
     // On the track's own samples, whose mean rate is 0.9 of the camera's when it misses 10 % of

@@ -5,6 +5,7 @@
 use super::{
     COARSE_LAG_STEPS, Engine, ImuState, LAG_DECIMATION, LAG_STEP_NS, MAX_IMU_GAP_NS,
     OFFSET_PEAK_SEPARATION_NS, TrackKey, TrackSample, TrackState, covered_span, sample_range,
+    scaled_count,
 };
 use crate::config::{EngineConfig, OFFSET_CONFIRM_HISTORY, ns};
 use crate::lag_memo::{self, ImuLagMemo};
@@ -54,7 +55,11 @@ impl Engine {
         let refine_range = ns(self.config.offset_refine_range_s);
         let confirm_apart = ns(self.config.offset_confirm_apart_s);
         let same_offset = ns(self.config.offset_consistency_s);
-        let skel_cache = TrackLagCache::default();
+        // Each camera's rate over 30 Hz: a track's lag curves need as much time as at 30 Hz.
+        let camera_scales: Vec<f64> = (0..self.cameras.len())
+            .map(|c| self.camera_scale(c))
+            .collect();
+        let skel_cache = TrackLagCache::new(camera_scales.clone());
         // Each IMU's lag signals kept from the last window's search, put back at the end.
         let lag_memos: Vec<ImuLagMemo> = self
             .imus
@@ -124,7 +129,7 @@ impl Engine {
         } else {
             Vec::new()
         };
-        let short_skel_cache = TrackLagCache::default();
+        let short_skel_cache = TrackLagCache::new(camera_scales);
         let short_imu_cache = ImuLagCache {
             lo: lo - max_off,
             hi: short_hi + max_off,
@@ -1273,7 +1278,7 @@ impl LagScratch {
                 track_signals,
                 offsets_ns,
                 MAX_IMU_GAP_NS,
-                min_samples,
+                scaled_count(min_samples, track_signals.sample_scale),
                 weights,
                 curve,
             );
@@ -1295,7 +1300,7 @@ impl LagScratch {
             track,
             offsets_ns,
             MAX_IMU_GAP_NS,
-            min_samples,
+            scaled_count(min_samples, track.sample_scale),
             &mut self.weights,
             &mut self.curve,
         );
@@ -1512,14 +1517,24 @@ pub(super) type TrackLagWindow = (Vec<i64>, SkeletonWindow, Vec<f64>, Vec<bool>)
 
 /// The lag search's track side for one window: each track's buffer, copied once, and its
 /// signals per site.
-#[derive(Default)]
 pub(super) struct TrackLagCache {
     /// A track's buffer in `[lo, hi)`; `None` if too short.
     windows: BTreeMap<TrackKey, Option<TrackLagWindow>>,
     signals: BTreeMap<(TrackKey, Joint), Option<LagSignals>>,
+    /// Per camera, its rate over 30 Hz (the signals' `sample_scale`).
+    camera_scales: Vec<f64>,
 }
 
 impl TrackLagCache {
+    /// An empty cache for cameras at `camera_scales` times 30 Hz.
+    pub(super) fn new(camera_scales: Vec<f64>) -> Self {
+        Self {
+            windows: BTreeMap::new(),
+            signals: BTreeMap::new(),
+            camera_scales,
+        }
+    }
+
     /// The acceleration and carrying-segment orientation-change magnitudes (and the other lag
     /// models) of track `key` at `site` on its own times in `[lo, hi)`; `None` for an unknown
     /// or too short track.
@@ -1532,7 +1547,12 @@ impl TrackLagCache {
         hi: i64,
         config: &EngineConfig,
     ) -> Option<&LagSignals> {
-        let Self { windows, signals } = self;
+        let Self {
+            windows,
+            signals,
+            camera_scales,
+        } = self;
+        let sample_scale = camera_scales.get(key.0).copied().unwrap_or(1.0);
         signals
             .entry((key, site))
             .or_insert_with(|| {
@@ -1583,7 +1603,10 @@ impl TrackLagCache {
                     );
                     let mut models = vec![acc, ori, vertical, swing, turn.clone()];
                     models.iter_mut().for_each(|m| mask_unseen(m, seen));
-                    LagSignals::thinned(t_ns, models, LAG_DECIMATION)
+                    LagSignals {
+                        sample_scale,
+                        ..LagSignals::thinned(t_ns, models, LAG_DECIMATION)
+                    }
                 })
             })
             .as_ref()

@@ -114,7 +114,7 @@ impl Engine {
                 tensor,
                 device_scores,
                 nomen_sums,
-            } = self.score_camera_pairs(&mut window, &keys, &frame_times);
+            } = self.score_camera_pairs(c, &mut window, &keys, &frame_times);
             let tag_decay = self.tag_decay_per_hop;
             let rssi_decay = self.rssi_decay_per_hop;
             let matrix = match self.config.motion_score {
@@ -201,10 +201,14 @@ impl Engine {
     /// tracks labelled with the IMU's wearer.
     fn score_camera_pairs(
         &self,
+        c: usize,
         window: &mut WindowScoring,
         keys: &[TrackKey],
         frame_times: &[i64],
     ) -> CameraScores {
+        // The models' sample counts at this camera's rate.
+        let geometric = self.camera_geometric(c);
+        let belmonte = self.camera_belmonte(c);
         let start = window.start;
         let end = window.end;
         let min_span = window.min_span;
@@ -295,8 +299,7 @@ impl Engine {
                                 &mut orientation_from,
                             );
                             window.device = Some(imu.device.clone());
-                            let lin_world_mps2 =
-                                imu_linear_accel_world(&window, &self.config.geometric);
+                            let lin_world_mps2 = imu_linear_accel_world(&window, &geometric);
                             ImuBase {
                                 window: Rc::new(window),
                                 orientation_from,
@@ -323,7 +326,7 @@ impl Engine {
                         &win,
                         base.lin_world_mps2.get(grid_from..).unwrap_or(&[]),
                         &terms(&imu.axis_elevation_rad),
-                        &self.config.geometric,
+                        &geometric,
                         &self.config.kinematic,
                         anchor,
                     );
@@ -337,7 +340,7 @@ impl Engine {
                         BandSignals::with_axis_pitches(
                             &win,
                             pitches.get(anchor..).unwrap_or(&[]),
-                            &self.config.belmonte,
+                            &belmonte,
                         )
                     });
                     ImuGridFeatures {
@@ -367,7 +370,7 @@ impl Engine {
                         let features = SegmentFeatures::with_turn_rate_anchored(
                             &padded,
                             imu.site,
-                            &self.config.geometric,
+                            &geometric,
                             &self.config.kinematic,
                             turn,
                             anchor,
@@ -398,7 +401,7 @@ impl Engine {
                                 &imu_o.units,
                                 seg_features,
                                 seg_units,
-                                &self.config.geometric,
+                                &geometric,
                             );
                             if let Some(fit) = weighted_fit(&scores, &k, &self.config.model_weights)
                                 && best.as_ref().is_none_or(|(b, _, _)| fit > *b)
@@ -426,20 +429,14 @@ impl Engine {
                         &cached.units,
                         seg_features,
                         seg_units,
-                        &self.config.geometric,
+                        &geometric,
                     ),
                 };
                 // The heading model: only at a known offset, where the window's cross sum
                 // is that of the IMU's own clock (a pair scored at its own best lag would
                 // mix a lag error into the heading).
                 let cross = (wants_heading && imu.is_offset_known)
-                    .then(|| {
-                        horizontal_cross(
-                            imu_features,
-                            seg_features,
-                            self.config.geometric.min_samples,
-                        )
-                    })
+                    .then(|| horizontal_cross(imu_features, seg_features, geometric.min_samples))
                     .flatten()
                     .filter(|c| c.norm() > 0.0);
                 let heading_score = cross.and_then(|c| {
@@ -458,17 +455,14 @@ impl Engine {
                     let arm = match arms.iter().position(|(s, _)| *s == side) {
                         Some(k) => k,
                         None => {
-                            arms.push((
-                                side,
-                                ForearmSignals::new(skel, side, &self.config.belmonte),
-                            ));
+                            arms.push((side, ForearmSignals::new(skel, side, &belmonte)));
                             arms.len() - 1
                         }
                     };
                     let Some((_, arm)) = arms.get(arm) else {
                         continue;
                     };
-                    let costs = belmonte_costs_from(band, arm, side, &self.config.belmonte);
+                    let costs = belmonte_costs_from(band, arm, side, &belmonte);
                     if let (Some(p), Some(y)) = (costs.pitch_mse, costs.yaw_rate_mse) {
                         let sp = self.config.belmonte_pitch_sigma_rad;
                         let sy = self.config.belmonte_yaw_rate_sigma_radps;

@@ -3,6 +3,7 @@
 
 use super::decide::{anchor_path, mean_common_distance};
 use super::scoring::lateral_distance_m;
+use super::{CAMERA_RATE_FRAMES, CameraState, REFERENCE_CAMERA_RATE_HZ, scaled_count};
 use super::{
     Engine, GapReturn, STITCH_MIN_GAP_NS, STITCH_VIEW_LOOKBACK_NS, STITCH_VIEW_MIN_FRAMES,
     SWAP_MAX_GAP_NS, SWAP_NOISE_M, SWAP_RETURN_GAP_NS, SWAP_RETURN_WINDOW_NS, SWAP_SPEED_MPS,
@@ -13,6 +14,8 @@ use crate::EngineConfig;
 use crate::config::ns;
 use nalgebra::Point3;
 use nomen_core::TrackId;
+use nomen_evidence::{BelmonteConfig, GeometricConfig};
+use nomen_filters::median;
 
 impl Engine {
     /// Stitching, once a window's observations are all settled: each track first seen before
@@ -316,6 +319,9 @@ impl Engine {
             .flat_map(|(k, tr)| tr.pending.range(..frontier).map(move |(&t, _)| (t, k.1)))
             .collect();
         due.sort_unstable();
+        if let Some(cam) = self.cameras.get_mut(c) {
+            note_frame_times(cam, due.iter().map(|&(t, _)| t));
+        }
         for (t, id) in due {
             let Some(frame) = self.tracks.get(&(c, id)).and_then(|tr| tr.pending.get(&t)) else {
                 continue;
@@ -406,6 +412,40 @@ impl Engine {
             .filter(|(_, tr)| tr.is_smoothing_due)
         {
             smooth_track(tr);
+        }
+    }
+
+    /// Camera `c`'s rate over the 30 Hz that sample counts are set for (1 until it is known;
+    /// see [`super::REFERENCE_CAMERA_RATE_HZ`]).
+    pub(super) fn camera_scale(&self, c: usize) -> f64 {
+        self.cameras
+            .get(c)
+            .and_then(|cam| cam.rate_scale)
+            .unwrap_or(1.0)
+    }
+
+    /// The geometric models' config for camera `c`'s windows: `min_samples` and
+    /// `moving_average_len` scaled to its rate ([`Engine::camera_scale`]), so that they span
+    /// the same time as at 30 Hz.
+    pub(super) fn camera_geometric(&self, c: usize) -> GeometricConfig {
+        let scale = self.camera_scale(c);
+        let g = &self.config.geometric;
+        GeometricConfig {
+            min_samples: scaled_count(g.min_samples, scale),
+            moving_average_len: scaled_count(g.moving_average_len, scale),
+            ..*g
+        }
+    }
+
+    /// Belmonte-Hernández's config for camera `c`'s windows, scaled as
+    /// [`Engine::camera_geometric`].
+    pub(super) fn camera_belmonte(&self, c: usize) -> BelmonteConfig {
+        let scale = self.camera_scale(c);
+        let b = &self.config.belmonte;
+        BelmonteConfig {
+            min_samples: scaled_count(b.min_samples, scale),
+            moving_average_len: scaled_count(b.moving_average_len, scale),
+            ..*b
         }
     }
 
@@ -519,6 +559,35 @@ pub(super) fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.is_stitch_pending, &mut b.is_stitch_pending);
     std::mem::swap(&mut a.warm_labels, &mut b.warm_labels);
     std::mem::swap(&mut a.views, &mut b.views);
+}
+
+/// Notes a camera's settled frame times, in increasing order, until
+/// [`CAMERA_RATE_FRAMES`] distinct ones fix its rate from their median interval.
+fn note_frame_times(cam: &mut CameraState, times: impl Iterator<Item = i64>) {
+    if cam.rate_scale.is_some() {
+        return;
+    }
+    for t in times {
+        if cam.first_frame_times.last().is_some_and(|&last| t <= last) {
+            continue;
+        }
+        cam.first_frame_times.push(t);
+        if cam.first_frame_times.len() >= CAMERA_RATE_FRAMES {
+            let mut intervals: Vec<f64> = cam
+                .first_frame_times
+                .windows(2)
+                .filter_map(|w| match w {
+                    [a, b] => Some((b - a) as f64),
+                    _ => None,
+                })
+                .collect();
+            cam.rate_scale = median(&mut intervals)
+                .filter(|&dt_ns| dt_ns > 0.0)
+                .map(|dt_ns| 1e9 / dt_ns / REFERENCE_CAMERA_RATE_HZ);
+            cam.first_frame_times = Vec::new();
+            return;
+        }
+    }
 }
 
 /// Every track's newest settled observation before a time, as `(camera, its time, track,
