@@ -477,10 +477,10 @@ pub struct EngineConfig {
     /// offset was withdrawn), and has samples in the search's buffer, the search runs at every
     /// window instead of every `offset_search_interval_s`: its pairs get no score until a
     /// search finds their peaks, so a network's first names wait for the first search that
-    /// does. A registered network whose IMUs send nothing (its wearer absent) does not count. Default true: over the ten
-    /// imu-table scenes (seeds 1–9) 90.84 → 91.04 % of frames right (2 / 3 / 4 / 5 / 8 people,
-    /// full network: 97.96 / 95.89 / 94.98 / 88.53 / 94.85 → 98.18 / 96.93 / 95.40 / 88.92 /
-    /// 94.79 %; frames of the session's 1–2 s named right 39.1 → 49.4 %), on unseen seeds
+    /// does. A registered network whose IMUs send nothing (its wearer absent) does not count.
+    /// Default true: over the ten imu-table scenes (seeds 1–9) 90.84 → 91.04 % of frames
+    /// right (2 / 3 / 4 / 5 / 8 people, full network: 97.96 / 95.89 / 94.98 / 88.53 / 94.85
+    /// → 98.18 / 96.93 / 95.40 / 88.92 / 94.79 %; frames of the session's 1–2 s named right 39.1 → 49.4 %), on unseen seeds
     /// 10–15 5 people 84.89 → 86.33 % and 8 people 94.75 → 95.03 %. For every subject, one
     /// IMU each included, the one-wrist scenes lost 0.5–2.7 points (90.47 % over the ten):
     /// a single IMU's early peaks on short tracks are often a look-alike's, and the network's
