@@ -571,6 +571,48 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
 }
 
 #[test]
+fn run_warns_of_an_imu_whose_accelerations_are_in_g() {
+    let Some((tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
+        return;
+    };
+    let recording = scene.join("recording.jsonl");
+    let run = |path: &std::path::Path| {
+        let o = nomen(&[
+            "run",
+            path.to_str().unwrap(),
+            "--out",
+            tmp.path().join("result.jsonl").to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        text(&o.stderr)
+    };
+    assert!(!run(&recording).contains("warning"));
+    // The band's accelerations divided by g, as a device reporting in g would write them.
+    let in_g: Vec<String> = std::fs::read_to_string(&recording)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+            if v["type"] == "imu" {
+                for a in v["accel_mps2"].as_array_mut().unwrap() {
+                    *a = (a.as_f64().unwrap() / 9.80665).into();
+                }
+            }
+            v.to_string()
+        })
+        .collect();
+    let spoiled = tmp.path().join("in_g.jsonl");
+    std::fs::write(&spoiled, in_g.join("\n") + "\n").unwrap();
+    let stderr = run(&spoiled);
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(
+        warnings[0].contains("imu ana_band started from 1.0") && warnings[0].contains("in g"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn an_output_that_is_an_input_or_another_output_or_a_bad_flag_is_refused_and_the_files_kept() {
     let tmp = tempfile::tempdir().unwrap();
     let rec = tmp.path().join("rec.jsonl");

@@ -929,7 +929,7 @@ impl Engine {
         imu.newest = Some(imu.newest.map_or(t, |n| n.max(t)));
         imu.frontier = imu.frontier.max(t.saturating_sub(self.reorder_ns));
         self.stats.num_imu_samples += 1;
-        settle_imu(imu, &self.config);
+        settle_imu(imu, &self.config, &mut self.stats);
         self.note_time(session);
         Ok(())
     }
@@ -1296,7 +1296,7 @@ impl Engine {
         }
         for imu in &mut self.imus {
             imu.frontier = i64::MAX;
-            settle_imu(imu, &self.config);
+            settle_imu(imu, &self.config, &mut self.stats);
         }
         for cam in &mut self.cameras {
             cam.frontier = i64::MAX;
@@ -1708,7 +1708,7 @@ const AHRS_MAX_GAP_NS: i64 = 1_000_000_000;
 /// Settles an IMU's pending samples below its frontier: Madgwick's orientation per sample. The
 /// filter (re)starts at the first sample and after a gap of a second or more (see
 /// [`start_ahrs`]); samples wait until it can.
-fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
+fn settle_imu(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats) {
     while let Some((&t, &(accel, gyro))) = imu.pending.first_key_value() {
         if t >= imu.frontier {
             break;
@@ -1720,7 +1720,7 @@ fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
             }
             (Some(ahrs), None) => ahrs.world_from_sensor(),
             _ => {
-                if !start_ahrs(imu, config) {
+                if !start_ahrs(imu, config, stats) {
                     break;
                 }
                 continue;
@@ -1747,7 +1747,7 @@ fn settle_imu(imu: &mut ImuState, config: &EngineConfig) {
 /// sample alone reads an arm's swing (a pendulum's bob feels its force along the arm, not
 /// along the vertical), and Madgwick's gain corrects that at only about 4°/s. Returns whether
 /// the filter started.
-fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
+fn start_ahrs(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats) -> bool {
     let Some(&first) = imu.pending.keys().next() else {
         return false;
     };
@@ -1803,6 +1803,15 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig) -> bool {
         && let Some(dt_ns) = median(&mut intervals_ns)
     {
         imu.lag_step = Some(imu_lag_step(dt_ns.round() as i64));
+    }
+    // What the filter took for gravity, kept from its first start: far from 9.81 m/s², the
+    // accelerations are in other units (see `EngineStats::implausible_gravity`).
+    let gravity_mps2 = up_first.norm();
+    if gravity_mps2.is_finite() {
+        stats
+            .imu_start_gravity_mps2
+            .entry(imu.device.clone())
+            .or_insert(gravity_mps2);
     }
     imu.ahrs = Madgwick::new(config.madgwick, start).ok();
     imu.ahrs_last_ns = None;

@@ -213,7 +213,9 @@ pub use config::{EngineConfig, ModelWeights, MotionScore, OFFSET_CONFIRM_HISTORY
 pub use engine::Engine;
 pub use error::{EngineError, Result};
 pub use nomen_evidence::{Fusion, FusionConfig, GeometricConfig, KinematicConfig};
-pub use stats::{ClockOffsetEstimate, EngineStats, HeadingEstimate, RejectCounts};
+pub use stats::{
+    ClockOffsetEstimate, EngineStats, HeadingEstimate, PLAUSIBLE_START_GRAVITY_MPS2, RejectCounts,
+};
 
 use nomen_core::{Message, Registry};
 

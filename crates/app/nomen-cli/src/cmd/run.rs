@@ -639,5 +639,21 @@ pub fn run_file(
             est.coherence
         ));
     }
+    summary.push_str(&gravity_warnings(engine.stats()));
     within_skip_limit(summary, skip, &stats, recording)
+}
+
+/// A warning line per IMU whose accelerations do not look like m/s²
+/// ([`nomen_engine::EngineStats::implausible_gravity`]).
+fn gravity_warnings(stats: &nomen_engine::EngineStats) -> String {
+    stats
+        .implausible_gravity()
+        .map(|(device, g)| {
+            format!(
+                "\n  warning: imu {device} started from {g:.3} m/s² of gravity (about 9.81 expected): \
+                 are its accelerations in g or milli-g? The recording format wants m/s², and \
+                 this IMU's evidence is wrong until they are"
+            )
+        })
+        .collect()
 }
