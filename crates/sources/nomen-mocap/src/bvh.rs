@@ -20,6 +20,15 @@ use nalgebra::Vector3;
 /// Deepest joint nesting accepted (real skeletons nest about 10 deep); guards the recursion.
 const MAX_DEPTH: usize = 256;
 
+/// Most joint poses (joints and end sites × frames) a file may hold: 2^24, about 1 GB once
+/// converted (CMU's 38-node skeletons: 440,000 frames, two hours at 60 Hz). A file of a few
+/// megabytes with thousands of nodes and frames would otherwise take gigabytes.
+pub const MAX_JOINT_POSES: usize = 1 << 24;
+
+/// Largest capacity reserved for the frame values before they are read, values (32 MB): the
+/// header's frame and channel counts are not trusted with more.
+const MAX_RESERVED_VALUES: usize = 1 << 22;
+
 /// One BVH channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Channel {
@@ -156,8 +165,12 @@ pub fn parse_bvh(text: &str, source: &str) -> Result<Bvh> {
             expected: "MOTION".to_owned(),
         });
     };
-    let (num_frames, frame_time_s, values) =
-        parse_motion(&lines, motion_line + 1, hp.num_channels, source)?;
+    let (num_frames, frame_time_s, values) = parse_motion(
+        &lines,
+        motion_line + 1,
+        (hp.num_channels, hp.nodes.len()),
+        source,
+    )?;
     Ok(Bvh {
         source: source.to_owned(),
         nodes: hp.nodes,
@@ -268,6 +281,7 @@ impl<'a> HierarchyParser<'a> {
             line,
         });
         self.num_channels += self.nodes[index].channels.len();
+        let mut has_end_site = false;
         loop {
             let Some((tok_line, tok)) = self.peek() else {
                 return Err(MocapError::UnbalancedBraces {
@@ -287,6 +301,12 @@ impl<'a> HierarchyParser<'a> {
                     self.joint(child.to_owned(), Some(index), tok_line, false, depth + 1)?;
                 }
                 ("End", false) => {
+                    // A leaf's end, once: more would be nodes without data, each costing a
+                    // pose per frame (see `MAX_JOINT_POSES`).
+                    if has_end_site {
+                        return Err(self.unexpected(tok_line, "'}' after the End Site", "End"));
+                    }
+                    has_end_site = true;
                     self.pos += 1;
                     self.expect("Site")?;
                     let child = format!("{}_end", self.nodes[index].name);
@@ -375,7 +395,7 @@ fn parse_finite(tok: &str, file: &str, line: usize, what: &str) -> Result<f64> {
 fn parse_motion(
     lines: &[&str],
     start: usize,
-    num_channels: usize,
+    (num_channels, num_nodes): (usize, usize),
     file: &str,
 ) -> Result<(usize, f64, Vec<f64>)> {
     let last_line = lines.len().max(1);
@@ -418,7 +438,12 @@ fn parse_motion(
         });
     }
     // Cap the up-front reservation: the header's count is not trusted.
-    let mut values = Vec::with_capacity(declared.min(1 << 16).saturating_mul(num_channels));
+    let mut values = Vec::with_capacity(
+        declared
+            .min(lines.len())
+            .saturating_mul(num_channels)
+            .min(MAX_RESERVED_VALUES),
+    );
     let mut found = 0;
     for (i, l) in rest {
         if found == declared {
@@ -427,6 +452,14 @@ fn parse_motion(
                 line: i + 1,
                 declared,
                 found: found + 1,
+            });
+        }
+        if (found + 1).saturating_mul(num_nodes.max(1)) > MAX_JOINT_POSES {
+            return Err(MocapError::TooLarge {
+                file: file.to_owned(),
+                line: i + 1,
+                num_nodes,
+                max: MAX_JOINT_POSES,
             });
         }
         let before = values.len();
@@ -653,5 +686,58 @@ Frame Time: .0083333
             err(&text),
             "t.bvh:6: expected 'JOINT', 'End Site' or '}', found 'JOINTS'"
         );
+    }
+
+    #[test]
+    fn a_huge_header_reserves_no_more_than_the_file_and_a_joint_ends_once() {
+        // 100,000 channels on one line and 65,536 frames declared, none there: the reserve
+        // used to be their product (52 GB, an abort); the file is what is wrong.
+        let names = vec!["Xrotation"; 100_000].join(" ");
+        let text = format!(
+            "HIERARCHY\nROOT Hips\n{{\nOFFSET 0 0 0\nCHANNELS 100000 {names}\n}}\nMOTION\nFrames: 65536\nFrame Time: 0.01\n"
+        );
+        assert!(err(&text).contains("65536"), "{}", err(&text));
+        // A second End Site under one joint.
+        let text = GOOD.replace(
+            "\t\t\tOFFSET 0 1 0\n\t\t}\n",
+            "\t\t\tOFFSET 0 1 0\n\t\t}\n\t\tEnd Site\n\t\t{\n\t\t\tOFFSET 0 1 0\n\t\t}\n",
+        );
+        assert_eq!(
+            err(&text),
+            "t.bvh:14: expected '}' after the End Site, found 'End'"
+        );
+    }
+
+    #[test]
+    fn a_file_past_the_joint_pose_limit_is_refused_where_it_passes_it() {
+        // 1,000 joints without channels, each with its end site, under a one-channel root:
+        // 2,001 nodes, so the 8,385th frame passes 2^24 joint poses (a 40-kB file that would
+        // have taken a gigabyte converted).
+        let mut text =
+            String::from("HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n");
+        for k in 0..1_000 {
+            text.push_str(&format!(
+                "JOINT j{k}\n{{\nOFFSET 0 0 0\nEnd Site\n{{\nOFFSET 0 1 0\n}}\n}}\n"
+            ));
+        }
+        text.push_str("}\nMOTION\nFrames: 9000\nFrame Time: 0.01\n");
+        let frames_from = text.lines().count() + 1;
+        text.push_str(&"0\n".repeat(9_000));
+        let first_past = MAX_JOINT_POSES / 2_001 + 1;
+        assert_eq!(
+            err(&text),
+            format!(
+                "t.bvh:{}: too large: 2001 joints and end sites, with this frame more than {MAX_JOINT_POSES} joint poses",
+                frames_from + first_past - 1
+            )
+        );
+        // One frame fewer than that is taken.
+        let fewer = text
+            .lines()
+            .take(frames_from + first_past - 2)
+            .collect::<Vec<_>>()
+            .join("\n")
+            .replace("Frames: 9000", &format!("Frames: {}", first_past - 1));
+        assert!(parse_bvh(&fewer, "t.bvh").is_ok());
     }
 }

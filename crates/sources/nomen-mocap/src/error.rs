@@ -152,6 +152,20 @@ pub enum MocapError {
         /// The 1-based index of the extra frame.
         found: usize,
     },
+    /// The file holds more joint poses (nodes × frames) than [`crate::bvh::MAX_JOINT_POSES`].
+    #[error(
+        "{file}:{line}: too large: {num_nodes} joints and end sites, with this frame more than {max} joint poses"
+    )]
+    TooLarge {
+        /// Source name (file name).
+        file: String,
+        /// Line of the first frame past the limit.
+        line: usize,
+        /// Joints and end sites in the hierarchy.
+        num_nodes: usize,
+        /// The most joint poses a file may hold.
+        max: usize,
+    },
     /// `Frame Time:` is zero or negative.
     #[error("{file}:{line}: frame time {value} s must be positive")]
     BadFrameTime {
