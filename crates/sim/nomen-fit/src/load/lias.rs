@@ -81,6 +81,16 @@ fn days_from_civil(y: i64, m: i64, d: i64) -> i64 {
     era * 146_097 + doe - 719_468
 }
 
+/// Days in month `m` (1–12) of year `y` (proleptic Gregorian).
+fn days_in_month(y: i64, m: i64) -> i64 {
+    match m {
+        2 if y % 4 == 0 && (y % 100 != 0 || y % 400 == 0) => 29,
+        2 => 28,
+        4 | 6 | 9 | 11 => 30,
+        _ => 31,
+    }
+}
+
 /// Parses a local time `YYYY-MM-DD H:MM:SS.fff` (or a plain number of seconds) into seconds
 /// since 1970-01-01 00:00 *on the same local clock*: no time zone is applied, which is right
 /// because only differences between files recorded on one clock are used.
@@ -93,7 +103,13 @@ pub fn parse_local_time_s(s: &str) -> Option<f64> {
     let y: i64 = d.next()?.parse().ok()?;
     let mo: i64 = d.next()?.parse().ok()?;
     let day: i64 = d.next()?.parse().ok()?;
-    if d.next().is_some() || !(1..=12).contains(&mo) || !(1..=31).contains(&day) {
+    // Years of the Gregorian calendar's four digits: further out is a corrupt field, and the
+    // day count below would overflow (a year of 10^14 did).
+    if d.next().is_some()
+        || !(1..=9999).contains(&y)
+        || !(1..=12).contains(&mo)
+        || !(1..=days_in_month(y, mo)).contains(&day)
+    {
         return None;
     }
     let mut t = time.trim().split(':');
@@ -348,6 +364,25 @@ mod tests {
         assert!((d - c - 1.0).abs() < 1e-6);
         assert_eq!(parse_local_time_s("1970-01-02 0:00:00"), Some(86_400.0));
         assert!(parse_local_time_s("2022-13-01 0:00:00").is_none());
+    }
+
+    #[test]
+    fn dates_the_calendar_lacks_and_years_past_four_digits_are_refused() {
+        // A year of 10^14, or i64::MAX, overflowed the day count (a panic with overflow checks,
+        // a wrapped time without).
+        for s in [
+            "100000000000000-08-01 0:00:00",
+            "9223372036854775807-08-01 0:00:00",
+            "0-01-01 0:00:00",
+            "2022-02-29 0:00:00",
+            "2022-04-31 0:00:00",
+        ] {
+            assert_eq!(parse_local_time_s(s), None, "{s}");
+        }
+        let leap = parse_local_time_s("2024-02-29 0:00:00").unwrap();
+        let march = parse_local_time_s("2024-03-01 0:00:00").unwrap();
+        assert_eq!(march - leap, 86_400.0);
+        assert!(parse_local_time_s("9999-12-31 23:59:59").is_some());
     }
 
     #[test]
