@@ -24,6 +24,10 @@ use std::io::Read;
 use std::sync::Arc;
 
 /// A CSV file being imported: the reader, the source name and the column names.
+/// Most columns an imported table may have: a skeleton per row of 32 joints with positions,
+/// states and confidences has about 160.
+pub const MAX_COLUMNS: usize = 4096;
+
 pub(crate) struct CsvInput<R> {
     reader: csv::Reader<R>,
     pub(crate) file: Arc<str>,
@@ -52,6 +56,18 @@ impl<R: Read> CsvInput<R> {
                 &file,
                 1,
                 "empty csv file: expected a row of column names",
+            ));
+        }
+        // Each column the importers look for is sought among every column name: a header of a
+        // million columns took seconds per importer, for a file that cannot be samples.
+        if headers.len() > MAX_COLUMNS {
+            return Err(error_at(
+                &file,
+                1,
+                &format!(
+                    "{} columns, more than the {MAX_COLUMNS} a table of samples may have",
+                    headers.len()
+                ),
             ));
         }
         // One column whose name holds another separator: the file is not comma-separated.
