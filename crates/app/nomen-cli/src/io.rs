@@ -10,6 +10,26 @@ pub fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
 }
 
+/// The largest settings file read (a scenario, an engine configuration, a fitted model),
+/// bytes: 4 MiB. The library's scenarios are 20–60 kB; parsing TOML takes about a hundred times
+/// a file's size in memory.
+pub const MAX_SETTINGS_BYTES: u64 = 4 << 20;
+
+/// [`read_text`] for a settings file: one larger than [`MAX_SETTINGS_BYTES`] is refused by name
+/// before it is read.
+pub fn read_settings(path: &Path) -> Result<String> {
+    let len = std::fs::metadata(path)
+        .with_context(|| format!("cannot read {}", path.display()))?
+        .len();
+    if len > MAX_SETTINGS_BYTES {
+        bail!(
+            "{}: {len} bytes, more than the {MAX_SETTINGS_BYTES} a settings file may have",
+            path.display()
+        );
+    }
+    read_text(path)
+}
+
 /// Standard output, locked: `let mut stdout = crate::io::stdout(); writeln!(stdout, ...)?;`.
 ///
 /// Every command prints through this instead of `println!`, which panics when the write fails: a

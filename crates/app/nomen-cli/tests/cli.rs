@@ -200,6 +200,26 @@ fn missing_input_files_are_named() {
         "{}",
         text(&out.stderr)
     );
+    // A settings file of 5 MB (a scenario, an engine configuration) is refused before it is
+    // parsed: TOML took about a hundred times a file's size in memory, and quoted the line.
+    let tmp = tempfile::tempdir().unwrap();
+    let big = tmp.path().join("big.toml");
+    std::fs::write(&big, format!("name = \"{}\"\n", "x".repeat(5 << 20))).unwrap();
+    for args in [
+        vec!["simulate", big.to_str().unwrap(), "--out", "-"],
+        vec!["run", "-", "--config", big.to_str().unwrap(), "--out", "-"],
+    ] {
+        let out = nomen(&args);
+        assert!(!out.status.success());
+        let stderr = text(&out.stderr);
+        assert!(
+            stderr.contains(
+                "big.toml: 5242890 bytes, more than the 4194304 a settings file may have"
+            ),
+            "{stderr}"
+        );
+        assert!(stderr.len() < 1000, "{} bytes of error", stderr.len());
+    }
 }
 
 #[test]

@@ -91,7 +91,7 @@ pub struct EngineExtras {
 }
 
 fn load_rssi_model(path: &Path) -> Result<nomen_rssi::RssiModel> {
-    let text = crate::io::read_text(path)?;
+    let text = crate::io::read_settings(path)?;
     Ok(nomen_rssi::RssiModel::from_json(
         &text,
         &path.display().to_string(),
@@ -474,7 +474,7 @@ pub fn load_config(path: Option<&Path>) -> Result<EngineConfig> {
     match path {
         None => Ok(EngineConfig::default()),
         Some(p) => {
-            let text = crate::io::read_text(p)?;
+            let text = crate::io::read_settings(p)?;
             toml::from_str(&text)
                 .with_context(|| format!("{}: invalid engine configuration", p.display()))
         }

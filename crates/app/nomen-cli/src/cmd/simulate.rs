@@ -27,7 +27,7 @@ pub struct SimulateArgs {
 
 /// Runs `nomen simulate`.
 pub fn run(args: SimulateArgs) -> Result<()> {
-    let text = crate::io::read_text(&args.scenario)?;
+    let text = crate::io::read_settings(&args.scenario)?;
     let source = crate::io::source_name(&args.scenario);
     let summary = simulate_to_dir(&text, &source, &args.out, args.seed, args.data.as_deref())?;
     eprintln!("{summary}");
