@@ -591,6 +591,74 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
 }
 
 #[test]
+fn run_retrack_numbers_detections_anew_and_reports_under_their_own_ids() {
+    let Some((tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
+        return;
+    };
+    // The camera's ids replaced by each frame's detection order along x: they follow nobody.
+    let recording = std::fs::read_to_string(scene.join("recording.jsonl")).unwrap();
+    let mut lines: Vec<serde_json::Value> = recording
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let mut k = 0;
+    while k < lines.len() {
+        let frame_end = (k..lines.len())
+            .find(|&j| lines[j]["type"] != "skeleton" || lines[j]["t"] != lines[k]["t"])
+            .unwrap_or(lines.len());
+        let frame = &mut lines[k..frame_end];
+        frame.sort_by(|a, b| {
+            let x = |v: &serde_json::Value| v["joints"]["pelvis"]["position_m"][0].as_f64();
+            x(a).partial_cmp(&x(b)).unwrap_or(std::cmp::Ordering::Equal)
+        });
+        for (i, v) in frame.iter_mut().enumerate() {
+            v["track"] = (100 + i).into();
+        }
+        k = frame_end.max(k + 1);
+    }
+    let indexed = tmp.path().join("indexed.jsonl");
+    let written: Vec<String> = lines.iter().map(|v| v.to_string()).collect();
+    std::fs::write(&indexed, written.join("\n") + "\n").unwrap();
+    let result = tmp.path().join("result.jsonl");
+    let o = nomen(&[
+        "run",
+        indexed.to_str().unwrap(),
+        "--retrack",
+        "--out",
+        result.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    // Every decision names a skeleton by the (time, camera, id) it came with.
+    let keys = |text: &str, kind: &str| -> std::collections::BTreeSet<String> {
+        text.lines()
+            .filter(|l| l.contains(&format!("\"type\":\"{kind}\"")))
+            .map(|l| {
+                let v: serde_json::Value = serde_json::from_str(l).unwrap();
+                format!("{} {} {}", v["t"], v["camera"], v["track"])
+            })
+            .collect()
+    };
+    let given = keys(&written.join("\n"), "skeleton");
+    let decided = keys(&std::fs::read_to_string(&result).unwrap(), "identified");
+    assert_eq!(decided, given);
+    let o = nomen(&[
+        "run",
+        indexed.to_str().unwrap(),
+        "--retrack",
+        "--method",
+        "baptizo",
+        "--out",
+        tmp.path().join("b.jsonl").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("--retrack work with the engine"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+#[test]
 fn run_warns_of_an_imu_whose_accelerations_are_in_g() {
     let Some((tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
         return;

@@ -205,6 +205,7 @@ mod config;
 mod engine;
 mod error;
 mod lag_memo;
+pub mod retrack;
 mod signal;
 mod stats;
 mod tags;
@@ -213,6 +214,7 @@ pub use config::{EngineConfig, ModelWeights, MotionScore, OFFSET_CONFIRM_HISTORY
 pub use engine::Engine;
 pub use error::{EngineError, Result};
 pub use nomen_evidence::{Fusion, FusionConfig, GeometricConfig, KinematicConfig};
+pub use retrack::{RetrackConfig, Retracker};
 pub use stats::{
     ClockOffsetEstimate, EngineStats, HeadingEstimate, PLAUSIBLE_START_GRAVITY_MPS2, RejectCounts,
 };

@@ -11,7 +11,7 @@ use crate::skip::{SkipLimit, read_policy};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use nomen_core::{Message, Registry};
-use nomen_engine::{Engine, EngineConfig};
+use nomen_engine::{Engine, EngineConfig, RetrackConfig, Retracker};
 use nomen_recording::{
     DEFAULT_GLOBAL_TOLERANCE_NS, Header, IdCheck, ReadOptions, ReadStats, RecordingReader,
     RecordingWriter, WriteOptions,
@@ -73,6 +73,13 @@ pub struct RunArgs {
     /// is reproducible.
     #[arg(long)]
     pub live: bool,
+    /// The skeletons' track ids follow nobody (a pose estimator without a tracker, numbering a
+    /// frame's people by detection order): number them anew per camera by chaining each
+    /// frame's detections to the last frame's (`nomen_engine::Retracker`; engine only). The
+    /// decisions keep the ids the skeletons came with. Each camera's skeletons wait for its
+    /// next frame.
+    #[arg(long)]
+    pub retrack: bool,
 }
 
 /// What the engine path of `nomen run` adds to the engine itself.
@@ -88,6 +95,8 @@ pub struct EngineExtras {
     pub cnn: Option<PathBuf>,
     /// Treat the input as live (`--live`).
     pub live: bool,
+    /// Number the skeletons' tracks anew (`--retrack`).
+    pub retrack: bool,
 }
 
 fn load_rssi_model(path: &Path) -> Result<nomen_rssi::RssiModel> {
@@ -138,13 +147,19 @@ pub fn run(args: RunArgs) -> Result<()> {
                 environment: args.environment.clone(),
                 cnn: args.cnn.clone(),
                 live: args.live,
+                retrack: args.retrack,
             };
             run_file(&args.recording, &args.out, config, skip, &extras)?
         }
         Method::Baptizo | Method::Llorca => {
-            if args.refine_joints || args.environment.is_some() || args.cnn.is_some() || args.live {
+            if args.refine_joints
+                || args.environment.is_some()
+                || args.cnn.is_some()
+                || args.live
+                || args.retrack
+            {
                 bail!(
-                    "--refine-joints, --environment, --cnn and --live work with the engine (--method nomen) only"
+                    "--refine-joints, --environment, --cnn, --live and --retrack work with the engine (--method nomen) only"
                 );
             }
             if args.config.is_some() {
@@ -523,6 +538,11 @@ pub fn run_file(
     } else {
         None
     };
+    let mut retracker = if extras.retrack {
+        Some(Retracker::new(RetrackConfig::default())?)
+    } else {
+        None
+    };
     let mut writer = open_writer(out, recording, registry, "nomen run")?;
     // Live (reading stdin or writing stdout): each batch of decisions goes out as soon as it is
     // decided, instead of when the output buffer fills, so a consumer's wait is the engine's
@@ -538,12 +558,19 @@ pub fn run_file(
     let mut num_out = 0u64;
     let mut write_batch = |batch: &mut Vec<Message>,
                            writer: &mut RecordingWriter<_>,
-                           refinement: &mut Option<Refinement>|
+                           refinement: &mut Option<Refinement>,
+                           retracker: &mut Option<Retracker>|
      -> Result<()> {
         batch.sort_by_key(|m| m.t());
         for mut m in batch.drain(..) {
             if let (Some(r), Message::Identified(id)) = (refinement.as_mut(), &mut m) {
                 r.refine(id)?;
+            }
+            // Decided under the new ids, reported under those the skeletons came with.
+            if let (Some(r), Message::Identified(id)) = (retracker.as_mut(), &mut m)
+                && let Some(track) = r.original_track(id.t.as_ns(), &id.camera, id.track)
+            {
+                id.track = track;
             }
             writer.write(&m)?;
             num_out += 1;
@@ -561,22 +588,41 @@ pub fn run_file(
     let max_idle_ns = ((config.max_latency_s() + config.silence_timeout_s + config.hop_s)
         .min(config.max_time_jump_s)
         * 1e9) as i64;
+    let mut ready: Vec<Message> = Vec::new();
+    let mut push = |m: &Message, engine: &mut Engine, refinement: &mut Option<Refinement>| {
+        if let (Some(r), Message::Skeleton(s)) = (refinement.as_mut(), m) {
+            r.observe(s);
+        }
+        if let Err(e) = engine.push(m) {
+            num_rejected += 1;
+            first_rejection.get_or_insert_with(|| e.to_string());
+        }
+    };
     while let Some(event) = input.next_event() {
         match event {
-            Event::Message(Ok(m)) => {
-                if let (Some(r), Message::Skeleton(s)) = (refinement.as_mut(), &m) {
-                    r.observe(s);
+            Event::Message(Ok(m)) => match retracker.as_mut() {
+                Some(r) => {
+                    r.push(m);
+                    r.pop_ready(&mut ready);
+                    for m in ready.drain(..) {
+                        push(&m, &mut engine, &mut refinement);
+                    }
                 }
-                if let Err(e) = engine.push(&m) {
-                    num_rejected += 1;
-                    first_rejection.get_or_insert_with(|| e.to_string());
-                }
-            }
+                None => push(&m, &mut engine, &mut refinement),
+            },
             Event::Message(Err(e)) => {
                 read_error = Some(e);
                 break;
             }
             Event::Idle { newest, idle } => {
+                // A pause: the frames held are as complete as they will be.
+                if let Some(r) = retracker.as_mut() {
+                    r.close_frames();
+                    r.pop_ready(&mut ready);
+                    for m in ready.drain(..) {
+                        push(&m, &mut engine, &mut refinement);
+                    }
+                }
                 let idle_ns = i64::try_from(idle.as_nanos()).unwrap_or(i64::MAX);
                 let now = newest.as_ns().saturating_add(idle_ns.min(max_idle_ns));
                 // Within the time-jump bound by construction; a refusal changes nothing.
@@ -585,11 +631,18 @@ pub fn run_file(
         }
         engine.poll(&mut batch);
         if !batch.is_empty() {
-            write_batch(&mut batch, &mut writer, &mut refinement)?;
+            write_batch(&mut batch, &mut writer, &mut refinement, &mut retracker)?;
+        }
+    }
+    if let Some(r) = retracker.as_mut() {
+        r.close_frames();
+        r.pop_ready(&mut ready);
+        for m in ready.drain(..) {
+            push(&m, &mut engine, &mut refinement);
         }
     }
     engine.finish(&mut batch);
-    write_batch(&mut batch, &mut writer, &mut refinement)?;
+    write_batch(&mut batch, &mut writer, &mut refinement, &mut retracker)?;
     writer.finish()?;
     // The session's first message, dropped once the next showed its stamp was far ahead.
     if let Some(why) = &engine.stats().first_message_dropped {

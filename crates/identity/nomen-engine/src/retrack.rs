@@ -1,0 +1,415 @@
+//! Track ids for skeleton streams whose own are not stable: pose estimators without a tracker
+//! (OpenPose, bottom-up MMPose) number a frame's people by detection order, so an id follows
+//! nobody. The engine reads a track id as "the same person as this id's earlier frames"; fed
+//! detection indices, it named 14.5 % of the frames right on the 8-person full-network scene
+//! (ids ordered by the pelvis's camera x, which exchange about once a second per person), and
+//! 91.7 % after [`Retracker`], against 99.4 % with the simulated SDK's own ids: chaining by
+//! place alone gives a person's track to a neighbour now and then where they pass close (163
+//! id switches against 4), which an SDK that tracks appearance does not. (Without the
+//! velocity, 86.9 %.)
+//!
+//! A [`Retracker`] holds each camera's skeletons until the camera's next frame shows that the
+//! frame is complete, then matches the frame's detections to the camera's live tracks by an
+//! optimal assignment on the distance between joint centroids, gated by how far a person can
+//! have moved since the track was last seen; a detection nothing matches starts a track. Every
+//! message comes out in input order, skeletons with the new ids, and
+//! [`Retracker::original_track`] gives back the id a skeleton came with, so decisions can be
+//! reported under it. Sans-IO and deterministic, as the engine.
+
+use crate::error::{EngineError, Result};
+use nalgebra::{Point3, Vector3};
+use nomen_assign::{AssignConfig, CostMatrix, solve};
+use nomen_core::skeleton::JointState;
+use nomen_core::{CameraId, Message, SkeletonObservation, TrackId};
+use std::collections::{BTreeMap, VecDeque};
+
+/// How detections are chained into tracks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RetrackConfig {
+    /// Farthest a detection may lie from a track's last joint centroid and continue it, with no
+    /// time between them, m. Default 0.3 (a centroid's noise and a frame's motion, and less
+    /// than two people standing side by side).
+    pub gate_m: f64,
+    /// How fast the gate grows with the time since a track was last seen, m/s. Default 3 (a
+    /// run).
+    pub max_speed_mps: f64,
+    /// A track unseen for longer ends, s. Default 1 (the engine's stitching joins what
+    /// follows).
+    pub max_gap_s: f64,
+}
+
+impl Default for RetrackConfig {
+    fn default() -> Self {
+        Self {
+            gate_m: 0.3,
+            max_speed_mps: 3.0,
+            max_gap_s: 1.0,
+        }
+    }
+}
+
+impl RetrackConfig {
+    fn validate(&self) -> Result<()> {
+        for (name, v) in [
+            ("retrack.gate_m", self.gate_m),
+            ("retrack.max_speed_mps", self.max_speed_mps),
+            ("retrack.max_gap_s", self.max_gap_s),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(EngineError::InvalidConfig(format!(
+                    "{name} = {v} must be a finite number >= 0"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Renumbers skeleton tracks per camera (see the module docs).
+#[derive(Debug)]
+pub struct Retracker {
+    config: RetrackConfig,
+    /// Every message not yet given out, in input order, with whether it is ready (a skeleton
+    /// is once its frame is complete).
+    queue: VecDeque<(Message, bool)>,
+    /// Input position of `queue`'s front.
+    queue_start: u64,
+    cameras: BTreeMap<CameraId, CameraTracks>,
+    /// `(time, camera, new id)` → the id the skeleton came with, until it is asked for.
+    originals: BTreeMap<(i64, CameraId, TrackId), TrackId>,
+}
+
+/// A live track: its id, its last joint centroid and time, and its centroid's velocity (m/s,
+/// zero after its first frame; each frame's halved with the track's before).
+#[derive(Debug, Clone, Copy)]
+struct Live {
+    id: TrackId,
+    at: Point3<f64>,
+    t: i64,
+    velocity_mps: Vector3<f64>,
+}
+
+impl Live {
+    /// Where the track's person would be at `t`, walking on at its velocity.
+    fn predicted(&self, t: i64) -> Point3<f64> {
+        self.at + self.velocity_mps * (t.saturating_sub(self.t) as f64 * 1e-9)
+    }
+}
+
+/// One camera's open frame and live tracks.
+#[derive(Debug, Default)]
+struct CameraTracks {
+    /// The frame being gathered: its time and its skeletons' input positions.
+    open: Option<(i64, Vec<u64>)>,
+    /// The tracks seen within `max_gap_s`.
+    live: Vec<Live>,
+    /// Ids given so far.
+    num_ids: u64,
+}
+
+impl Retracker {
+    /// A retracker with nothing seen.
+    pub fn new(config: RetrackConfig) -> Result<Self> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            queue: VecDeque::new(),
+            queue_start: 0,
+            cameras: BTreeMap::new(),
+            originals: BTreeMap::new(),
+        })
+    }
+
+    /// Takes the next input message. A skeleton waits for its camera's next frame (or
+    /// [`Retracker::close_frames`]); a skeleton older than its camera's open frame, which the
+    /// camera's order forbids, gets an id of its own at once.
+    pub fn push(&mut self, msg: Message) {
+        let position = self.queue_start + self.queue.len() as u64;
+        let Message::Skeleton(s) = &msg else {
+            self.queue.push_back((msg, true));
+            return;
+        };
+        let (t, camera) = (s.t.as_ns(), s.camera.clone());
+        let open_t = self
+            .cameras
+            .get(&camera)
+            .and_then(|c| c.open.as_ref().map(|(t, _)| *t));
+        match open_t {
+            Some(open) if t > open => self.close_frame(&camera),
+            Some(open) if t < open => {
+                self.queue.push_back((msg, false));
+                self.assign(&camera, t, &[position]);
+                return;
+            }
+            _ => {}
+        }
+        self.queue.push_back((msg, false));
+        let cam = self.cameras.entry(camera).or_default();
+        match &mut cam.open {
+            Some((_, members)) => members.push(position),
+            None => cam.open = Some((t, vec![position])),
+        }
+    }
+
+    /// Closes every camera's open frame (at the end of the input, or when a live input has
+    /// paused: the frames are as complete as they will be).
+    pub fn close_frames(&mut self) {
+        let cameras: Vec<CameraId> = self.cameras.keys().cloned().collect();
+        for camera in cameras {
+            self.close_frame(&camera);
+        }
+    }
+
+    /// Moves the messages that are ready, in input order, to `out`.
+    pub fn pop_ready(&mut self, out: &mut Vec<Message>) {
+        while self.queue.front().is_some_and(|(_, ready)| *ready) {
+            if let Some((msg, _)) = self.queue.pop_front() {
+                out.push(msg);
+                self.queue_start += 1;
+            }
+        }
+    }
+
+    /// The track id the skeleton of `camera` at `t` now numbered `track` came with, once: the
+    /// entry is dropped when read. `None` for a skeleton this retracker did not number.
+    pub fn original_track(&mut self, t: i64, camera: &CameraId, track: TrackId) -> Option<TrackId> {
+        self.originals.remove(&(t, camera.clone(), track))
+    }
+
+    /// Numbers `camera`'s open frame.
+    fn close_frame(&mut self, camera: &CameraId) {
+        let Some((t, members)) = self.cameras.get_mut(camera).and_then(|c| c.open.take()) else {
+            return;
+        };
+        self.assign(camera, t, &members);
+    }
+
+    /// Numbers the skeletons of `camera` at `t` held at input `positions` and marks them
+    /// ready: an optimal assignment of their joint centroids to the live tracks, within the
+    /// gate; the rest start tracks.
+    fn assign(&mut self, camera: &CameraId, t: i64, positions: &[u64]) {
+        let config = self.config;
+        let max_gap_ns = (config.max_gap_s * 1e9) as i64;
+        let queue_start = self.queue_start;
+        let slot = |p: u64| usize::try_from(p.saturating_sub(queue_start)).ok();
+        let anchors: Vec<Option<Point3<f64>>> = positions
+            .iter()
+            .map(|&p| match slot(p).and_then(|k| self.queue.get(k)) {
+                Some((Message::Skeleton(s), _)) => centroid(s),
+                _ => None,
+            })
+            .collect();
+        let cam = self.cameras.entry(camera.clone()).or_default();
+        cam.live
+            .retain(|live| t.saturating_sub(live.t) <= max_gap_ns);
+        let rows: Vec<Vec<Option<f64>>> = anchors
+            .iter()
+            .map(|anchor| {
+                cam.live
+                    .iter()
+                    .map(|live| {
+                        let gate = config.gate_m
+                            + config.max_speed_mps * t.saturating_sub(live.t).max(0) as f64 * 1e-9;
+                        let d = (anchor.as_ref()? - live.predicted(t)).norm();
+                        (live.t < t && d <= gate).then_some(d)
+                    })
+                    .collect()
+            })
+            .collect();
+        let assigned: Vec<Option<usize>> = match CostMatrix::from_gated_rows(&rows)
+            .and_then(|m| solve(&m, &AssignConfig::default()))
+        {
+            Ok(a) => (0..anchors.len()).map(|r| a.col_for_row(r)).collect(),
+            Err(_) => vec![None; anchors.len()],
+        };
+        for ((&p, anchor), col) in positions.iter().zip(&anchors).zip(assigned) {
+            let id = match col.and_then(|c| cam.live.get_mut(c)) {
+                Some(live) => {
+                    if let Some(a) = anchor {
+                        let dt_s = t.saturating_sub(live.t) as f64 * 1e-9;
+                        // Half the newest frame's velocity, half the track's: a centroid's
+                        // noise over one frame is a fair part of a step.
+                        if dt_s > 0.0 {
+                            live.velocity_mps = 0.5 * (live.velocity_mps + (a - live.at) / dt_s);
+                        }
+                        live.at = *a;
+                    }
+                    live.t = t;
+                    live.id
+                }
+                None => {
+                    cam.num_ids += 1;
+                    let id = TrackId(cam.num_ids);
+                    if let Some(a) = anchor {
+                        cam.live.push(Live {
+                            id,
+                            at: *a,
+                            t,
+                            velocity_mps: Vector3::zeros(),
+                        });
+                    }
+                    id
+                }
+            };
+            if let Some((Message::Skeleton(s), ready)) = slot(p).and_then(|k| self.queue.get_mut(k))
+            {
+                self.originals
+                    .insert((t, camera.clone(), id), std::mem::replace(&mut s.track, id));
+                *ready = true;
+            }
+        }
+    }
+}
+
+/// The mean of a skeleton's observed joints, camera frame. (The torso's alone, which does not
+/// swing with the limbs, chained worse: 88.1 % of frames named right on the module docs'
+/// scene, 91.3 % with the velocity halved as below.)
+fn centroid(s: &SkeletonObservation) -> Option<Point3<f64>> {
+    let (sum, n) = s
+        .joints
+        .iter()
+        .filter(|(_, o)| o.state != JointState::Missing)
+        .fold((Vector3::zeros(), 0usize), |(sum, n), (_, o)| {
+            (sum + o.position_m.coords, n + 1)
+        });
+    (n > 0).then(|| Point3::from(sum / n as f64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nomen_core::skeleton::{Joint, Joints};
+    use nomen_core::{JointObservation, SessionTime};
+
+    fn skeleton(t_ms: i64, camera: &str, track: u64, x: f64, y: f64) -> Message {
+        let mut joints = Joints::new();
+        joints.insert(
+            Joint::Pelvis,
+            JointObservation::tracked(Point3::new(x, y, 3.0)),
+        );
+        Message::Skeleton(Box::new(SkeletonObservation {
+            t: SessionTime::from_ns(t_ms * 1_000_000),
+            camera: CameraId::new(camera),
+            track: TrackId(track),
+            joints,
+        }))
+    }
+
+    /// `(time in ms, track, pelvis x, pelvis y)` of the skeletons in `out`.
+    fn tracks_of(out: &[Message]) -> Vec<(i64, u64, f64, f64)> {
+        out.iter()
+            .filter_map(|m| match m {
+                Message::Skeleton(s) => {
+                    let p = s.joints.get(Joint::Pelvis)?.position_m;
+                    Some((s.t.as_ns() / 1_000_000, s.track.0, p.x, p.y))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn two_people_numbered_by_detection_order_keep_one_id_each_as_they_cross() {
+        // Ana walks from x = −1 to 1 at y = 0 and Ben from 1 to −1 at y = 1; each frame
+        // numbers them by x, so their ids exchange as they cross.
+        let mut r = Retracker::new(RetrackConfig::default()).unwrap();
+        let mut out = Vec::new();
+        for k in 0..60i64 {
+            let ana = -1.0 + k as f64 / 30.0;
+            let ben = 1.0 - k as f64 / 30.0;
+            let mut frame = [(ana, 0.0), (ben, 1.0)];
+            frame.sort_by(|a, b| a.0.total_cmp(&b.0));
+            for (i, (x, y)) in frame.into_iter().enumerate() {
+                r.push(skeleton(k * 33, "cam", i as u64, x, y));
+            }
+            r.pop_ready(&mut out);
+        }
+        r.close_frames();
+        r.pop_ready(&mut out);
+        let seen = tracks_of(&out);
+        assert_eq!(seen.len(), 120);
+        let ids_at =
+            |y: f64| -> Vec<u64> { seen.iter().filter(|s| s.3 == y).map(|s| s.1).collect() };
+        let (ana, ben) = (ids_at(0.0), ids_at(1.0));
+        assert_eq!((ana.len(), ben.len()), (60, 60));
+        assert!(ana.iter().all(|&id| id == ana[0]), "{ana:?}");
+        assert!(ben.iter().all(|&id| id == ben[0]), "{ben:?}");
+        assert_ne!(ana[0], ben[0]);
+        // Given as they came, the ids exchanged at the crossing.
+        let given: Vec<u64> = out
+            .iter()
+            .filter_map(|m| match m {
+                Message::Skeleton(s) if s.joints.get(Joint::Pelvis)?.position_m.y == 0.0 => r
+                    .original_track(s.t.as_ns(), &s.camera, s.track)
+                    .map(|t| t.0),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(given.first(), Some(&0));
+        assert_eq!(given.last(), Some(&1));
+    }
+
+    #[test]
+    fn messages_come_out_in_input_order_and_the_original_ids_are_given_back_once() {
+        let mut r = Retracker::new(RetrackConfig::default()).unwrap();
+        let mut out = Vec::new();
+        let imu = Message::Imu(nomen_core::ImuSample {
+            t: SessionTime::from_ns(40_000_000),
+            device: nomen_core::DeviceId::new("band"),
+            accel_mps2: Vector3::new(0.0, 0.0, 9.81),
+            gyro_radps: Vector3::zeros(),
+            mag_ut: None,
+            orientation_wxyz: None,
+        });
+        r.push(skeleton(0, "cam", 7, 0.0, 0.0));
+        r.push(imu.clone());
+        r.pop_ready(&mut out);
+        // The frame at 0 is open: the IMU sample after it waits too.
+        assert!(out.is_empty());
+        r.push(skeleton(33, "cam", 9, 0.01, 0.0));
+        r.pop_ready(&mut out);
+        assert_eq!(out.len(), 2);
+        assert_eq!(out[1], imu);
+        assert_eq!(tracks_of(&out), vec![(0, 1, 0.0, 0.0)]);
+        let cam = CameraId::new("cam");
+        assert_eq!(r.original_track(0, &cam, TrackId(1)), Some(TrackId(7)));
+        assert_eq!(r.original_track(0, &cam, TrackId(1)), None);
+        // The next frame continues track 1; a skeleton older than the open frame gets an id
+        // of its own and comes out at its place in the input.
+        r.push(skeleton(10, "cam", 3, 5.0, 0.0));
+        r.close_frames();
+        r.pop_ready(&mut out);
+        assert_eq!(
+            tracks_of(&out),
+            vec![(0, 1, 0.0, 0.0), (33, 1, 0.01, 0.0), (10, 2, 5.0, 0.0)]
+        );
+        assert_eq!(
+            r.original_track(33_000_000, &cam, TrackId(1)),
+            Some(TrackId(9))
+        );
+    }
+
+    #[test]
+    fn a_track_unseen_past_the_gap_or_a_jump_past_the_gate_starts_a_new_one() {
+        let mut r = Retracker::new(RetrackConfig::default()).unwrap();
+        let mut out = Vec::new();
+        // Seen at 0, then 1.5 s later at the same place: past max_gap_s (1 s).
+        for (t, x) in [(0, 0.0), (1_500, 0.0), (1_533, 2.0)] {
+            r.push(skeleton(t, "cam", 0, x, 0.0));
+        }
+        r.close_frames();
+        r.pop_ready(&mut out);
+        // 2 m in 33 ms is past the gate (0.3 m + 3 m/s × 0.033 s).
+        assert_eq!(
+            tracks_of(&out),
+            vec![(0, 1, 0.0, 0.0), (1_500, 2, 0.0, 0.0), (1_533, 3, 2.0, 0.0)]
+        );
+        assert!(
+            Retracker::new(RetrackConfig {
+                gate_m: f64::NAN,
+                ..RetrackConfig::default()
+            })
+            .is_err()
+        );
+    }
+}
