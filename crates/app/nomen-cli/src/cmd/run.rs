@@ -588,7 +588,6 @@ pub fn run_file(
     let max_idle_ns = ((config.max_latency_s() + config.silence_timeout_s + config.hop_s)
         .min(config.max_time_jump_s)
         * 1e9) as i64;
-    let mut ready: Vec<Message> = Vec::new();
     let mut push = |m: &Message, engine: &mut Engine, refinement: &mut Option<Refinement>| {
         if let (Some(r), Message::Skeleton(s)) = (refinement.as_mut(), m) {
             r.observe(s);
@@ -598,18 +597,31 @@ pub fn run_file(
             first_rejection.get_or_insert_with(|| e.to_string());
         }
     };
+    // A message (if any) to the engine, through the retracker when there is one: then what
+    // it has ready, in input order.
+    let mut ready: Vec<Message> = Vec::new();
+    let mut feed = |m: Option<Message>,
+                    retracker: &mut Option<Retracker>,
+                    engine: &mut Engine,
+                    refinement: &mut Option<Refinement>| match retracker {
+        Some(r) => {
+            if let Some(m) = m {
+                r.push(m);
+            }
+            r.pop_ready(&mut ready);
+            for m in ready.drain(..) {
+                push(&m, engine, refinement);
+            }
+        }
+        None => {
+            if let Some(m) = m {
+                push(&m, engine, refinement);
+            }
+        }
+    };
     while let Some(event) = input.next_event() {
         match event {
-            Event::Message(Ok(m)) => match retracker.as_mut() {
-                Some(r) => {
-                    r.push(m);
-                    r.pop_ready(&mut ready);
-                    for m in ready.drain(..) {
-                        push(&m, &mut engine, &mut refinement);
-                    }
-                }
-                None => push(&m, &mut engine, &mut refinement),
-            },
+            Event::Message(Ok(m)) => feed(Some(m), &mut retracker, &mut engine, &mut refinement),
             Event::Message(Err(e)) => {
                 read_error = Some(e);
                 break;
@@ -618,11 +630,8 @@ pub fn run_file(
                 // A pause: the frames held are as complete as they will be.
                 if let Some(r) = retracker.as_mut() {
                     r.close_frames();
-                    r.pop_ready(&mut ready);
-                    for m in ready.drain(..) {
-                        push(&m, &mut engine, &mut refinement);
-                    }
                 }
+                feed(None, &mut retracker, &mut engine, &mut refinement);
                 let idle_ns = i64::try_from(idle.as_nanos()).unwrap_or(i64::MAX);
                 let now = newest.as_ns().saturating_add(idle_ns.min(max_idle_ns));
                 // Within the time-jump bound by construction; a refusal changes nothing.
@@ -636,11 +645,8 @@ pub fn run_file(
     }
     if let Some(r) = retracker.as_mut() {
         r.close_frames();
-        r.pop_ready(&mut ready);
-        for m in ready.drain(..) {
-            push(&m, &mut engine, &mut refinement);
-        }
     }
+    feed(None, &mut retracker, &mut engine, &mut refinement);
     engine.finish(&mut batch);
     write_batch(&mut batch, &mut writer, &mut refinement, &mut retracker)?;
     writer.finish()?;
