@@ -21,7 +21,12 @@ use nalgebra::{Point3, Vector3};
 use nomen_assign::{AssignConfig, CostMatrix, solve};
 use nomen_core::skeleton::JointState;
 use nomen_core::{CameraId, Message, SkeletonObservation, TrackId};
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+/// A camera's open frame is complete, at the latest, once a message this much younger comes,
+/// ns: the messages of a frame come together, and a camera that stops sending would otherwise
+/// hold everything after its last frame.
+const FRAME_CLOSE_AFTER_NS: i64 = 500_000_000;
 
 /// How detections are chained into tracks.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -75,6 +80,8 @@ pub struct Retracker {
     /// Input position of `queue`'s front.
     queue_start: u64,
     cameras: BTreeMap<CameraId, CameraTracks>,
+    /// The open frames, oldest first: `(time, camera)`.
+    open_frames: BTreeSet<(i64, CameraId)>,
     /// `(time, camera, new id)` → the id the skeleton came with, until it is asked for.
     originals: BTreeMap<(i64, CameraId, TrackId), TrackId>,
 }
@@ -116,6 +123,7 @@ impl Retracker {
             queue: VecDeque::new(),
             queue_start: 0,
             cameras: BTreeMap::new(),
+            open_frames: BTreeSet::new(),
             originals: BTreeMap::new(),
         })
     }
@@ -124,6 +132,14 @@ impl Retracker {
     /// [`Retracker::close_frames`]); a skeleton older than its camera's open frame, which the
     /// camera's order forbids, gets an id of its own at once.
     pub fn push(&mut self, msg: Message) {
+        // Frames this message is well past are complete: a camera that stops sending would
+        // otherwise leave its last frame open, and everything after it waiting.
+        let now = msg.t().as_ns();
+        while let Some((t, camera)) = self.open_frames.first().cloned()
+            && t < now.saturating_sub(FRAME_CLOSE_AFTER_NS)
+        {
+            self.close_frame(&camera);
+        }
         let position = self.queue_start + self.queue.len() as u64;
         let Message::Skeleton(s) = &msg else {
             self.queue.push_back((msg, true));
@@ -144,10 +160,13 @@ impl Retracker {
             _ => {}
         }
         self.queue.push_back((msg, false));
-        let cam = self.cameras.entry(camera).or_default();
+        let cam = self.cameras.entry(camera.clone()).or_default();
         match &mut cam.open {
             Some((_, members)) => members.push(position),
-            None => cam.open = Some((t, vec![position])),
+            None => {
+                cam.open = Some((t, vec![position]));
+                self.open_frames.insert((t, camera));
+            }
         }
     }
 
@@ -181,6 +200,7 @@ impl Retracker {
         let Some((t, members)) = self.cameras.get_mut(camera).and_then(|c| c.open.take()) else {
             return;
         };
+        self.open_frames.remove(&(t, camera.clone()));
         self.assign(camera, t, &members);
     }
 
@@ -387,6 +407,22 @@ mod tests {
             r.original_track(33_000_000, &cam, TrackId(1)),
             Some(TrackId(9))
         );
+    }
+
+    #[test]
+    fn a_camera_that_stops_sending_holds_nothing_after_its_last_frame() {
+        let mut r = Retracker::new(RetrackConfig::default()).unwrap();
+        let mut out = Vec::new();
+        // The second camera sends one frame; the first goes on at 30 Hz.
+        r.push(skeleton(0, "gone", 4, 0.0, 0.0));
+        for k in 0..30 {
+            r.push(skeleton(k * 33, "cam", 0, 1.0, 0.0));
+        }
+        r.pop_ready(&mut out);
+        // Released once the stream is half a second past it, with what came before.
+        let released = tracks_of(&out);
+        assert_eq!(released.first(), Some(&(0, 1, 0.0, 0.0)));
+        assert!(released.len() >= 14, "{released:?}");
     }
 
     #[test]
