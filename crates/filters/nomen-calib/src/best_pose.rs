@@ -16,7 +16,7 @@
 //! person and absorbs the remaining candidates **from other cameras** whose mean distance over
 //! the joints both report is below `same_person_distance_m`.
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::Point3;
 use nomen_core::{Joint, JointState, SkeletonObservation};
 use serde::{Deserialize, Serialize};
 
@@ -54,17 +54,8 @@ pub struct PoseCandidate {
 
 /// The body centre used for distances: the pelvis, else the mean of the non-missing joints.
 pub fn body_centre_m(obs: &SkeletonObservation) -> Option<Point3<f64>> {
-    if let Some(p) = obs.position(Joint::Pelvis) {
-        return Some(p);
-    }
-    let (sum, n) = obs
-        .joints
-        .iter()
-        .filter(|(_, j)| j.state != JointState::Missing)
-        .fold((Vector3::zeros(), 0usize), |(s, n), (_, j)| {
-            (s + j.position_m.coords, n + 1)
-        });
-    (n > 0).then(|| Point3::from(sum / n as f64))
+    obs.position(Joint::Pelvis)
+        .or_else(|| obs.joint_centroid_m())
 }
 
 /// The quality of a candidate (see the module docs); `−∞` for a skeleton with no joints.

@@ -397,11 +397,47 @@ impl SkeletonObservation {
             .filter(|o| o.state != JointState::Missing)
             .map(|o| o.position_m)
     }
+
+    /// The mean of the joints that are present and not `Missing` (camera frame); `None`
+    /// without any.
+    pub fn joint_centroid_m(&self) -> Option<Point3<f64>> {
+        let (sum, n) = self
+            .joints
+            .iter()
+            .filter(|(_, o)| o.state != JointState::Missing)
+            .fold((nalgebra::Vector3::zeros(), 0usize), |(sum, n), (_, o)| {
+                (sum + o.position_m.coords, n + 1)
+            });
+        (n > 0).then(|| Point3::from(sum / n as f64))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_joint_centroid_leaves_missing_joints_out() {
+        let mut obs = SkeletonObservation {
+            t: SessionTime::ZERO,
+            camera: CameraId::new("cam"),
+            track: TrackId(1),
+            joints: Joints::new(),
+        };
+        assert_eq!(obs.joint_centroid_m(), None);
+        obs.joints.insert(
+            Joint::Pelvis,
+            JointObservation::tracked(Point3::new(1.0, 0.0, 0.0)),
+        );
+        obs.joints.insert(
+            Joint::Chest,
+            JointObservation::tracked(Point3::new(3.0, 2.0, 0.0)),
+        );
+        let mut lost = JointObservation::tracked(Point3::new(100.0, 0.0, 0.0));
+        lost.state = JointState::Missing;
+        obs.joints.insert(Joint::Head, lost);
+        assert_eq!(obs.joint_centroid_m(), Some(Point3::new(2.0, 1.0, 0.0)));
+    }
 
     #[test]
     fn every_joint_reaches_the_pelvis_through_its_parents() {
