@@ -262,6 +262,19 @@ const REFERENCE_CAMERA_RATE_HZ: f64 = 30.0;
 /// Distinct frame times a camera's rate is estimated from (half a second at 30 Hz).
 const CAMERA_RATE_FRAMES: usize = 16;
 
+/// The median interval between consecutive `times`, ns (`None` with fewer than two): a
+/// stream's sampling period, which a lost sample or a gap does not move.
+fn median_interval_ns(times: &[i64]) -> Option<f64> {
+    let mut intervals: Vec<f64> = times
+        .windows(2)
+        .filter_map(|w| match w {
+            [a, b] => Some((b - a) as f64),
+            _ => None,
+        })
+        .collect();
+    median(&mut intervals)
+}
+
 /// `n` samples set for a 30-Hz camera, for a camera at `scale` times that rate: at least 1,
 /// and `n` itself at 1 or for `scale` 1.
 fn scaled_count(n: usize, scale: f64) -> usize {
@@ -1766,7 +1779,8 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats
     let mut first_from_sensor = UnitQuaternion::identity();
     let mut last: Option<(i64, Vector3<f64>)> = None;
     let mut up: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
-    let mut intervals_ns: Vec<f64> = Vec::new();
+    // The times the start reads, for the samples' rate.
+    let mut times: Vec<i64> = Vec::new();
     let mut is_complete = is_finishing;
     for (&t, (accel, gyro)) in &imu.pending {
         if t >= imu.frontier {
@@ -1779,8 +1793,8 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats
             }
             let dt_s = (t - last_t) as f64 * 1e-9;
             first_from_sensor *= UnitQuaternion::from_scaled_axis(last_gyro * dt_s);
-            intervals_ns.push((t - last_t) as f64);
         }
+        times.push(t);
         if t - first >= AHRS_START_NS {
             is_complete = true;
             break;
@@ -1800,7 +1814,7 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats
     // The samples' rate, from the median interval (a lost packet does not count), fixes the
     // lag search's step for good: its memo counts kept samples from the stream's first.
     if imu.lag_step.is_none()
-        && let Some(dt_ns) = median(&mut intervals_ns)
+        && let Some(dt_ns) = median_interval_ns(&times)
     {
         imu.lag_step = Some(imu_lag_step(dt_ns.round() as i64));
     }

@@ -3,7 +3,9 @@
 
 use super::decide::{anchor_path, mean_common_distance};
 use super::scoring::lateral_distance_m;
-use super::{CAMERA_RATE_FRAMES, CameraState, REFERENCE_CAMERA_RATE_HZ, scaled_count};
+use super::{
+    CAMERA_RATE_FRAMES, CameraState, REFERENCE_CAMERA_RATE_HZ, median_interval_ns, scaled_count,
+};
 use super::{
     Engine, GapReturn, STITCH_MIN_GAP_NS, STITCH_VIEW_LOOKBACK_NS, STITCH_VIEW_MIN_FRAMES,
     SWAP_MAX_GAP_NS, SWAP_NOISE_M, SWAP_RETURN_GAP_NS, SWAP_RETURN_WINDOW_NS, SWAP_SPEED_MPS,
@@ -15,7 +17,6 @@ use crate::config::ns;
 use nalgebra::Point3;
 use nomen_core::TrackId;
 use nomen_evidence::{BelmonteConfig, GeometricConfig};
-use nomen_filters::median;
 
 impl Engine {
     /// Stitching, once a window's observations are all settled: each track first seen before
@@ -573,15 +574,7 @@ fn note_frame_times(cam: &mut CameraState, times: impl Iterator<Item = i64>) {
         }
         cam.first_frame_times.push(t);
         if cam.first_frame_times.len() >= CAMERA_RATE_FRAMES {
-            let mut intervals: Vec<f64> = cam
-                .first_frame_times
-                .windows(2)
-                .filter_map(|w| match w {
-                    [a, b] => Some((b - a) as f64),
-                    _ => None,
-                })
-                .collect();
-            cam.rate_scale = median(&mut intervals)
+            cam.rate_scale = median_interval_ns(&cam.first_frame_times)
                 .filter(|&dt_ns| dt_ns > 0.0)
                 .map(|dt_ns| 1e9 / dt_ns / REFERENCE_CAMERA_RATE_HZ);
             cam.first_frame_times = Vec::new();
