@@ -412,6 +412,32 @@ mod tests {
     }
 
     #[test]
+    fn a_skeleton_with_nan_joints_or_none_gets_an_id_of_its_own_and_breaks_no_track() {
+        let mut r = Retracker::new(RetrackConfig::default()).unwrap();
+        let mut out = Vec::new();
+        r.push(skeleton(0, "cam", 0, 0.0, 0.0));
+        r.push(skeleton(33, "cam", 0, f64::NAN, 0.0));
+        r.push(skeleton(33, "cam", 1, 0.01, 0.0));
+        let Message::Skeleton(mut empty) = skeleton(66, "cam", 0, 0.0, 0.0) else {
+            unreachable!("a skeleton");
+        };
+        empty.joints = Joints::new();
+        r.push(Message::Skeleton(empty));
+        r.push(skeleton(66, "cam", 1, 0.02, 0.0));
+        r.close_frames();
+        r.pop_ready(&mut out);
+        // The NaN one and the empty one start tracks; the person keeps track 1.
+        let all: Vec<u64> = out
+            .iter()
+            .filter_map(|m| match m {
+                Message::Skeleton(s) => Some(s.track.0),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(all, [1, 2, 1, 3, 1]);
+    }
+
+    #[test]
     fn a_track_unseen_past_the_gap_or_a_jump_past_the_gate_starts_a_new_one() {
         let mut r = Retracker::new(RetrackConfig::default()).unwrap();
         let mut out = Vec::new();
