@@ -588,13 +588,18 @@ pub fn run_file(
     let max_idle_ns = ((config.max_latency_s() + config.silence_timeout_s + config.hop_s)
         .min(config.max_time_jump_s)
         * 1e9) as i64;
+    // Whether the engine accepted the message.
     let mut push = |m: &Message, engine: &mut Engine, refinement: &mut Option<Refinement>| {
         if let (Some(r), Message::Skeleton(s)) = (refinement.as_mut(), m) {
             r.observe(s);
         }
-        if let Err(e) = engine.push(m) {
-            num_rejected += 1;
-            first_rejection.get_or_insert_with(|| e.to_string());
+        match engine.push(m) {
+            Ok(()) => true,
+            Err(e) => {
+                num_rejected += 1;
+                first_rejection.get_or_insert_with(|| e.to_string());
+                false
+            }
         }
     };
     // A message (if any) to the engine, through the retracker when there is one: then what
@@ -610,7 +615,12 @@ pub fn run_file(
             }
             r.pop_ready(&mut ready);
             for m in ready.drain(..) {
-                push(&m, engine, refinement);
+                // A refused skeleton gets no decision: its original id is not asked for.
+                if !push(&m, engine, refinement)
+                    && let Message::Skeleton(s) = &m
+                {
+                    r.original_track(s.t.as_ns(), &s.camera, s.track);
+                }
             }
         }
         None => {
