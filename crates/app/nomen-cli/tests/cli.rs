@@ -641,6 +641,46 @@ fn run_retrack_numbers_detections_anew_and_reports_under_their_own_ids() {
     let given = keys(&written.join("\n"), "skeleton");
     let decided = keys(&std::fs::read_to_string(&result).unwrap(), "identified");
     assert_eq!(decided, given);
+    // The configuration's `[retrack]` table reaches the retracker: with no gate every
+    // detection starts a track of its own, and the engine can name next to none of them.
+    let named = |path: &std::path::Path| {
+        std::fs::read_to_string(path)
+            .unwrap()
+            .lines()
+            .filter(|l| l.contains("\"type\":\"identified\"") && l.contains("\"subject\""))
+            .count()
+    };
+    let no_gate = tmp.path().join("no_gate.toml");
+    std::fs::write(&no_gate, "[retrack]\ngate_m = 0.0\ngate_growth_mps = 0.0\n").unwrap();
+    let fragmented = tmp.path().join("fragmented.jsonl");
+    let o = nomen(&[
+        "run",
+        indexed.to_str().unwrap(),
+        "--retrack",
+        "--config",
+        no_gate.to_str().unwrap(),
+        "--out",
+        fragmented.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let (chained, single) = (named(&result), named(&fragmented));
+    assert!(chained > 10 * single.max(1), "{chained} vs {single}");
+    std::fs::write(&no_gate, "[retrack]\ngate_m = -1.0\n").unwrap();
+    let o = nomen(&[
+        "run",
+        indexed.to_str().unwrap(),
+        "--retrack",
+        "--config",
+        no_gate.to_str().unwrap(),
+        "--out",
+        fragmented.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("retrack.gate_m = -1 must be a finite number >= 0"),
+        "{}",
+        text(&o.stderr)
+    );
     let o = nomen(&[
         "run",
         indexed.to_str().unwrap(),

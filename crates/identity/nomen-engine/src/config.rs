@@ -1,6 +1,7 @@
 //! Engine configuration: plain data, loadable from TOML, every field optional.
 
 use crate::error::{EngineError, Result};
+use crate::retrack::RetrackConfig;
 use nomen_evidence::{BelmonteConfig, Fusion, FusionConfig, GeometricConfig, KinematicConfig};
 use nomen_filters::kalman::ConstantVelocityConfig;
 use nomen_filters::orientation::MadgwickConfig;
@@ -844,6 +845,10 @@ pub struct EngineConfig {
     /// Decayed count of windows the heading sum needs before the heading model scores with it.
     /// Default 3.
     pub heading_min_windows: f64,
+    /// How `nomen run --retrack` chains a tracker-less pose estimator's detections into tracks
+    /// before they reach the engine ([`crate::Retracker`], table `[retrack]`); the engine itself
+    /// does not read it.
+    pub retrack: RetrackConfig,
 }
 
 impl Default for EngineConfig {
@@ -939,6 +944,7 @@ impl Default for EngineConfig {
             heading_half_life_s: 20.0,
             heading_min_coherence: 0.5,
             heading_min_windows: 3.0,
+            retrack: RetrackConfig::default(),
         }
     }
 }
@@ -1164,6 +1170,7 @@ impl EngineConfig {
             )));
         }
         self.validate_models()?;
+        self.retrack.validate()?;
         if self.hop_s > self.window_s {
             return Err(EngineError::InvalidConfig(format!(
                 "hop_s ({}) must not exceed window_s ({})",

@@ -27,6 +27,7 @@ use nalgebra::{Point3, Vector3};
 use nomen_assign::{AssignConfig, CostMatrix, solve};
 use nomen_core::skeleton::Joints;
 use nomen_core::{CameraId, JointState, Message, TrackId};
+use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 /// A camera's open frame is complete, at the latest, once a message this much younger comes,
@@ -38,7 +39,8 @@ const FRAME_CLOSE_AFTER_NS: i64 = 500_000_000;
 const MIN_COMMON_JOINTS: usize = 3;
 
 /// How detections are chained into tracks.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct RetrackConfig {
     /// Farthest a detection's joints may lie, on mean, from where a track's would be (its
     /// last skeleton moved on at its velocity) and continue it, with no time between them, m.
@@ -66,7 +68,8 @@ impl Default for RetrackConfig {
 }
 
 impl RetrackConfig {
-    fn validate(&self) -> Result<()> {
+    /// Checks that every value is a finite number ≥ 0.
+    pub(crate) fn validate(&self) -> Result<()> {
         for (name, v) in [
             ("retrack.gate_m", self.gate_m),
             ("retrack.gate_growth_mps", self.gate_growth_mps),

@@ -11,7 +11,7 @@ use crate::skip::{SkipLimit, read_policy};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use nomen_core::{Message, Registry};
-use nomen_engine::{Engine, EngineConfig, RetrackConfig, Retracker};
+use nomen_engine::{Engine, EngineConfig, Retracker};
 use nomen_recording::{
     DEFAULT_GLOBAL_TOLERANCE_NS, Header, IdCheck, ReadOptions, ReadStats, RecordingReader,
     RecordingWriter, WriteOptions,
@@ -539,7 +539,7 @@ pub fn run_file(
         None
     };
     let mut retracker = if extras.retrack {
-        Some(Retracker::new(RetrackConfig::default())?)
+        Some(Retracker::new(config.retrack)?)
     } else {
         None
     };
