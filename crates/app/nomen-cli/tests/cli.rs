@@ -1233,3 +1233,91 @@ fn run_with_the_shipped_cnn_labels_every_skeleton_and_a_missing_model_is_named()
         text(&o.stderr)
     );
 }
+
+/// `nomen run RECORDING [--config CONFIG] --out OUT`, failing the test if it fails; returns
+/// the share of frames `nomen eval` finds named right against `truth`.
+fn run_and_score(recording: &Path, config: Option<&Path>, out: &Path, truth: &Path) -> f64 {
+    let mut args = vec!["run", recording.to_str().unwrap()];
+    if let Some(c) = config {
+        args.extend(["--config", c.to_str().unwrap()]);
+    }
+    args.extend(["--out", out.to_str().unwrap()]);
+    let o = nomen(&args);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let o = nomen(&[
+        "eval",
+        "--truth",
+        truth.to_str().unwrap(),
+        "--result",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    report["id_accuracy"].as_f64().unwrap()
+}
+
+#[test]
+fn run_fills_the_joint_gaps_of_a_pose_estimator_that_drops_occluded_joints() {
+    let Some(data) = data_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    let o = nomen(&[
+        "simulate",
+        common::repo()
+            .join("scenarios/imu_wrist_8.toml")
+            .to_str()
+            .unwrap(),
+        "--out",
+        scene.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+        "--seed",
+        "7",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    // Every joint the simulated depth camera only inferred dropped, as OpenPose reports none
+    // it cannot see: a third of the wrists' frames.
+    let dropped: Vec<String> = std::fs::read_to_string(scene.join("recording.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+            if v["type"] == "skeleton"
+                && let Some(joints) = v["joints"].as_object_mut()
+            {
+                joints.retain(|_, j| j["state"] == "tracked");
+            }
+            v.to_string()
+        })
+        .collect();
+    let recording = tmp.path().join("dropped.jsonl");
+    std::fs::write(&recording, dropped.join("\n") + "\n").unwrap();
+    let unfilled = tmp.path().join("unfilled.toml");
+    std::fs::write(&unfilled, "joint_gap_bridge_s = 0.0\n").unwrap();
+    let truth = scene.join("truth.jsonl");
+    let filled = run_and_score(&recording, None, &tmp.path().join("a.jsonl"), &truth);
+    let gappy = run_and_score(
+        &recording,
+        Some(&unfilled),
+        &tmp.path().join("b.jsonl"),
+        &truth,
+    );
+    // Measured: 97.9 % against 67.4 % (a band's clock offset found on a wrong peak).
+    assert!(filled >= 0.95 && gappy <= 0.85, "{filled} vs {gappy}");
+
+    // A depth camera's skeletons, inferred joints and all, are not filled: the setting for
+    // pose estimators changes nothing there.
+    let Some((tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
+        return;
+    };
+    let (recording, truth) = (scene.join("recording.jsonl"), scene.join("truth.jsonl"));
+    let (a, b) = (tmp.path().join("a.jsonl"), tmp.path().join("b.jsonl"));
+    run_and_score(&recording, None, &a, &truth);
+    run_and_score(&recording, Some(&unfilled), &b, &truth);
+    let body = |p: &Path| -> Vec<String> {
+        let text = std::fs::read_to_string(p).unwrap();
+        text.lines().skip(1).map(str::to_owned).collect()
+    };
+    assert_eq!(body(&a), body(&b));
+}

@@ -248,7 +248,20 @@ struct CameraState {
     /// correlations' configs, set for a 30-Hz camera, are scaled by it
     /// ([`Engine::camera_geometric`]).
     rate_scale: Option<f64>,
+    /// Whether a settled skeleton of the camera has had an inferred joint (a depth SDK's
+    /// guess for an occluded one), and the time of its first settled skeleton.
+    reports_inferred: bool,
+    first_settled_ns: Option<i64>,
+    /// The camera's settled skeletons have carried no inferred joint for
+    /// [`UNINFERRED_CAMERA_NS`] from its first: it drops occluded joints instead, and its
+    /// joints' gaps are filled ([`EngineConfig::joint_gap_bridge_s`]).
+    is_uninferred: bool,
 }
+
+/// How long a camera's settled skeletons must have carried no inferred joint before the
+/// camera is taken for a pose estimator that drops occluded joints, ns. A depth SDK reports
+/// some within a second or two of people moving about.
+const UNINFERRED_CAMERA_NS: i64 = 2_000_000_000;
 
 /// The camera rate the sample counts of [`nomen_evidence::GeometricConfig`] and
 /// [`nomen_evidence::BelmonteConfig`] (`min_samples`, `moving_average_len`) are set for, Hz.
@@ -431,6 +444,8 @@ impl ImuState {
 struct TrackSample {
     t: i64,
     joints: Joints<Point3<f64>>,
+    /// Joints (bit [`Joint::index`]) the smoother filled in a short gap, not observed.
+    bridged: u32,
 }
 
 /// Exponentially weighted mean of one pair's window scores.
@@ -689,6 +704,9 @@ impl Engine {
                 frontier: i64::MIN,
                 first_frame_times: Vec::new(),
                 rate_scale: None,
+                reports_inferred: false,
+                first_settled_ns: None,
+                is_uninferred: false,
             })
             .collect();
         let camera_index = cameras
@@ -1845,6 +1863,7 @@ fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise
         let mut sample = TrackSample {
             t,
             joints: Joints::new(),
+            bridged: 0,
         };
         let Some(kf_config) = config.joint_filter else {
             sample.joints = joints;
@@ -1889,9 +1908,12 @@ fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise
 
 /// Revises a track's recent samples with its joint smoothers, once per settle (see
 /// [`EngineConfig::joint_smoother_lag_s`]): matched by time (an undone id swap may have moved a
-/// sample between tracks), observed joints only.
-fn smooth_track(tr: &mut TrackState) {
+/// sample between tracks), observed joints, and fills a joint's gaps of up to `bridge_ns`
+/// between two observations with the smoother's estimate ([`EngineConfig::joint_gap_bridge_s`]
+/// and [`EngineConfig::joint_gap_bridge_inferred_s`]).
+fn smooth_track(tr: &mut TrackState, bridge_ns: i64) {
     tr.is_smoothing_due = false;
+    let mut gap: Vec<(usize, Point3<f64>)> = Vec::new();
     for (j, kf) in Joint::ALL.iter().zip(tr.kalman.iter_mut()) {
         let Some(kf) = kf.as_mut() else {
             continue;
@@ -1900,8 +1922,10 @@ fn smooth_track(tr: &mut TrackState) {
         let Some(&(oldest, _)) = revised.first() else {
             continue;
         };
+        let bit = 1u32 << j.index();
+        gap.clear();
         let mut revised = revised.iter().rev().peekable();
-        for sample in tr.samples.iter_mut().rev() {
+        for (k, sample) in tr.samples.iter_mut().enumerate().rev() {
             if sample.t < oldest.as_ns() {
                 break;
             }
@@ -1909,10 +1933,35 @@ fn smooth_track(tr: &mut TrackState) {
             let Some((ts, p)) = revised.peek() else {
                 break;
             };
-            if ts.as_ns() == sample.t
-                && let Some(q) = sample.joints.get_mut(*j)
+            if ts.as_ns() != sample.t {
+                continue;
+            }
+            match sample.joints.get_mut(*j) {
+                Some(q) => *q = *p,
+                None if bridge_ns > 0 => gap.push((k, *p)),
+                None => {}
+            }
+        }
+        // Frames without the joint between two that observed it within `bridge_ns`: the
+        // smoother's estimate there, which the observations on both sides pin down.
+        let observed = |s: &TrackSample| s.joints.get(*j).is_some() && s.bridged & bit == 0;
+        for &(k, p) in &gap {
+            let Some(t) = tr.samples.get(k).map(|s| s.t) else {
+                continue;
+            };
+            let newer = (tr.samples.range(k + 1..))
+                .take_while(|s| s.t - t <= bridge_ns)
+                .find(|s| observed(s))
+                .map(|s| s.t);
+            let older = (tr.samples.range(..k).rev())
+                .take_while(|s| t - s.t <= bridge_ns)
+                .find(|s| observed(s))
+                .map(|s| s.t);
+            if let (Some(newer), Some(older), Some(sample)) = (newer, older, tr.samples.get_mut(k))
+                && newer - older <= bridge_ns
             {
-                *q = *p;
+                sample.joints.insert(*j, p);
+                sample.bridged |= bit;
             }
         }
     }

@@ -1717,7 +1717,11 @@ mod tests {
     fn sample(t: i64, x: f64) -> TrackSample {
         let mut joints = Joints::new();
         joints.insert(Joint::LeftWrist, Point3::new(x, 0.0, 1.0));
-        TrackSample { t, joints }
+        TrackSample {
+            t,
+            joints,
+            bridged: 0,
+        }
     }
 
     #[test]

@@ -4,7 +4,8 @@
 use super::decide::{anchor_path, mean_common_distance};
 use super::scoring::lateral_distance_m;
 use super::{
-    CAMERA_RATE_FRAMES, CameraState, REFERENCE_CAMERA_RATE_HZ, median_interval_ns, scaled_count,
+    CAMERA_RATE_FRAMES, CameraState, REFERENCE_CAMERA_RATE_HZ, UNINFERRED_CAMERA_NS,
+    median_interval_ns, scaled_count,
 };
 use super::{
     Engine, GapReturn, STITCH_MIN_GAP_NS, STITCH_VIEW_LOOKBACK_NS, STITCH_VIEW_MIN_FRAMES,
@@ -327,6 +328,12 @@ impl Engine {
             let Some(frame) = self.tracks.get(&(c, id)).and_then(|tr| tr.pending.get(&t)) else {
                 continue;
             };
+            if let Some(cam) = self.cameras.get_mut(c) {
+                cam.reports_inferred |= !frame.inferred.is_empty();
+                let first = *cam.first_settled_ns.get_or_insert(t);
+                cam.is_uninferred =
+                    !cam.reports_inferred && t.saturating_sub(first) >= UNINFERRED_CAMERA_NS;
+            }
             let anchor = joint_centroid(&frame.joints_world_m);
             if let Some(x) = anchor
                 && let Some((other, returned)) = self.swapped_with(c, id, t, &x)
@@ -406,13 +413,19 @@ impl Engine {
                 }
             }
         }
+        let bridge_s = if self.cameras.get(c).is_some_and(|cam| cam.is_uninferred) {
+            self.config.joint_gap_bridge_s
+        } else {
+            self.config.joint_gap_bridge_inferred_s
+        };
+        let bridge_ns = (bridge_s * 1e9) as i64;
         for (_, tr) in self
             .tracks
             .range_mut((c, TrackId(0))..)
             .take_while(|(k, _)| k.0 == c)
             .filter(|(_, tr)| tr.is_smoothing_due)
         {
-            smooth_track(tr);
+            smooth_track(tr, bridge_ns);
         }
     }
 
