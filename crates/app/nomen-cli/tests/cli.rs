@@ -651,30 +651,24 @@ fn run_retrack_numbers_detections_anew_and_reports_under_their_own_ids() {
             .count()
     };
     let no_gate = tmp.path().join("no_gate.toml");
-    std::fs::write(&no_gate, "[retrack]\ngate_m = 0.0\ngate_growth_mps = 0.0\n").unwrap();
     let fragmented = tmp.path().join("fragmented.jsonl");
-    let o = nomen(&[
-        "run",
-        indexed.to_str().unwrap(),
-        "--retrack",
-        "--config",
-        no_gate.to_str().unwrap(),
-        "--out",
-        fragmented.to_str().unwrap(),
-    ]);
+    let run_with = |config: &str| {
+        std::fs::write(&no_gate, config).unwrap();
+        nomen(&[
+            "run",
+            indexed.to_str().unwrap(),
+            "--retrack",
+            "--config",
+            no_gate.to_str().unwrap(),
+            "--out",
+            fragmented.to_str().unwrap(),
+        ])
+    };
+    let o = run_with("[retrack]\ngate_m = 0.0\ngate_growth_mps = 0.0\n");
     assert!(o.status.success(), "{}", text(&o.stderr));
     let (chained, single) = (named(&result), named(&fragmented));
     assert!(chained > 10 * single.max(1), "{chained} vs {single}");
-    std::fs::write(&no_gate, "[retrack]\ngate_m = -1.0\n").unwrap();
-    let o = nomen(&[
-        "run",
-        indexed.to_str().unwrap(),
-        "--retrack",
-        "--config",
-        no_gate.to_str().unwrap(),
-        "--out",
-        fragmented.to_str().unwrap(),
-    ]);
+    let o = run_with("[retrack]\ngate_m = -1.0\n");
     assert!(!o.status.success());
     assert!(
         text(&o.stderr).contains("retrack.gate_m = -1 must be a finite number >= 0"),
@@ -1303,7 +1297,7 @@ fn run_fills_the_joint_gaps_of_a_pose_estimator_that_drops_occluded_joints() {
         &tmp.path().join("b.jsonl"),
         &truth,
     );
-    // Measured: 97.9 % against 67.4 % (a band's clock offset found on a wrong peak).
+    // Measured: 97.7 % against 67.4 % (bands' clock offsets found on wrong peaks).
     assert!(filled >= 0.95 && gappy <= 0.85, "{filled} vs {gappy}");
 
     // A depth camera's skeletons, inferred joints and all, are not filled: the setting for

@@ -25,6 +25,7 @@
 //! simulated camera only inferred also removed, as a tracker-less pose estimator gives them,
 //! the 8-person scenes came out at 97.2 % (full networks, seed 1) and 93.3 / 94.7 % (one
 //! wrist, seeds 1–2), against 99.2 / 99.1 / 98.4 % with the simulated SDK's ids.
+
 use crate::error::{EngineError, Result};
 use nalgebra::{Point3, Vector3};
 use nomen_assign::{AssignConfig, CostMatrix, solve};
