@@ -345,9 +345,10 @@ pub struct EngineConfig {
     /// depth SDK: Kinect, Azure Kinect, ZED), whose remaining gaps are joints out of view.
     /// Default 0 (none): on the sweep's scenes, 0.3 s changed no decision of the
     /// Belmonte-Hernández episodes and moved the others within their noise (8 people, full
-    /// networks 99.32 → 99.32 %, one wrist 98.63 → 98.60 %, 5 people 97.18 → 97.08 % and
-    /// 92.70 → 92.42 %), while 0.4 s filled the episodes' 0.3–0.4 s gaps at the elbows and the
-    /// man without a band was named in 1.26 % of his frames instead of 0.49 %.
+    /// networks 99.32 → 99.32 %, one wrist 98.63 → 98.60 %; 5 people, full networks 97.18 →
+    /// 97.08 %, one wrist 92.70 → 92.42 %), while 0.4 s filled the episodes' 0.3–0.4 s gaps at
+    /// the elbows and the man without a band was named in 1.26 % of his frames instead of
+    /// 0.49 %.
     pub joint_gap_bridge_inferred_s: f64,
     /// Joint measurement noise (per axis standard deviation) for the Kalman filter, m. Default
     /// 0.03 m (Kinect v2 joint noise at 2–4 m, Otte et al. 2016).
