@@ -268,7 +268,6 @@ impl Retracker {
             .retain(|live| t.saturating_sub(live.t) <= max_gap_ns);
         let num_live = cam.live.len();
         let new_track_cost = config.gate_m + config.gate_growth_mps * config.max_gap_s;
-        let mut moved: BTreeMap<(usize, usize), Vector3<f64>> = BTreeMap::new();
         let rows: Vec<Vec<Option<f64>>> = detections
             .iter()
             .enumerate()
@@ -276,17 +275,13 @@ impl Retracker {
                 let mut row: Vec<Option<f64>> = cam
                     .live
                     .iter()
-                    .enumerate()
-                    .map(|(c, live)| {
+                    .map(|live| {
                         let gate = config.gate_m
                             + config.gate_growth_mps
                                 * t.saturating_sub(live.t).max(0) as f64
                                 * 1e-9;
-                        let (d, shift) = live.distance(joints_m, t)?;
-                        (live.t < t && d <= gate && gate > 0.0).then(|| {
-                            moved.insert((r, c), shift);
-                            d
-                        })
+                        let (d, _) = live.distance(joints_m, t)?;
+                        (live.t < t && d <= gate && gate > 0.0).then_some(d)
                     })
                     .collect();
                 // Starting a track: this row's own column only.
@@ -302,14 +297,13 @@ impl Retracker {
                 .collect(),
             Err(_) => vec![None; detections.len()],
         };
-        for (r, ((&p, joints_m), col)) in positions.iter().zip(detections).zip(assigned).enumerate()
-        {
-            let id = match col.and_then(|c| Some((c, cam.live.get_mut(c)?))) {
-                Some((c, live)) => {
+        for ((&p, joints_m), col) in positions.iter().zip(detections).zip(assigned) {
+            let id = match col.and_then(|c| cam.live.get_mut(c)) {
+                Some(live) => {
                     let dt_s = t.saturating_sub(live.t) as f64 * 1e-9;
                     // Half the newest frame's velocity, half the track's: a skeleton's noise
                     // over one frame is a fair part of a step.
-                    if let Some(shift) = moved.get(&(r, c))
+                    if let Some((_, shift)) = live.distance(&joints_m, t)
                         && dt_s > 0.0
                     {
                         live.velocity_mps = 0.5 * (live.velocity_mps + shift / dt_s);
@@ -379,6 +373,16 @@ mod tests {
                     let p = s.joints.get(Joint::Pelvis)?.position_m;
                     Some((s.t.as_ns() / 1_000_000, s.track.0, p.x, p.y))
                 }
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The retracked ids of `out`'s skeletons, in order.
+    fn ids_of(out: &[Message]) -> Vec<u64> {
+        out.iter()
+            .filter_map(|m| match m {
+                Message::Skeleton(s) => Some(s.track.0),
                 _ => None,
             })
             .collect()
@@ -497,14 +501,7 @@ mod tests {
         r.close_frames();
         r.pop_ready(&mut out);
         // The NaN one and the empty one start tracks; the person keeps track 1.
-        let all: Vec<u64> = out
-            .iter()
-            .filter_map(|m| match m {
-                Message::Skeleton(s) => Some(s.track.0),
-                _ => None,
-            })
-            .collect();
-        assert_eq!(all, [1, 2, 1, 3, 1]);
+        assert_eq!(ids_of(&out), [1, 2, 1, 3, 1]);
     }
 
     #[test]
@@ -529,16 +526,6 @@ mod tests {
             })
             .is_err()
         );
-    }
-
-    /// The retracked ids of `out`'s skeletons, in order.
-    fn ids_of(out: &[Message]) -> Vec<u64> {
-        out.iter()
-            .filter_map(|m| match m {
-                Message::Skeleton(s) => Some(s.track.0),
-                _ => None,
-            })
-            .collect()
     }
 
     #[test]
