@@ -2,33 +2,16 @@
 //! motion capture in `../shared/data`; skipped with a message without it).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod shared_data;
+
+use shared_data::simulated;
+
 use nomen_core::{DeviceId, Identity, Message, TrackId};
 use nomen_engine::{EngineConfig, EngineStats, run_batch};
 use nomen_evidence::KinematicConfig;
 use nomen_filters::kalman::ConstantVelocityConfig;
-use nomen_sim::{Scenario, SimOutput, load_scenario_clips, simulate};
+use nomen_sim::SimOutput;
 use std::collections::BTreeMap;
-use std::path::Path;
-
-/// The scenario at `path` (relative to the repository) simulated at `seed`, its recording in
-/// time order; `None` without the shared data.
-fn simulated(path: &str, seed: u64) -> Option<SimOutput> {
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
-    let data = repo.join("../shared/data");
-    if !data.join("mocap/cmu").is_dir() {
-        eprintln!("skipping: shared data not found at {}", data.display());
-        return None;
-    }
-    let text = std::fs::read_to_string(repo.join(path)).unwrap();
-    let scenario = Scenario::from_toml(&text, path).unwrap();
-    let clips = load_scenario_clips(&scenario, &mut |file| {
-        std::fs::read_to_string(data.join(file)).map_err(|e| e.to_string())
-    })
-    .unwrap();
-    let mut sim = simulate(&scenario, &clips, seed, &mut |_, _| {}).unwrap();
-    sim.recording.sort_by_key(Message::t);
-    Some(sim)
-}
 
 /// The engine's decisions and stats on `sim`'s recording, default configuration.
 fn run_default(sim: &SimOutput) -> (Vec<Message>, EngineStats) {

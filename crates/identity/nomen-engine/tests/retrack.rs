@@ -3,23 +3,14 @@
 //! a message without it).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod shared_data;
+
+use shared_data::{data_dir, simulated};
+
 use nomen_core::{CameraId, Message, SessionTime, SkeletonObservation, TrackId};
 use nomen_engine::{RetrackConfig, Retracker};
 use nomen_mocap::{ConvertOptions, Grounding, convert_pair, read_bvh_file};
-use nomen_sim::{Scenario, load_scenario_clips, simulate};
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
-
-/// `../shared/data`, or `None` (with a message) without it.
-fn data_dir() -> Option<PathBuf> {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../../shared/data");
-    if data.join("mocap/cmu").is_dir() {
-        Some(data)
-    } else {
-        eprintln!("skipping: shared data not found at {}", data.display());
-        None
-    }
-}
 
 /// Renumbers each frame's skeletons (same time and camera) by the order of their pelvis's x,
 /// as a pose estimator without a tracker numbers its detections; returns the skeletons in
@@ -130,18 +121,9 @@ fn salsa_partners_keep_one_id_each_however_their_detection_order_changes() {
 
 #[test]
 fn eight_people_crossing_under_two_cameras_are_rarely_given_each_others_tracks() {
-    let Some(data) = data_dir() else {
+    let Some(sim) = simulated("scenarios/imu_ban_8.toml", 1) else {
         return;
     };
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
-    let path = "scenarios/imu_ban_8.toml";
-    let scenario =
-        Scenario::from_toml(&std::fs::read_to_string(repo.join(path)).unwrap(), path).unwrap();
-    let clips = load_scenario_clips(&scenario, &mut |file| {
-        std::fs::read_to_string(data.join(file)).map_err(|e| e.to_string())
-    })
-    .unwrap();
-    let sim = simulate(&scenario, &clips, 1, &mut |_, _| {}).unwrap();
     // Each simulated skeleton's person, from the ground truth.
     let person: BTreeMap<(i64, CameraId, TrackId), String> = sim
         .truth
