@@ -1411,6 +1411,30 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             },
         ),
         (
+            "joint_gap_bridge_s",
+            EngineConfig {
+                joint_gap_bridge_s: -0.5,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "joint_gap_bridge_inferred_s",
+            EngineConfig {
+                joint_gap_bridge_inferred_s: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "retrack.gate_growth_mps",
+            EngineConfig {
+                retrack: nomen_engine::RetrackConfig {
+                    gate_growth_mps: f64::INFINITY,
+                    ..Default::default()
+                },
+                ..EngineConfig::default()
+            },
+        ),
+        (
             "network_evidence_half_life_s",
             EngineConfig {
                 network_evidence_half_life_s: 0.0,
