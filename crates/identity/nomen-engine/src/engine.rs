@@ -275,6 +275,15 @@ const REFERENCE_CAMERA_RATE_HZ: f64 = 30.0;
 /// Distinct frame times a camera's rate is estimated from (half a second at 30 Hz).
 const CAMERA_RATE_FRAMES: usize = 16;
 
+/// Fewest samples a track needs in a window to be scored there, at 30 Hz (0.27 s), scaled to
+/// the camera's rate like the models' counts ([`scaled_count`]). Counted in samples at every
+/// rate, the floor was twice as long at 15 Hz and half as long at 60 Hz.
+const WINDOW_MIN_TRACK_SAMPLES: usize = 8;
+
+/// Fewest samples a track needs in the clock search's buffer to be searched, at 30 Hz
+/// (0.53 s), scaled to the camera's rate as [`WINDOW_MIN_TRACK_SAMPLES`].
+const LAG_MIN_TRACK_SAMPLES: usize = 16;
+
 /// The median interval between consecutive `times`, ns (`None` with fewer than two): a
 /// stream's sampling period, which a lost sample or a gap does not move.
 fn median_interval_ns(times: &[i64]) -> Option<f64> {

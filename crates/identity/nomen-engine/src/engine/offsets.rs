@@ -3,9 +3,9 @@
 //! and curves.
 
 use super::{
-    COARSE_LAG_STEPS, Engine, ImuState, LAG_DECIMATION, LAG_STEP_NS, MAX_IMU_GAP_NS,
-    OFFSET_PEAK_SEPARATION_NS, TrackKey, TrackSample, TrackState, covered_span, sample_range,
-    scaled_count,
+    COARSE_LAG_STEPS, Engine, ImuState, LAG_DECIMATION, LAG_MIN_TRACK_SAMPLES, LAG_STEP_NS,
+    MAX_IMU_GAP_NS, OFFSET_PEAK_SEPARATION_NS, TrackKey, TrackSample, TrackState, covered_span,
+    sample_range, scaled_count,
 };
 use crate::config::{EngineConfig, OFFSET_CONFIRM_HISTORY, ns};
 use crate::lag_memo::{self, ImuLagMemo};
@@ -1559,7 +1559,7 @@ impl TrackLagCache {
                 let window = windows.entry(key).or_insert_with(|| {
                     let tr = tracks.get(&key)?;
                     let (a, b) = sample_range(tr, lo, hi);
-                    if b < a + 16 {
+                    if b < a + scaled_count(LAG_MIN_TRACK_SAMPLES, sample_scale) {
                         return None;
                     }
                     // A causal low-pass delays a signal by a time that scales with the rate it
@@ -1617,17 +1617,18 @@ impl TrackLagCache {
 /// track was seen in each frame.
 type FrameGrid = (Vec<i64>, Vec<Joints<Point3<f64>>>, Vec<bool>);
 
-/// Most frames in a row that [`on_frame_grid`] fills in: a third of a second at 30 Hz, longer
-/// than the gaps of the simulated Belmonte-Hernández episodes' tracks (4 to 10 frames). A
-/// causal filter restarted after every missed frame never settles: with one frame in ten
-/// missed, unfilled frames gave offsets 24–32 ms early in the engine's synthetic test, filled
-/// ones 4–5 ms late. Filling up to 30 frames changed nothing over the sweep.
-const MAX_FILLED_FRAMES: i64 = 10;
+/// Longest run of missed frames that [`on_frame_grid`] fills in, ns: a third of a second (10
+/// frames at 30 Hz, 5 at 15 Hz), longer than the gaps of the simulated Belmonte-Hernández
+/// episodes' tracks (4 to 10 frames at 30 Hz). A causal filter restarted after every missed
+/// frame never settles: with one frame in ten missed, unfilled frames gave offsets 24–32 ms
+/// early in the engine's synthetic test, filled ones 4–5 ms late. Filling up to 30 frames (at
+/// 30 Hz) changed nothing over the sweep.
+const MAX_FILLED_NS: i64 = 333_333_333;
 
 /// A track's samples on its camera's frame grid, and which frames the track was seen in: each
 /// gap of about `m` frame intervals between two samples gets the `m − 1` frames the track
 /// missed, evenly spaced, with joints interpolated linearly between the two samples for up to
-/// [`MAX_FILLED_FRAMES`] missed frames and without joints (where the filters restart) for
+/// [`MAX_FILLED_NS`] of missed frames and without joints (where the filters restart) for
 /// more. The filled frames keep a causal filter's clock; their values are not compared
 /// ([`mask_unseen`]). The frame interval is the mean of the samples' intervals within half of
 /// one of their lower quartile, so a track must have been seen in more than a quarter of its
@@ -1662,6 +1663,7 @@ fn on_frame_grid<'a>(samples: impl Iterator<Item = &'a TrackSample> + Clone) -> 
     if step <= 0 || num_frames > 4 * num_samples as i64 {
         return None;
     }
+    let max_filled_frames = (MAX_FILLED_NS as f64 / step as f64).round() as i64;
     let capacity = usize::try_from(num_frames).unwrap_or(num_samples);
     let mut t_out = Vec::with_capacity(capacity);
     let mut joints_out = Vec::with_capacity(capacity);
@@ -1671,7 +1673,7 @@ fn on_frame_grid<'a>(samples: impl Iterator<Item = &'a TrackSample> + Clone) -> 
         if let Some(p) = prev {
             let gap = s.t - p.t;
             let frames = frames_in(gap);
-            let is_filled = frames - 1 <= MAX_FILLED_FRAMES;
+            let is_filled = frames - 1 <= max_filled_frames;
             for k in 1..frames {
                 let f = k as f64 / frames as f64;
                 t_out.push(p.t + (gap as f64 * f).round() as i64);
@@ -1728,7 +1730,7 @@ mod tests {
     fn missed_frames_are_put_back_filled_and_unseen_long_gaps_empty() {
         const F: i64 = 33_333_333;
         // Frames 0, 1 (a little late), 3, 4, 14 and 26 to 35: one frame missed, then nine
-        // (filled), then eleven (more than `MAX_FILLED_FRAMES`: a gap).
+        // (filled), then eleven (more than `MAX_FILLED_NS`, 10 frames at 30 Hz: a gap).
         let mut samples = vec![
             sample(0, 0.0),
             sample(F + 2_000_000, 1.0),
@@ -1773,5 +1775,25 @@ mod tests {
         ];
         assert!(on_frame_grid(odd.iter()).is_none());
         assert!(on_frame_grid(odd[..0].iter()).is_none());
+    }
+
+    #[test]
+    fn the_longest_filled_gap_is_a_time_at_every_frame_rate() {
+        // At 15 Hz a third of a second is 5 frames: 5 missed frames are filled, 6 are a gap.
+        const F: i64 = 66_666_667;
+        let samples = [
+            sample(0, 0.0),
+            sample(F, 1.0),
+            sample(7 * F, 7.0),
+            sample(8 * F, 8.0),
+            sample(15 * F, 15.0),
+            sample(16 * F, 16.0),
+        ];
+        let (t, joints, seen) = on_frame_grid(samples.iter()).unwrap();
+        assert_eq!(t.len(), 17);
+        let unseen: Vec<usize> = (0..17).filter(|&k| !seen[k]).collect();
+        assert_eq!(unseen, [2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14]);
+        assert!((2..7).all(|k| joints[k].get(Joint::LeftWrist).is_some()));
+        assert!((9..15).all(|k| joints[k].is_empty()));
     }
 }

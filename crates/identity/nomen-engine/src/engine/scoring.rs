@@ -2,8 +2,8 @@
 //! location-tag and RSSI scores, accumulated per track (see the crate docs, step 2).
 
 use super::{
-    Engine, MAX_IMU_GAP_NS, SILENT_WEARER_SLACK_NS, TrackKey, TrackState, accumulate, covered_span,
-    sample_range,
+    Engine, MAX_IMU_GAP_NS, SILENT_WEARER_SLACK_NS, TrackKey, TrackState, WINDOW_MIN_TRACK_SAMPLES,
+    accumulate, covered_span, sample_range, scaled_count,
 };
 use crate::config::MotionScore;
 use crate::signal::imu_window_on_grid;
@@ -209,6 +209,7 @@ impl Engine {
         // The models' sample counts at this camera's rate.
         let geometric = self.camera_geometric(c);
         let belmonte = self.camera_belmonte(c);
+        let min_track_samples = scaled_count(WINDOW_MIN_TRACK_SAMPLES, self.camera_scale(c));
         let start = window.start;
         let end = window.end;
         let min_span = window.min_span;
@@ -229,7 +230,7 @@ impl Engine {
                 continue;
             };
             let (a, b) = sample_range(tr, start, end);
-            if b < a + 8 || covered_span(tr, start, end) < min_span {
+            if b < a + min_track_samples || covered_span(tr, start, end) < min_span {
                 continue;
             }
             // The camera's frame times from the track's first sample in the window (or in
