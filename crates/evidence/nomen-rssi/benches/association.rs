@@ -79,6 +79,7 @@ fn main() {
                     device: DeviceId::new(format!("tag{i}")),
                     kind: DeviceKind::RfidTag,
                     site: Joint::Chest,
+                    either_side: false,
                     clock: Default::default(),
                 }],
             })

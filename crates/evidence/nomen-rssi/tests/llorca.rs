@@ -32,6 +32,7 @@ fn registry(num_tags: usize) -> Registry {
                 device: DeviceId::new(format!("tag{i}")),
                 kind: DeviceKind::RfidTag,
                 site: Joint::Chest,
+                either_side: false,
                 clock: Default::default(),
             }],
         })

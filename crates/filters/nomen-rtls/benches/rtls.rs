@@ -53,6 +53,7 @@ fn baptizo_per_frame(num_people: usize, rng: &mut ChaCha8Rng) {
                     device: DeviceId::new(format!("tag{i}")),
                     kind: DeviceKind::UwbTag,
                     site: Joint::Chest,
+                    either_side: false,
                     clock: Default::default(),
                 }],
             })

@@ -149,6 +149,7 @@ mod tests {
                     device: TagId::new("t"),
                     kind: DeviceKind::UwbTag,
                     site: Joint::RightWrist,
+                    either_side: false,
                     clock: Default::default(),
                 }],
             }],

@@ -30,6 +30,7 @@ fn registry(wears: &[(&str, &[&str])]) -> Registry {
                         } else {
                             Joint::LeftWrist
                         },
+                        either_side: false,
                         clock: Default::default(),
                     })
                     .collect(),

@@ -272,6 +272,14 @@ const UNINFERRED_CAMERA_NS: i64 = 2_000_000_000;
 /// scaled (99.4 % at 30 Hz); clock offsets 8.5 ms off the simulator's on median.
 const REFERENCE_CAMERA_RATE_HZ: f64 = 30.0;
 
+/// Windows that must have compared an `either_side` IMU at both sites, at its accepted
+/// offset on tracks named after its wearer, before its side is fixed (10 s at the default
+/// hop): each window's vote is the fit at one site less the fit at the other.
+const SIDE_MIN_WINDOWS: u32 = 20;
+
+/// The mean vote, correlation units, by which one site must lead for the side to be fixed.
+const SIDE_MIN_MEAN_VOTE: f64 = 0.05;
+
 /// Distinct frame times a camera's rate is estimated from (half a second at 30 Hz).
 const CAMERA_RATE_FRAMES: usize = 16;
 
@@ -310,6 +318,14 @@ struct ImuState {
     device: DeviceId,
     subject: usize,
     site: Joint,
+    /// The other side an IMU registered with `either_side` may be on: every comparison is made
+    /// with both and keeps the better ([`ImuState::sites`]), until the side is found
+    /// ([`SIDE_MIN_WINDOWS`]); `None` after.
+    mirror_site: Option<Joint>,
+    /// The sum, over windows that scored the IMU at its accepted offset on a track named after
+    /// its wearer, of the fit at `site` less the fit at `mirror_site`, and their number.
+    side_votes: f64,
+    side_windows: u32,
     /// Received, not yet settled: device time → (accel, gyro).
     pending: BTreeMap<i64, (Vector3<f64>, Vector3<f64>)>,
     /// Settled samples, device time, increasing.
@@ -403,6 +419,17 @@ struct ImuState {
 }
 
 impl ImuState {
+    /// The sites the IMU is compared at: its own, and the mirror image for an IMU registered
+    /// with `either_side`.
+    fn sites(&self) -> impl Iterator<Item = Joint> + use<> {
+        std::iter::once(self.site).chain(self.mirror_site)
+    }
+
+    /// The IMU's site and the mirror image it may be on instead, for the lag search.
+    fn sides(&self) -> (Joint, Option<Joint>) {
+        (self.site, self.mirror_site)
+    }
+
     /// The phase of the heading sums as a unit complex number `(re, im)`, once they span
     /// [`EngineConfig::heading_min_windows`] windows and agree to
     /// [`EngineConfig::heading_min_coherence`]; `None` before.
@@ -660,6 +687,10 @@ impl Engine {
                     device: w.device.clone(),
                     subject: s,
                     site: w.site,
+                    mirror_site: (w.either_side && w.site.mirrored() != w.site)
+                        .then(|| w.site.mirrored()),
+                    side_votes: 0.0,
+                    side_windows: 0,
                     pending: BTreeMap::new(),
                     t: VecDeque::new(),
                     accel: VecDeque::new(),
@@ -667,7 +698,7 @@ impl Engine {
                     world_from_sensor: VecDeque::new(),
                     axis_elevation_rad: VecDeque::new(),
                     wants_band_pitch: config.wants_belmonte()
-                        && scoring::band_side(w.site).is_some(),
+                        && scoring::band_side(w.site, false).is_some(),
                     axis_pitch_rad: VecDeque::new(),
                     num_forgotten: 0,
                     lag_memo: ImuLagMemo::default(),

@@ -140,7 +140,10 @@
 //!    (decayed, [`EngineConfig::heading_half_life_s`]) over the tracks labelled with its wearer,
 //!    that phase is the IMU's heading ([`EngineStats::imu_headings`]), and once it is coherent
 //!    every pair is also correlated in the room frame (`ModelWeights::heading`), which tells
-//!    apart people who move alike in different directions. Tag fixes score by their distance to the
+//!    apart people who move alike in different directions. An IMU registered with
+//!    `either_side` is compared at its site and at the mirror image (the lag search keeps the
+//!    larger curve at each lag, a window the better-fitting site) until its side is fixed
+//!    ([`EngineStats::imu_sides`]). Tag fixes score by their distance to the
 //!    tag's key joint over the last [`EngineConfig::tag_window_s`]; RSSI by the likelihood of
 //!    the filtered reads at the person's position against the background. Each modality is
 //!    accumulated per (track, subject) by an exponentially weighted mean with its own half-life

@@ -1,6 +1,6 @@
 //! Counters the engine keeps while it runs.
 
-use nomen_core::DeviceId;
+use nomen_core::{DeviceId, Joint};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -129,6 +129,9 @@ pub struct EngineStats {
     pub clock_offsets: BTreeMap<DeviceId, ClockOffsetEstimate>,
     /// The latest coherent heading estimate per IMU (kept when it later loses coherence).
     pub imu_headings: BTreeMap<DeviceId, HeadingEstimate>,
+    /// The site found for each IMU registered with `either_side`, once found.
+    #[serde(default)]
+    pub imu_sides: BTreeMap<DeviceId, Joint>,
     /// Per IMU, the magnitude of the specific force its orientation filter first started
     /// from (the per-axis median over its first second, m/s²): about 9.81 whether the wearer
     /// stands or walks. Far from it, the IMU's accelerations are in other units (1 for g,

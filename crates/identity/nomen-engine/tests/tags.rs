@@ -89,6 +89,7 @@ fn registry(walkers: &[Walker]) -> Registry {
                         device: DeviceId::new(format!("{s}_{suffix}")),
                         kind: DeviceKind::UwbTag,
                         site: *site,
+                        either_side: false,
                         clock: ClockModel::default(),
                     })
                     .collect(),
@@ -350,6 +351,7 @@ fn rssi_reads_are_checked_and_without_a_model_counted_not_used() {
         device: DeviceId::new("ana_rfid"),
         kind: DeviceKind::RfidTag,
         site: Joint::Chest,
+        either_side: false,
         clock: ClockModel::default(),
     });
     let mut engine = nomen_engine::Engine::new(registry, EngineConfig::default()).unwrap();

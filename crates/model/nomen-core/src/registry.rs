@@ -32,6 +32,12 @@ pub struct Wearable {
     pub kind: DeviceKind,
     /// The canonical joint nearest to where it is worn (the *key joint* for a location tag).
     pub site: Joint,
+    /// The IMU may be worn on `site`'s mirror image instead: a watch or band on a wrist
+    /// nobody noted. The engine then compares it with both sides and keeps the one that fits.
+    /// Only for an IMU at a joint with a left and a right (`left_wrist`, `right_ankle`, …).
+    /// Default false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub either_side: bool,
     /// How the device clock maps to the session clock (estimated; zero if unknown).
     #[serde(default)]
     pub clock: ClockModel,
@@ -147,6 +153,18 @@ impl Registry {
                     )));
                 }
                 check_clock(&w.clock, || format!("device '{}'", w.device))?;
+                if w.either_side && w.kind != DeviceKind::Imu {
+                    return Err(CoreError::Invalid(format!(
+                        "device '{}': either_side is for IMUs only",
+                        w.device
+                    )));
+                }
+                if w.either_side && w.site.mirrored() == w.site {
+                    return Err(CoreError::Invalid(format!(
+                        "device '{}': either_side needs a site with a left and a right (such as left_wrist), not '{}'",
+                        w.device, w.site
+                    )));
+                }
             }
         }
         let mut cameras = BTreeSet::new();
@@ -294,6 +312,7 @@ mod tests {
             device: DeviceId::new(id),
             kind: DeviceKind::Imu,
             site: Joint::LeftWrist,
+            either_side: false,
             clock: ClockModel::default(),
         }
     }
@@ -346,6 +365,41 @@ mod tests {
         assert!(err.contains("imu1") && err.contains("drift_ppm"), "{err}");
         let err = reg("imu1", f64::NAN).validate().unwrap_err().to_string();
         assert!(err.contains("drift_ppm"), "{err}");
+    }
+
+    #[test]
+    fn either_side_is_for_an_imu_at_a_joint_with_a_left_and_a_right() {
+        let reg = |w: Wearable| Registry {
+            subjects: vec![Subject {
+                id: "ana".into(),
+                name: None,
+                wears: vec![w],
+            }],
+            ..Default::default()
+        };
+        let mut watch = wearable("watch");
+        watch.either_side = true;
+        assert!(reg(watch.clone()).validate().is_ok());
+        // Written only when set, and read back.
+        let text = serde_json::to_string(&watch).unwrap();
+        assert!(text.contains("\"either_side\":true"), "{text}");
+        assert_eq!(serde_json::from_str::<Wearable>(&text).unwrap(), watch);
+        let plain = wearable("band");
+        let text = serde_json::to_string(&plain).unwrap();
+        assert!(!text.contains("either_side"), "{text}");
+        assert!(!serde_json::from_str::<Wearable>(&text).unwrap().either_side);
+        // Not at a midline joint, and not for a location tag.
+        let mut belt = watch.clone();
+        belt.site = Joint::Pelvis;
+        let err = reg(belt).validate().unwrap_err().to_string();
+        assert!(err.contains("'watch'") && err.contains("pelvis"), "{err}");
+        let mut tag = watch;
+        tag.kind = DeviceKind::UwbTag;
+        let err = reg(tag).validate().unwrap_err().to_string();
+        assert!(
+            err.contains("'watch'") && err.contains("IMUs only"),
+            "{err}"
+        );
     }
 
     #[test]

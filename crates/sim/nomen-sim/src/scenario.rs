@@ -150,6 +150,10 @@ pub struct WearDef {
     pub kind: DeviceKind,
     /// Body site (a canonical joint name such as `left_wrist`).
     pub site: Joint,
+    /// Registered as worn on either side ([`nomen_core::Wearable::either_side`]): the
+    /// registry does not say which wrist a watch is on. The device is simulated at `site`.
+    #[serde(default)]
+    pub either_side: bool,
 }
 
 impl Scenario {

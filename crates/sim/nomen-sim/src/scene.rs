@@ -394,6 +394,7 @@ pub fn build_registry(scenario: &Scenario) -> Result<Registry> {
                         device: DeviceId::new(w.device.clone()),
                         kind: w.kind,
                         site: w.site,
+                        either_side: w.either_side,
                         clock: Default::default(),
                     })
                     .collect(),

@@ -28,6 +28,7 @@ fn registry() -> Registry {
                 device: DeviceId::new(format!("band{i}")),
                 kind: DeviceKind::Imu,
                 site: Joint::LeftWrist,
+                either_side: false,
                 clock: ClockModel::default(),
             }],
         })

@@ -708,6 +708,9 @@ pub fn run_file(
             est.coherence
         ));
     }
+    for (device, site) in &engine.stats().imu_sides {
+        summary.push_str(&format!("\n  side {device}: found at {site}"));
+    }
     summary.push_str(&gravity_warnings(engine.stats()));
     within_skip_limit(summary, skip, &stats, recording)
 }

@@ -261,7 +261,7 @@ impl Engine {
                             short_skel_cache.signals(
                                 &self.tracks,
                                 *key,
-                                imu.site,
+                                imu.sides(),
                                 lo,
                                 short_hi,
                                 &self.config,
@@ -271,9 +271,14 @@ impl Engine {
                         };
                         (imu_sig, sig)
                     } else {
-                        let Some(sig) =
-                            skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
-                        else {
+                        let Some(sig) = skel_cache.signals(
+                            &self.tracks,
+                            *key,
+                            imu.sides(),
+                            lo,
+                            hi,
+                            &self.config,
+                        ) else {
                             continue;
                         };
                         (imu_sig, sig)
@@ -618,9 +623,14 @@ impl Engine {
                         if is_explained {
                             continue;
                         }
-                        let Some(sig) =
-                            skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config)
-                        else {
+                        let Some(sig) = skel_cache.signals(
+                            &self.tracks,
+                            *key,
+                            imu.sides(),
+                            lo,
+                            hi,
+                            &self.config,
+                        ) else {
                             continue;
                         };
                         // The joint search may have read this curve already, and the
@@ -809,7 +819,7 @@ impl Engine {
                 }
                 let (Some(imu_sig), Some(sig)) = (
                     imu_cache.signals(i, imu, cut, lag_memos, &self.config),
-                    skel_cache.signals(&self.tracks, *key, imu.site, lo, hi, &self.config),
+                    skel_cache.signals(&self.tracks, *key, imu.sides(), lo, hi, &self.config),
                 ) else {
                     continue;
                 };
@@ -922,7 +932,7 @@ impl Engine {
             {
                 continue;
             }
-            let (subject, site) = (imu.subject, imu.site);
+            let (subject, sites) = (imu.subject, imu.sides());
             // The coarse grid around the registry's offset, the prior.
             let prior = imu.registry_offset_ns;
             let grid: Vec<i64> = coarse.iter().map(|o| o + prior).collect();
@@ -938,7 +948,7 @@ impl Engine {
                         continue;
                     }
                     let Some(sig) =
-                        skel_cache.signals(&self.tracks, *key, site, lo, hi, &self.config)
+                        skel_cache.signals(&self.tracks, *key, sites, lo, hi, &self.config)
                     else {
                         continue;
                     };
@@ -1142,7 +1152,7 @@ impl Engine {
             {
                 for &(key, w) in &tracks {
                     let Some(sig) =
-                        skel_cache.signals(&self.tracks, key, imu.site, lo, hi, &self.config)
+                        skel_cache.signals(&self.tracks, key, imu.sides(), lo, hi, &self.config)
                     else {
                         continue;
                     };
@@ -1247,6 +1257,8 @@ pub(super) struct LagSearch {
 pub(super) struct LagScratch {
     weights: Vec<LagWeight>,
     curve: Vec<f64>,
+    /// The curve at the mirror-image site, for an IMU that may be on either side.
+    mirror_curve: Vec<f64>,
     /// Coarse-grid curves of this window per (IMU, offset its buffer was cut at, track): the
     /// joint search, the best-track pass and the labelled-track sum all read the curve on the
     /// coarse grid around the registry's offset, and often of the same buffers.
@@ -1263,24 +1275,24 @@ impl LagScratch {
         cut_ns: i64,
         track: TrackKey,
         imu: &LagSignals,
-        track_signals: &LagSignals,
+        track_signals: TrackSides<'_>,
         offsets_ns: &[i64],
         min_samples: usize,
     ) -> &[f64] {
         let Self {
             weights,
             curve,
+            mirror_curve,
             coarse,
         } = self;
         coarse.entry((imu_index, cut_ns, track)).or_insert_with(|| {
-            lag_curve(
+            sides_curve(
                 imu,
                 track_signals,
                 offsets_ns,
-                MAX_IMU_GAP_NS,
-                scaled_count(min_samples, track_signals.sample_scale),
+                min_samples,
                 weights,
-                curve,
+                (curve, mirror_curve),
             );
             curve.clone()
         })
@@ -1291,20 +1303,64 @@ impl LagScratch {
     fn curve(
         &mut self,
         imu: &LagSignals,
-        track: &LagSignals,
+        track: TrackSides<'_>,
         offsets_ns: &[i64],
         min_samples: usize,
     ) -> &[f64] {
-        lag_curve(
+        sides_curve(
             imu,
             track,
             offsets_ns,
-            MAX_IMU_GAP_NS,
-            scaled_count(min_samples, track.sample_scale),
+            min_samples,
             &mut self.weights,
-            &mut self.curve,
+            (&mut self.curve, &mut self.mirror_curve),
         );
         &self.curve
+    }
+}
+
+/// A track's lag signals at the IMU's site, and at its mirror image for an IMU registered with
+/// `either_side` ([`TrackLagCache::signals`]).
+pub(super) type TrackSides<'a> = (&'a LagSignals, Option<&'a LagSignals>);
+
+/// The lag curve of `imu` against `track` ([`lag_curve`], across IMU gaps up to
+/// [`MAX_IMU_GAP_NS`]) into `out.0`; with a mirror-image site, the larger of the two sides'
+/// values at each lag (`out.1` holds the other side's curve). The search then finds the side
+/// and the lag together: a band on the other wrist than its site peaks about half a stride
+/// away on the site's wrist.
+fn sides_curve(
+    imu: &LagSignals,
+    (track, mirror): TrackSides<'_>,
+    offsets_ns: &[i64],
+    min_samples: usize,
+    weights: &mut Vec<LagWeight>,
+    (out, mirror_out): (&mut Vec<f64>, &mut Vec<f64>),
+) {
+    lag_curve(
+        imu,
+        track,
+        offsets_ns,
+        MAX_IMU_GAP_NS,
+        scaled_count(min_samples, track.sample_scale),
+        weights,
+        out,
+    );
+    if let Some(mirror) = mirror {
+        lag_curve(
+            imu,
+            mirror,
+            offsets_ns,
+            MAX_IMU_GAP_NS,
+            scaled_count(min_samples, mirror.sample_scale),
+            weights,
+            mirror_out,
+        );
+        for (v, m) in out.iter_mut().zip(mirror_out.iter()) {
+            // `NaN` (no value) loses to any finite value.
+            if m.is_finite() && !(v.is_finite() && *v >= *m) {
+                *v = *m;
+            }
+        }
     }
 }
 
@@ -1335,7 +1391,7 @@ fn mean_at_offsets(
         };
         let (Some(imu_sig), Some(sig)) = (
             imu_cache.signals(i, imu, cut_ns(imu), lag_memos, config),
-            skel_cache.signals(tracks, key, imu.site, lo, hi, config),
+            skel_cache.signals(tracks, key, imu.sides(), lo, hi, config),
         ) else {
             continue;
         };
@@ -1535,10 +1591,30 @@ impl TrackLagCache {
         }
     }
 
+    /// [`TrackLagCache::one_site`] at `sites.0`, and at `sites.1` (the mirror image of an IMU
+    /// registered with `either_side`) if given.
+    fn signals(
+        &mut self,
+        tracks: &BTreeMap<TrackKey, TrackState>,
+        key: TrackKey,
+        (site, mirror): (Joint, Option<Joint>),
+        lo: i64,
+        hi: i64,
+        config: &EngineConfig,
+    ) -> Option<TrackSides<'_>> {
+        if let Some(m) = mirror {
+            let _ = self.one_site(tracks, key, m, lo, hi, config);
+        }
+        self.one_site(tracks, key, site, lo, hi, config)?;
+        let own = self.signals.get(&(key, site))?.as_ref()?;
+        let other = mirror.and_then(|m| self.signals.get(&(key, m))?.as_ref());
+        Some((own, other))
+    }
+
     /// The acceleration and carrying-segment orientation-change magnitudes (and the other lag
     /// models) of track `key` at `site` on its own times in `[lo, hi)`; `None` for an unknown
     /// or too short track.
-    fn signals(
+    fn one_site(
         &mut self,
         tracks: &BTreeMap<TrackKey, TrackState>,
         key: TrackKey,
@@ -1775,6 +1851,74 @@ mod tests {
         ];
         assert!(on_frame_grid(odd.iter()).is_none());
         assert!(on_frame_grid(odd[..0].iter()).is_none());
+    }
+
+    #[test]
+    fn a_band_on_either_wrist_takes_the_better_sides_curve_lag_by_lag() {
+        // The IMU's signal is the left wrist's; the right wrist's is the same half a second
+        // later, and the left wrist's is missing for the track's first half.
+        let t: Vec<i64> = (0..300).map(|k| k * 10_000_000).collect();
+        let wave = |t: i64| {
+            let s = t as f64 * 1e-9;
+            (s * 5.3).sin() + (s * 2.1).cos() * 0.7
+        };
+        let signals = |f: &dyn Fn(i64) -> f64| LagSignals {
+            t_ns: t.clone(),
+            models: vec![t.iter().map(|&t| f(t)).collect()],
+            sample_scale: 1.0,
+        };
+        let imu = signals(&wave);
+        let left = signals(&|t| if t < 1_500_000_000 { f64::NAN } else { wave(t) });
+        let right = signals(&|t| wave(t - 500_000_000));
+        let offsets: Vec<i64> = (-60..=60).map(|k| k * 10_000_000).collect();
+        let mut weights = Vec::new();
+        let (mut one, mut other) = (Vec::new(), Vec::new());
+        let (mut both, mut scratch) = (Vec::new(), Vec::new());
+        let curve = |track, out: &mut Vec<f64>, weights: &mut Vec<LagWeight>| {
+            lag_curve(&imu, track, &offsets, MAX_IMU_GAP_NS, 16, weights, out);
+        };
+        curve(&left, &mut one, &mut weights);
+        curve(&right, &mut other, &mut weights);
+        sides_curve(
+            &imu,
+            (&left, Some(&right)),
+            &offsets,
+            16,
+            &mut weights,
+            (&mut both, &mut scratch),
+        );
+        for ((b, l), r) in both.iter().zip(&one).zip(&other) {
+            let want = match (l.is_finite(), r.is_finite()) {
+                (true, true) => l.max(*r),
+                (true, false) => *l,
+                (false, true) => *r,
+                (false, false) => f64::NAN,
+            };
+            assert!(b == &want || (b.is_nan() && want.is_nan()), "{b} {l} {r}");
+        }
+        // Each side peaks where its wrist fits: the left at 0, the right half a second later.
+        let peak = |c: &[f64]| {
+            let k = (0..c.len())
+                .filter(|&k| c[k].is_finite())
+                .max_by(|&a, &b| c[a].total_cmp(&c[b]))
+                .unwrap();
+            offsets[k]
+        };
+        assert_eq!((peak(&one), peak(&other)), (0, 500_000_000));
+        // Without a mirror image the curve is the site's own.
+        sides_curve(
+            &imu,
+            (&left, None),
+            &offsets,
+            16,
+            &mut weights,
+            (&mut both, &mut scratch),
+        );
+        assert!(
+            both.iter()
+                .zip(&one)
+                .all(|(b, l)| b == l || (b.is_nan() && l.is_nan()))
+        );
     }
 
     #[test]

@@ -2,8 +2,8 @@
 //! location-tag and RSSI scores, accumulated per track (see the crate docs, step 2).
 
 use super::{
-    Engine, MAX_IMU_GAP_NS, SILENT_WEARER_SLACK_NS, TrackKey, TrackState, WINDOW_MIN_TRACK_SAMPLES,
-    accumulate, covered_span, sample_range, scaled_count,
+    Engine, MAX_IMU_GAP_NS, SIDE_MIN_MEAN_VOTE, SIDE_MIN_WINDOWS, SILENT_WEARER_SLACK_NS, TrackKey,
+    TrackState, WINDOW_MIN_TRACK_SAMPLES, accumulate, covered_span, sample_range, scaled_count,
 };
 use crate::config::MotionScore;
 use crate::signal::imu_window_on_grid;
@@ -80,6 +80,7 @@ impl Engine {
             imu_cache: BTreeMap::new(),
             imu_bases: BTreeMap::new(),
             heading_updates: Vec::new(),
+            side_updates: Vec::new(),
         };
         for c in 0..self.cameras.len() {
             // Tracks with a few samples in the window; the IMU models need more (below).
@@ -192,6 +193,31 @@ impl Engine {
         if wants_heading {
             self.update_headings(window.heading_updates);
         }
+        self.update_sides(window.side_updates);
+    }
+
+    /// Adds this window's votes on the sides of `either_side` IMUs, and fixes the side of
+    /// each whose votes are [`SIDE_MIN_WINDOWS`] and lead by [`SIDE_MIN_MEAN_VOTE`] on
+    /// average: from then on it is compared at that site alone.
+    pub(super) fn update_sides(&mut self, updates: Vec<(usize, f64)>) {
+        for (i, vote) in updates {
+            let Some(imu) = self.imus.get_mut(i) else {
+                continue;
+            };
+            let Some(mirror) = imu.mirror_site else {
+                continue;
+            };
+            imu.side_votes += vote;
+            imu.side_windows += 1;
+            let mean = imu.side_votes / f64::from(imu.side_windows);
+            if imu.side_windows >= SIDE_MIN_WINDOWS && mean.abs() >= SIDE_MIN_MEAN_VOTE {
+                if mean < 0.0 {
+                    imu.site = mirror;
+                }
+                imu.mirror_site = None;
+                self.stats.imu_sides.insert(imu.device.clone(), imu.site);
+            }
+        }
     }
 
     /// Every (track, IMU) pair of one camera in this window (`keys`, the camera's frame times
@@ -219,6 +245,7 @@ impl Engine {
         let imu_cache = &mut window.imu_cache;
         let imu_bases = &mut window.imu_bases;
         let heading_updates = &mut window.heading_updates;
+        let side_updates = &mut window.side_updates;
         // Tracks × subjects × sites × 4 entries: thousands, far below the tensor's limit; past
         // it (an absurd stream) the camera gets no De Marchi fusion in this window.
         let mut tensor = ScoreTensor::new(keys.len(), self.subjects.len(), &window.sites).ok();
@@ -360,59 +387,68 @@ impl Engine {
                 if !imu.is_offset_known && pair_offset.is_none() && hypotheses.is_empty() {
                     continue;
                 }
-                let segment = match segments.iter().position(|(j, _, _)| *j == imu.site) {
-                    Some(k) => k,
-                    None => {
-                        let turn = turn_rate
-                            .get_or_insert_with(|| {
-                                body_turn_rate_signal(&padded, &self.config.kinematic)
-                            })
-                            .clone();
-                        let features = SegmentFeatures::with_turn_rate_anchored(
-                            &padded,
-                            imu.site,
-                            &geometric,
-                            &self.config.kinematic,
-                            turn,
-                            anchor,
-                            (run_edge_samples, grid_from == 0),
-                        );
-                        let units = features.units();
-                        segments.push((imu.site, features, units));
-                        segments.len() - 1
-                    }
-                };
-                let Some((_, seg_features, seg_units)) = segments.get(segment) else {
-                    continue;
-                };
-                // The scores at the chosen hypothesis, already computed.
-                let mut chosen: Option<PairScores> = None;
+                // The segment's features at each site the IMU may be on: its own, and the
+                // mirror image for an IMU registered with `either_side`.
+                let mut seg_ids: [Option<usize>; 2] = [None, None];
+                for (slot, site) in seg_ids.iter_mut().zip(imu.sites()) {
+                    *slot = Some(match segments.iter().position(|(j, _, _)| *j == site) {
+                        Some(k) => k,
+                        None => {
+                            let turn = turn_rate
+                                .get_or_insert_with(|| {
+                                    body_turn_rate_signal(&padded, &self.config.kinematic)
+                                })
+                                .clone();
+                            let features = SegmentFeatures::with_turn_rate_anchored(
+                                &padded,
+                                site,
+                                &geometric,
+                                &self.config.kinematic,
+                                turn,
+                                anchor,
+                                (run_edge_samples, grid_from == 0),
+                            );
+                            let units = features.units();
+                            segments.push((site, features, units));
+                            segments.len() - 1
+                        }
+                    });
+                }
+                let seg_ids = seg_ids.into_iter().flatten();
+                // The scores at the chosen hypothesis and site, already computed.
+                let mut chosen: Option<(usize, PairScores)> = None;
                 let offset = match (imu.is_offset_known, pair_offset) {
                     (true, _) => imu.offset_ns,
                     (false, Some(o)) => o,
                     // A track too short for the search: the lag hypothesis that fits it best.
                     (false, None) => {
-                        let mut best: Option<(f64, i64, PairScores)> = None;
+                        let mut best: Option<(f64, i64, usize, PairScores)> = None;
                         for &o in hypotheses {
                             let imu_o = imu_cache
                                 .entry((i, o, grid_index))
                                 .or_insert_with(|| build(o));
-                            let (scores, k) = compare_prepared(
-                                &imu_o.features,
-                                &imu_o.units,
-                                seg_features,
-                                seg_units,
-                                &geometric,
-                            );
-                            if let Some(fit) = weighted_fit(&scores, &k, &self.config.model_weights)
-                                && best.as_ref().is_none_or(|(b, _, _)| fit > *b)
-                            {
-                                best = Some((fit, o, (scores, k)));
+                            for sid in seg_ids.clone() {
+                                let Some((_, seg_features, seg_units)) = segments.get(sid) else {
+                                    continue;
+                                };
+                                let (scores, k) = compare_prepared(
+                                    &imu_o.features,
+                                    &imu_o.units,
+                                    seg_features,
+                                    seg_units,
+                                    &geometric,
+                                );
+                                if let Some(fit) =
+                                    weighted_fit(&scores, &k, &self.config.model_weights)
+                                    && best.as_ref().is_none_or(|(b, ..)| fit > *b)
+                                {
+                                    best = Some((fit, o, sid, (scores, k)));
+                                }
                             }
                         }
                         match best {
-                            Some((_, o, pair)) => {
-                                chosen = Some(pair);
+                            Some((_, o, sid, pair)) => {
+                                chosen = Some((sid, pair));
                                 o
                             }
                             None => continue,
@@ -423,16 +459,53 @@ impl Engine {
                     .entry((i, offset, grid_index))
                     .or_insert_with(|| build(offset));
                 let (imu_win, imu_features) = (&cached.window, &cached.features);
-                let (mut scores, k) = match chosen {
-                    Some(pair) => pair,
-                    None => compare_prepared(
-                        imu_features,
-                        &cached.units,
-                        seg_features,
-                        seg_units,
-                        &geometric,
-                    ),
+                let (segment, (mut scores, k)) = match chosen {
+                    Some(c) => c,
+                    None => {
+                        // The site that fits better (the IMU's own on a tie, or if neither
+                        // has a fit).
+                        let mut best: Option<(Option<f64>, usize, PairScores)> = None;
+                        let mut fits = [None; 2];
+                        for (sid, fit_out) in seg_ids.zip(&mut fits) {
+                            let Some((_, seg_features, seg_units)) = segments.get(sid) else {
+                                continue;
+                            };
+                            let pair = compare_prepared(
+                                imu_features,
+                                &cached.units,
+                                seg_features,
+                                seg_units,
+                                &geometric,
+                            );
+                            let fit = weighted_fit(&pair.0, &pair.1, &self.config.model_weights);
+                            *fit_out = fit;
+                            let is_better = best.as_ref().is_none_or(|(b, ..)| match (fit, b) {
+                                (Some(f), Some(b)) => f > *b,
+                                (Some(_), None) => true,
+                                (None, _) => false,
+                            });
+                            if is_better {
+                                best = Some((fit, sid, pair));
+                            }
+                        }
+                        // A vote on the side, where the IMU's clock and the track's name are
+                        // both settled.
+                        if let [Some(own), Some(mirror)] = fits
+                            && imu.is_offset_known
+                            && tr.label == Some(imu.subject)
+                        {
+                            side_updates.push((i, own - mirror));
+                        }
+                        match best {
+                            Some((_, sid, pair)) => (sid, pair),
+                            None => continue,
+                        }
+                    }
                 };
+                let Some((site, seg_features, _)) = segments.get(segment) else {
+                    continue;
+                };
+                let site = *site;
                 // The heading model: only at a known offset, where the window's cross sum
                 // is that of the IMU's own clock (a pair scored at its own best lag would
                 // mix a lag error into the heading).
@@ -450,9 +523,11 @@ impl Engine {
                     heading_updates.push((i, [c.re / c.norm(), c.im / c.norm()]));
                 }
                 if let Some(scorer) = &self.pair_scorer {
-                    scores.dl = scorer.score(imu_win, skel, imu.site);
+                    scores.dl = scorer.score(imu_win, skel, site);
                 }
-                if let (Some(band), Some(side)) = (&cached.band, band_side(imu.site)) {
+                if let (Some(band), Some(side)) =
+                    (&cached.band, band_side(imu.site, imu.mirror_site.is_some()))
+                {
                     let arm = match arms.iter().position(|(s, _)| *s == side) {
                         Some(k) => k,
                         None => {
@@ -578,6 +653,10 @@ struct WindowScoring {
     /// This window's normalised cross sums `(IMU, (re, im))` against the tracks labelled with
     /// the IMU's wearer.
     heading_updates: Vec<(usize, [f64; 2])>,
+    /// Votes on the side of `either_side` IMUs: (IMU, fit at its site less fit at the mirror),
+    /// one per pair compared at both sites at the IMU's accepted offset on a track named after
+    /// its wearer.
+    side_updates: Vec<(usize, f64)>,
 }
 
 /// An IMU resampled onto a camera's grid of one window at one offset
@@ -754,9 +833,11 @@ pub(super) fn weighted_fit(
 }
 
 /// Which forearm a band at `site` is on, for Belmonte-Hernández's costs; `None` off the
-/// forearm. A band at the elbow or hand may be on either.
-pub(super) fn band_side(site: Joint) -> Option<Side> {
+/// forearm. A band at the elbow or hand may be on either, and so may a band on a wrist
+/// registered with `either_side`.
+pub(super) fn band_side(site: Joint, either_side: bool) -> Option<Side> {
     match site {
+        Joint::LeftWrist | Joint::RightWrist if either_side => Some(Side::Unknown),
         Joint::LeftWrist => Some(Side::Left),
         Joint::RightWrist => Some(Side::Right),
         Joint::LeftElbow | Joint::RightElbow | Joint::LeftHand | Joint::RightHand => {

@@ -152,6 +152,7 @@ pub fn registry(people: &[Person]) -> Registry {
                         device: DeviceId::new(device),
                         kind: DeviceKind::Imu,
                         site,
+                        either_side: false,
                         clock: ClockModel::default(),
                     })
                     .collect(),

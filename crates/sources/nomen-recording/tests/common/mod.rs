@@ -13,6 +13,7 @@ fn wear(device: &str, kind: DeviceKind, site: Joint) -> Wearable {
         device: DeviceId::new(device),
         kind,
         site,
+        either_side: false,
         clock: ClockModel::default(),
     }
 }
