@@ -272,10 +272,10 @@ const UNINFERRED_CAMERA_NS: i64 = 2_000_000_000;
 /// scaled (99.4 % at 30 Hz); clock offsets 8.5 ms off the simulator's on median.
 const REFERENCE_CAMERA_RATE_HZ: f64 = 30.0;
 
-/// Windows that must have compared an `either_side` IMU at both sites, at its accepted
-/// offset on tracks named after its wearer, before its side is fixed (10 s at the default
-/// hop): each window's vote is the fit at one site less the fit at the other.
-const SIDE_MIN_WINDOWS: u32 = 20;
+/// Votes an `either_side` IMU needs before its side is fixed: one per window and track named
+/// after its wearer that compared it at both sites at its accepted offset (10 s at the default
+/// hop with one such track in view), each the fit at one site less the fit at the other.
+const SIDE_MIN_VOTES: u32 = 20;
 
 /// The mean vote, correlation units, by which one site must lead for the side to be fixed.
 const SIDE_MIN_MEAN_VOTE: f64 = 0.05;
@@ -320,12 +320,12 @@ struct ImuState {
     site: Joint,
     /// The other side an IMU registered with `either_side` may be on: every comparison is made
     /// with both and keeps the better ([`ImuState::sites`]), until the side is found
-    /// ([`SIDE_MIN_WINDOWS`]); `None` after.
+    /// ([`SIDE_MIN_VOTES`]); `None` after.
     mirror_site: Option<Joint>,
-    /// The sum, over windows that scored the IMU at its accepted offset on a track named after
-    /// its wearer, of the fit at `site` less the fit at `mirror_site`, and their number.
+    /// The sum, over windows and tracks named after its wearer that scored the IMU at its
+    /// accepted offset, of the fit at `site` less the fit at `mirror_site`, and their number.
     side_votes: f64,
-    side_windows: u32,
+    num_side_votes: u32,
     /// Received, not yet settled: device time → (accel, gyro).
     pending: BTreeMap<i64, (Vector3<f64>, Vector3<f64>)>,
     /// Settled samples, device time, increasing.
@@ -690,7 +690,7 @@ impl Engine {
                     mirror_site: (w.either_side && w.site.mirrored() != w.site)
                         .then(|| w.site.mirrored()),
                     side_votes: 0.0,
-                    side_windows: 0,
+                    num_side_votes: 0,
                     pending: BTreeMap::new(),
                     t: VecDeque::new(),
                     accel: VecDeque::new(),

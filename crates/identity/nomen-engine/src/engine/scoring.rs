@@ -2,7 +2,7 @@
 //! location-tag and RSSI scores, accumulated per track (see the crate docs, step 2).
 
 use super::{
-    Engine, MAX_IMU_GAP_NS, SIDE_MIN_MEAN_VOTE, SIDE_MIN_WINDOWS, SILENT_WEARER_SLACK_NS, TrackKey,
+    Engine, MAX_IMU_GAP_NS, SIDE_MIN_MEAN_VOTE, SIDE_MIN_VOTES, SILENT_WEARER_SLACK_NS, TrackKey,
     TrackState, WINDOW_MIN_TRACK_SAMPLES, accumulate, covered_span, sample_range, scaled_count,
 };
 use crate::config::MotionScore;
@@ -197,8 +197,8 @@ impl Engine {
     }
 
     /// Adds this window's votes on the sides of `either_side` IMUs, and fixes the side of
-    /// each whose votes are [`SIDE_MIN_WINDOWS`] and lead by [`SIDE_MIN_MEAN_VOTE`] on
-    /// average: from then on it is compared at that site alone.
+    /// each with [`SIDE_MIN_VOTES`] votes that lead by [`SIDE_MIN_MEAN_VOTE`] on average: from
+    /// then on it is compared at that site alone.
     pub(super) fn update_sides(&mut self, updates: Vec<(usize, f64)>) {
         for (i, vote) in updates {
             let Some(imu) = self.imus.get_mut(i) else {
@@ -208,9 +208,9 @@ impl Engine {
                 continue;
             };
             imu.side_votes += vote;
-            imu.side_windows += 1;
-            let mean = imu.side_votes / f64::from(imu.side_windows);
-            if imu.side_windows >= SIDE_MIN_WINDOWS && mean.abs() >= SIDE_MIN_MEAN_VOTE {
+            imu.num_side_votes += 1;
+            let mean = imu.side_votes / f64::from(imu.num_side_votes);
+            if imu.num_side_votes >= SIDE_MIN_VOTES && mean.abs() >= SIDE_MIN_MEAN_VOTE {
                 if mean < 0.0 {
                     imu.site = mirror;
                 }
