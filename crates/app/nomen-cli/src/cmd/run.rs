@@ -10,12 +10,14 @@ use crate::refine::Refinement;
 use crate::skip::{SkipLimit, read_policy};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
 use nomen_core::{Message, Registry};
 use nomen_engine::{Engine, EngineConfig, Retracker};
 use nomen_recording::{
     DEFAULT_GLOBAL_TOLERANCE_NS, Header, IdCheck, ReadOptions, ReadStats, RecordingReader,
     RecordingWriter, WriteOptions,
 };
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -484,6 +486,31 @@ impl Input {
     }
 }
 
+/// Messages between two updates of [`progress_bar`]'s position.
+const PROGRESS_EVERY: u64 = 4096;
+
+/// A bar of the bytes of `recording` read, on stderr when it is a terminal and the recording
+/// a file read to its end (not stdin, not `--live`); hidden otherwise, so pipes and logs get
+/// the summary line alone.
+fn progress_bar(recording: &Path, live: bool) -> ProgressBar {
+    let size = (!live && !crate::io::is_std_stream(recording) && std::io::stderr().is_terminal())
+        .then(|| std::fs::metadata(recording).ok())
+        .flatten()
+        .filter(|m| m.is_file())
+        .map(|m| m.len());
+    let Some(size) = size else {
+        return ProgressBar::hidden();
+    };
+    let bar = ProgressBar::new(size);
+    bar.set_style(
+        ProgressStyle::with_template("running [{bar:40}] {percent:>3}% ({eta} left)").map_or_else(
+            |_| ProgressStyle::default_bar(),
+            |s| s.progress_chars("=> "),
+        ),
+    );
+    bar
+}
+
 /// Loads an engine configuration file, or the defaults.
 pub fn load_config(path: Option<&Path>) -> Result<EngineConfig> {
     match path {
@@ -629,7 +656,16 @@ pub fn run_file(
             }
         }
     };
+    // Progress on a terminal, for a file read here (stdin and live input have no known end).
+    let bar = progress_bar(recording, extras.live);
+    let mut num_events = 0u64;
     while let Some(event) = input.next_event() {
+        num_events += 1;
+        if num_events % PROGRESS_EVERY == 0
+            && let Input::Reader(reader) = &input
+        {
+            bar.set_position(reader.stats().num_bytes);
+        }
         match event {
             Event::Message(Ok(m)) => feed(Some(m), &mut retracker, &mut engine, &mut refinement),
             Event::Message(Err(e)) => {
@@ -657,6 +693,7 @@ pub fn run_file(
         r.close_frames();
     }
     feed(None, &mut retracker, &mut engine, &mut refinement);
+    bar.finish_and_clear();
     engine.finish(&mut batch);
     write_batch(&mut batch, &mut writer, &mut refinement, &mut retracker)?;
     writer.finish()?;
