@@ -661,7 +661,7 @@ pub fn run_file(
     let mut num_events = 0u64;
     while let Some(event) = input.next_event() {
         num_events += 1;
-        if num_events % PROGRESS_EVERY == 0
+        if num_events.is_multiple_of(PROGRESS_EVERY)
             && let Input::Reader(reader) = &input
         {
             bar.set_position(reader.stats().num_bytes);
