@@ -272,12 +272,13 @@ const UNINFERRED_CAMERA_NS: i64 = 2_000_000_000;
 /// scaled (99.4 % at 30 Hz); clock offsets 8.5 ms off the simulator's on median.
 const REFERENCE_CAMERA_RATE_HZ: f64 = 30.0;
 
-/// Votes an `either_side` IMU needs before its side is fixed: one per window and track named
-/// after its wearer that compared it at both sites at its accepted offset (10 s at the default
-/// hop with one such track in view), each the fit at one site less the fit at the other.
+/// Votes an `either_side` IMU needs before its side is reported: one per window and track
+/// named after its wearer that compared it at both sites at its accepted offset (10 s at the
+/// default hop with one such track in view), each the fit at one site less the fit at the
+/// other.
 const SIDE_MIN_VOTES: u32 = 20;
 
-/// The mean vote, correlation units, by which one site must lead for the side to be fixed.
+/// The mean vote, correlation units, by which one site must lead for the side to be reported.
 const SIDE_MIN_MEAN_VOTE: f64 = 0.05;
 
 /// Distinct frame times a camera's rate is estimated from (half a second at 30 Hz).
@@ -319,8 +320,7 @@ struct ImuState {
     subject: usize,
     site: Joint,
     /// The other side an IMU registered with `either_side` may be on: every comparison is made
-    /// with both and keeps the better ([`ImuState::sites`]), until the side is found
-    /// ([`SIDE_MIN_VOTES`]); `None` after.
+    /// with both and keeps the better ([`ImuState::sites`]).
     mirror_site: Option<Joint>,
     /// The sum, over windows and tracks named after its wearer that scored the IMU at its
     /// accepted offset, of the fit at `site` less the fit at `mirror_site`, and their number.

@@ -142,8 +142,8 @@
 //!    every pair is also correlated in the room frame (`ModelWeights::heading`), which tells
 //!    apart people who move alike in different directions. An IMU registered with
 //!    `either_side` is compared at its site and at the mirror image (the lag search keeps the
-//!    larger curve at each lag, a window the better-fitting site) until its side is fixed
-//!    ([`EngineStats::imu_sides`]). Tag fixes score by their distance to the
+//!    larger curve at each lag, a window the better-fitting site), and the side its fits on
+//!    its wearer's tracks lead to is reported ([`EngineStats::imu_sides`]). Tag fixes score by their distance to the
 //!    tag's key joint over the last [`EngineConfig::tag_window_s`]; RSSI by the likelihood of
 //!    the filtered reads at the person's position against the background. Each modality is
 //!    accumulated per (track, subject) by an exponentially weighted mean with its own half-life

@@ -129,7 +129,8 @@ pub struct EngineStats {
     pub clock_offsets: BTreeMap<DeviceId, ClockOffsetEstimate>,
     /// The latest coherent heading estimate per IMU (kept when it later loses coherence).
     pub imu_headings: BTreeMap<DeviceId, HeadingEstimate>,
-    /// The site found for each IMU registered with `either_side`, once found.
+    /// For each IMU registered with `either_side`, the site its fits on its wearer's tracks
+    /// lead to, once they clearly do (it may change as they accumulate).
     #[serde(default)]
     pub imu_sides: BTreeMap<DeviceId, Joint>,
     /// Per IMU, the magnitude of the specific force its orientation filter first started

@@ -1,5 +1,6 @@
-//! Wrist IMUs registered with `either_side`: the engine finds which wrist each is on (needs the
-//! motion capture in `../shared/data`; skipped with a message without it).
+//! Wrist IMUs registered with `either_side`: the engine names their wearers and reports which
+//! wrist each is on (needs the motion capture in `../shared/data`; skipped with a message
+//! without it).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod shared_data;
@@ -57,11 +58,11 @@ fn run(registry: &Registry, sim: &SimOutput) -> (Vec<Message>, EngineStats) {
 }
 
 #[test]
-fn bands_registered_on_either_wrist_are_found_on_the_wrist_they_are_worn_on() {
+fn bands_registered_on_either_wrist_name_their_wearers_and_are_found_on_their_wrists() {
     // Four people, each with one wrist band, two of them walking the same clip mirrored. Every
     // band is registered on the wrist it is not worn on. Measured at this seed: 95.5 % of
-    // frames named right with the true wrists registered, 37.7 % with the wrong ones, 98.6 %
-    // with the wrong ones and `either_side` (seeds 1–10: 97.1, 62.7 and 97.0 %).
+    // frames named right with the true wrists registered, 37.7 % with the wrong ones, 98.7 %
+    // with the wrong ones and `either_side` (seeds 1–10: 97.1, 62.7 and 97.6 %).
     let Some(sim) = simulated("scenarios/imu_wrist_4.toml", 2) else {
         return;
     };
@@ -71,7 +72,7 @@ fn bands_registered_on_either_wrist_are_found_on_the_wrist_they_are_worn_on() {
     );
     let either = accuracy(&sim, &out);
     assert!(either > 0.95, "either side: {either:.4}");
-    // Each band's side is found, and it is the wrist the band is worn on.
+    // Each band's side is reported, and it is the wrist the band is worn on.
     let worn: BTreeMap<String, Joint> = sim
         .scene
         .registry

@@ -196,9 +196,11 @@ impl Engine {
         self.update_sides(window.side_updates);
     }
 
-    /// Adds this window's votes on the sides of `either_side` IMUs, and fixes the side of
-    /// each with [`SIDE_MIN_VOTES`] votes that lead by [`SIDE_MIN_MEAN_VOTE`] on average: from
-    /// then on it is compared at that site alone.
+    /// Adds this window's votes on the sides of `either_side` IMUs, and reports for each with
+    /// [`SIDE_MIN_VOTES`] votes that lead by [`SIDE_MIN_MEAN_VOTE`] on average the side they
+    /// lead to ([`EngineStats::imu_sides`](crate::EngineStats::imu_sides)). The comparisons
+    /// keep both sides: fixing the side there, once the votes led, cost frames wherever a
+    /// look-alike's other wrist had won them (see the crate README).
     pub(super) fn update_sides(&mut self, updates: Vec<(usize, f64)>) {
         for (i, vote) in updates {
             let Some(imu) = self.imus.get_mut(i) else {
@@ -211,11 +213,8 @@ impl Engine {
             imu.num_side_votes += 1;
             let mean = imu.side_votes / f64::from(imu.num_side_votes);
             if imu.num_side_votes >= SIDE_MIN_VOTES && mean.abs() >= SIDE_MIN_MEAN_VOTE {
-                if mean < 0.0 {
-                    imu.site = mirror;
-                }
-                imu.mirror_site = None;
-                self.stats.imu_sides.insert(imu.device.clone(), imu.site);
+                let side = if mean < 0.0 { mirror } else { imu.site };
+                self.stats.imu_sides.insert(imu.device.clone(), side);
             }
         }
     }
