@@ -1315,3 +1315,62 @@ fn run_fills_the_joint_gaps_of_a_pose_estimator_that_drops_occluded_joints() {
     };
     assert_eq!(body(&a), body(&b));
 }
+
+#[test]
+fn run_reports_the_wrist_of_a_band_registered_on_either_side_and_refuses_a_tag_so_registered() {
+    let Some((tmp, scene)) = simulated_scene("imu_wrist_2.toml") else {
+        return;
+    };
+    // Both bands registered on the wrist they are not worn on, with `either_side`.
+    let recording = std::fs::read_to_string(scene.join("recording.jsonl")).unwrap();
+    let (header, body) = recording.split_once('\n').unwrap();
+    let mut header: serde_json::Value = serde_json::from_str(header).unwrap();
+    for subject in header["registry"]["subjects"].as_array_mut().unwrap() {
+        for w in subject["wears"].as_array_mut().unwrap() {
+            let other = match w["site"].as_str().unwrap() {
+                "left_wrist" => "right_wrist",
+                "right_wrist" => "left_wrist",
+                site => panic!("{site}"),
+            };
+            w["site"] = other.into();
+            w["either_side"] = true.into();
+        }
+    }
+    let either = tmp.path().join("either.jsonl");
+    std::fs::write(&either, format!("{header}\n{body}")).unwrap();
+    let result = tmp.path().join("result.jsonl");
+    let o = nomen(&[
+        "run",
+        either.to_str().unwrap(),
+        "--out",
+        result.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains("side ana_left_wrist: found at left_wrist"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("side ben_right_wrist: found at right_wrist"),
+        "{stderr}"
+    );
+    let accuracy = run_and_score(&either, None, &result, &scene.join("truth.jsonl"));
+    assert!(accuracy > 0.95, "{accuracy}");
+    // A location tag cannot be on either side: the header is refused, naming the device.
+    header["registry"]["subjects"][0]["wears"][0]["kind"] = "uwb_tag".into();
+    let tagged = tmp.path().join("tagged.jsonl");
+    std::fs::write(&tagged, format!("{header}\n{body}")).unwrap();
+    let o = nomen(&[
+        "run",
+        tagged.to_str().unwrap(),
+        "--out",
+        tmp.path().join("tagged_result.jsonl").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains("ana_left_wrist") && stderr.contains("either_side is for IMUs only"),
+        "{stderr}"
+    );
+}
