@@ -34,8 +34,9 @@ pub enum MotionScore {
     /// [`EngineConfig::belmonte_pitch_sigma_rad`] and [`EngineConfig::belmonte_yaw_rate_sigma_radps`]
     /// so it accumulates and thresholds like the other scores (the paper thresholds the costs
     /// directly; the exponential is our reading). The wearing side is the registry's site (a
-    /// band registered at an elbow or hand is tried on both forearms); IMUs elsewhere on the
-    /// body give no Belmonte evidence.
+    /// band registered at an elbow or hand, or with `either_side`, is tried on both forearms
+    /// and the better pitch kept, as the paper suggests for an unknown side); IMUs elsewhere on
+    /// the body give no Belmonte evidence.
     Belmonte,
 }
 

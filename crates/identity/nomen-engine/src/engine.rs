@@ -698,7 +698,7 @@ impl Engine {
                     world_from_sensor: VecDeque::new(),
                     axis_elevation_rad: VecDeque::new(),
                     wants_band_pitch: config.wants_belmonte()
-                        && scoring::band_side(w.site, false).is_some(),
+                        && scoring::band_side(w.site).is_some(),
                     axis_pitch_rad: VecDeque::new(),
                     num_forgotten: 0,
                     lag_memo: ImuLagMemo::default(),

@@ -61,8 +61,8 @@ fn run(registry: &Registry, sim: &SimOutput) -> (Vec<Message>, EngineStats) {
 fn bands_registered_on_either_wrist_name_their_wearers_and_are_found_on_their_wrists() {
     // Four people, each with one wrist band, two of them walking the same clip mirrored. Every
     // band is registered on the wrist it is not worn on. Measured at this seed: 95.5 % of
-    // frames named right with the true wrists registered, 37.7 % with the wrong ones, 98.7 %
-    // with the wrong ones and `either_side` (seeds 1–10: 97.1, 62.7 and 97.6 %).
+    // frames named right with the true wrists registered, 37.7 % with the wrong ones, 99.2 %
+    // with the wrong ones and `either_side` (seeds 1–10: 97.1, 62.7 and 97.8 %).
     let Some(sim) = simulated("scenarios/imu_wrist_4.toml", 2) else {
         return;
     };

@@ -524,9 +524,18 @@ impl Engine {
                 if let Some(scorer) = &self.pair_scorer {
                     scores.dl = scorer.score(imu_win, skel, site);
                 }
-                if let (Some(band), Some(side)) =
-                    (&cached.band, band_side(imu.site, imu.mirror_site.is_some()))
+                // An `either_side` band's costs are read at the wrist the correlations chose:
+                // left free to pick their own, a wrong person's track had two more chances
+                // (see the crate README). Belmonte-Hernández's method alone keeps its rule,
+                // the wrist whose pitch fits better.
+                let side = if self.config.motion_score == MotionScore::Belmonte
+                    && imu.mirror_site.is_some()
                 {
+                    Some(Side::Unknown)
+                } else {
+                    band_side(site)
+                };
+                if let (Some(band), Some(side)) = (&cached.band, side) {
                     let arm = match arms.iter().position(|(s, _)| *s == side) {
                         Some(k) => k,
                         None => {
@@ -832,11 +841,9 @@ pub(super) fn weighted_fit(
 }
 
 /// Which forearm a band at `site` is on, for Belmonte-Hernández's costs; `None` off the
-/// forearm. A band at the elbow or hand may be on either, and so may a band on a wrist
-/// registered with `either_side`.
-pub(super) fn band_side(site: Joint, either_side: bool) -> Option<Side> {
+/// forearm. A band at the elbow or hand may be on either.
+pub(super) fn band_side(site: Joint) -> Option<Side> {
     match site {
-        Joint::LeftWrist | Joint::RightWrist if either_side => Some(Side::Unknown),
         Joint::LeftWrist => Some(Side::Left),
         Joint::RightWrist => Some(Side::Right),
         Joint::LeftElbow | Joint::RightElbow | Joint::LeftHand | Joint::RightHand => {
