@@ -4,14 +4,13 @@
 
 mod shared_data;
 
-use shared_data::simulated;
+use shared_data::{accuracy, accuracy_between, decisions, simulated};
 
-use nomen_core::{DeviceId, Identity, Message, TrackId};
+use nomen_core::{DeviceId, Message};
 use nomen_engine::{EngineConfig, EngineStats, run_batch};
 use nomen_evidence::KinematicConfig;
 use nomen_filters::kalman::ConstantVelocityConfig;
 use nomen_sim::SimOutput;
-use std::collections::BTreeMap;
 
 /// The engine's decisions and stats on `sim`'s recording, default configuration.
 fn run_default(sim: &SimOutput) -> (Vec<Message>, EngineStats) {
@@ -32,19 +31,6 @@ fn offset_error_s(sim: &SimOutput, stats: &EngineStats, device: &str) -> f64 {
         .find(|d| d.device == device)
         .unwrap();
     stats.clock_offsets[&DeviceId::new(device)].offset_ns as f64 * 1e-9 - truth.clock_offset_s
-}
-
-/// Each decision's identity by its `(t ns, camera, track)`.
-fn decisions(out: &[Message]) -> BTreeMap<(i64, String, TrackId), &Identity> {
-    out.iter()
-        .filter_map(|m| match m {
-            Message::Identified(id) => Some((
-                (id.t.as_ns(), id.camera.to_string(), id.track),
-                &id.identity,
-            )),
-            _ => None,
-        })
-        .collect()
 }
 
 /// The subject each decision names on the frames of `subject` in `[from, to)` s (of one
@@ -85,11 +71,6 @@ fn intruder_named(sim: &SimOutput, out: &[Message]) -> usize {
                     .is_some_and(|i| i.subject().is_some()))
         })
         .count()
-}
-
-/// Fraction of truth skeleton frames whose decision names the person's subject.
-fn accuracy(sim: &SimOutput, out: &[Message]) -> f64 {
-    accuracy_between(sim, out, f64::NEG_INFINITY, f64::INFINITY).0
 }
 
 #[test]
@@ -140,25 +121,6 @@ fn an_offset_taken_from_a_look_alikes_track_moves_to_the_wearers_own_track() {
     }
     let (before, after) = (accuracy(&sim, &out_without), accuracy(&sim, &out));
     assert!(after > before + 0.05, "{before} -> {after}");
-}
-
-/// Fraction of the truth skeleton frames at `[from_s, to_s)` (session time) whose decision names
-/// the person's subject, with the number of those frames.
-fn accuracy_between(sim: &SimOutput, out: &[Message], from_s: f64, to_s: f64) -> (f64, usize) {
-    let decided = decisions(out);
-    let (mut n, mut right) = (0usize, 0usize);
-    for m in &sim.truth {
-        let Message::TruthSkeleton(ts) = m else {
-            continue;
-        };
-        if !(from_s..to_s).contains(&ts.t.as_secs_f64()) {
-            continue;
-        }
-        n += 1;
-        let got = decided.get(&(ts.t.as_ns(), ts.camera.to_string(), ts.track));
-        right += usize::from(got.and_then(|i| i.subject()) == ts.subject.as_ref());
-    }
-    (right as f64 / n.max(1) as f64, n)
 }
 
 #[test]

@@ -5,37 +5,12 @@
 
 mod shared_data;
 
-use shared_data::simulated;
+use shared_data::{accuracy, simulated};
 
 use nomen_core::{Joint, Message, Registry};
 use nomen_engine::{EngineConfig, EngineStats, run_batch};
 use nomen_sim::SimOutput;
 use std::collections::BTreeMap;
-
-/// The fraction of truth skeleton frames whose decision names the person's subject.
-fn accuracy(sim: &SimOutput, out: &[Message]) -> f64 {
-    let named: BTreeMap<_, _> = out
-        .iter()
-        .filter_map(|m| match m {
-            Message::Identified(id) => Some((
-                (id.t.as_ns(), id.camera.to_string(), id.track),
-                id.identity.subject().map(|s| s.as_str().to_owned()),
-            )),
-            _ => None,
-        })
-        .collect();
-    let (mut right, mut all) = (0usize, 0usize);
-    for m in &sim.truth {
-        if let Message::TruthSkeleton(ts) = m {
-            all += 1;
-            let got = named.get(&(ts.t.as_ns(), ts.camera.to_string(), ts.track));
-            if got.cloned().flatten().as_deref() == ts.subject.as_ref().map(|s| s.as_str()) {
-                right += 1;
-            }
-        }
-    }
-    right as f64 / all.max(1) as f64
-}
 
 /// `registry` with every wrist IMU registered on the other wrist, and with `either_side` set.
 fn registered_on_the_other_wrist(registry: &Registry, either_side: bool) -> Registry {
