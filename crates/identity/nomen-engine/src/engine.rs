@@ -320,7 +320,7 @@ struct ImuState {
     subject: usize,
     site: Joint,
     /// The other side an IMU registered with `either_side` may be on: every comparison is made
-    /// with both and keeps the better ([`ImuState::sites`]).
+    /// with both and keeps the better ([`ImuState::sides`]).
     mirror_site: Option<Joint>,
     /// The sum, over windows and tracks named after its wearer that scored the IMU at its
     /// accepted offset, of the fit at `site` less the fit at `mirror_site`, and their number.
@@ -419,13 +419,8 @@ struct ImuState {
 }
 
 impl ImuState {
-    /// The sites the IMU is compared at: its own, and the mirror image for an IMU registered
-    /// with `either_side`.
-    fn sites(&self) -> impl Iterator<Item = Joint> + use<> {
-        std::iter::once(self.site).chain(self.mirror_site)
-    }
-
-    /// The IMU's site and the mirror image it may be on instead, for the lag search.
+    /// The sites the IMU is compared at: its own, and the mirror image it may be on instead
+    /// (an IMU registered with `either_side`).
     fn sides(&self) -> (Joint, Option<Joint>) {
         (self.site, self.mirror_site)
     }

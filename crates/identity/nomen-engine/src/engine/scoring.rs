@@ -389,7 +389,9 @@ impl Engine {
                 // The segment's features at each site the IMU may be on: its own, and the
                 // mirror image for an IMU registered with `either_side`.
                 let mut seg_ids: [Option<usize>; 2] = [None, None];
-                for (slot, site) in seg_ids.iter_mut().zip(imu.sites()) {
+                let (own_site, mirror_site) = imu.sides();
+                let sites = std::iter::once(own_site).chain(mirror_site);
+                for (slot, site) in seg_ids.iter_mut().zip(sites) {
                     *slot = Some(match segments.iter().position(|(j, _, _)| *j == site) {
                         Some(k) => k,
                         None => {
