@@ -1527,10 +1527,12 @@ impl Engine {
     /// that continues it ([`Engine::successors_name`]); the name of another camera's view of
     /// its person at its latest decision, or else of an earlier view the decisions could not
     /// compare with it since (`TrackState::views`), seen until `VIEW_NAMES_AFTER_END_NS` before
-    /// `t` at the latest, or of that view's successor, unless another track of this camera seen
-    /// over a span that holds `t` carries that name now: the per-camera assignment gives a
-    /// subject one track at a time, and a view's name must not undo that. `None` where no rule
-    /// gives a name.
+    /// `t` at the latest, or of that view's successor. An earlier decision's or a view's name
+    /// is not given when another track of this camera seen over a span that holds `t` carries
+    /// that name now: the per-camera assignment gives a subject one track at a time, and a
+    /// name from elsewhere must not undo that (an earlier decision may have been made before
+    /// the subject's clock was known, and named a look-alike). `None` where no rule gives a
+    /// name.
     fn name_from_elsewhere(
         &self,
         key: TrackKey,
@@ -1538,12 +1540,21 @@ impl Engine {
         t: i64,
         warm_until: i64,
     ) -> Option<(usize, f64)> {
+        let is_held_here = |s: usize| {
+            self.tracks
+                .range((key.0, TrackId(0))..)
+                .take_while(|(k, _)| k.0 == key.0)
+                .any(|(k, other)| {
+                    *k != key && other.label == Some(s) && other.first_t <= t && t <= other.last_t
+                })
+        };
         let warm = tr
             .warm_labels
             .iter()
             .rev()
             .filter(|d| d.end <= warm_until && d.end >= t.saturating_add(self.delay_ns))
-            .find_map(|d| d.name);
+            .find_map(|d| d.name)
+            .filter(|(s, _)| !is_held_here(*s));
         warm.or_else(|| self.successors_name(tr)).or_else(|| {
             let (s, score) = tr
                 .views
@@ -1551,14 +1562,7 @@ impl Engine {
                 .filter_map(|k| self.tracks.get(k))
                 .filter(|view| t <= view.last_t.saturating_add(VIEW_NAMES_AFTER_END_NS))
                 .find_map(|view| view.named().or_else(|| self.successors_name(view)))?;
-            let is_held_here = self
-                .tracks
-                .range((key.0, TrackId(0))..)
-                .take_while(|(k, _)| k.0 == key.0)
-                .any(|(k, other)| {
-                    *k != key && other.label == Some(s) && other.first_t <= t && t <= other.last_t
-                });
-            (!is_held_here).then_some((s, score))
+            (!is_held_here(s)).then_some((s, score))
         })
     }
 
