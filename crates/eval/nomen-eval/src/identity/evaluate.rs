@@ -6,6 +6,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use nomen_core::{CameraId, SessionTime, SubjectId, TagId, TrackId};
 
+use super::confidence::ConfidenceTally;
 use super::config::EvalConfig;
 use super::input::{ResultLabel, SceneData, TruthFrame};
 use super::report::{
@@ -76,6 +77,8 @@ struct Tally {
     /// Next unused MOT frame id (frames of merged tallies are shifted past it).
     mot_next_frame: i64,
     tag_samples: BTreeMap<TagId, (Vec<f64>, Vec<f64>)>,
+    /// Every frame with a result line: its confidence against its correctness.
+    confidence: ConfidenceTally,
     num_corrections_without_truth: u64,
     num_truth_without_correction: u64,
     issues: DataIssues,
@@ -117,6 +120,7 @@ impl Tally {
             mine.0.extend_from_slice(raw);
             mine.1.extend_from_slice(corrected);
         }
+        self.confidence.merge(&other.confidence);
         self.num_corrections_without_truth += other.num_corrections_without_truth;
         self.num_truth_without_correction += other.num_truth_without_correction;
         self.issues.merge(&other.issues);
@@ -191,6 +195,7 @@ impl Tally {
             })
             .collect();
 
+        let confidence = self.confidence.report();
         Ok(Metrics {
             num_frames: self.identification.num_frames,
             id_accuracy: self.identification.accuracy,
@@ -211,6 +216,8 @@ impl Tally {
             motp: mot_value(|m| m.motp),
             tag_rmse_raw_m: tags.pooled.rmse_raw_m,
             tag_rmse_corrected_m: tags.pooled.rmse_corrected_m,
+            confidence_ece: confidence.ece,
+            confidence_brier: confidence.brier,
             num_unlabelled: self.identification.num_unlabelled,
             num_result_without_truth: self.num_result_without_truth,
             num_result_without_truth_labelled: self.num_result_without_truth_labelled,
@@ -231,6 +238,7 @@ impl Tally {
             time_to_identify,
             mot,
             tags,
+            confidence,
             data_issues: self.issues.clone(),
         })
     }
@@ -249,7 +257,60 @@ fn tag_error_stats(raw: Vec<f64>, corrected: Vec<f64>) -> TagErrorStats {
 }
 
 /// How a truth frame with subject `truth` and label `label` counts.
-fn outcome(truth: Option<&SubjectId>, label: Option<&SubjectId>) -> LabelOutcome {
+/// A scene's truth and result joined on (camera, time, track), each sorted by that key with
+/// duplicates dropped (the first kept).
+struct Join<'a> {
+    truth: Vec<&'a TruthFrame>,
+    results: Vec<&'a ResultLabel>,
+    /// Per truth frame, its result line.
+    labels: Vec<Option<&'a ResultLabel>>,
+    num_duplicate_truth: u64,
+    num_duplicate_results: u64,
+    /// Result lines without a truth frame.
+    unmatched: Vec<&'a ResultLabel>,
+}
+
+fn join(scene: &SceneData) -> Join<'_> {
+    let mut truth: Vec<&TruthFrame> = scene.truth.iter().collect();
+    let num_duplicate_truth = sort_dedup(&mut truth, truth_key);
+    let mut results: Vec<&ResultLabel> = scene.results.iter().collect();
+    let num_duplicate_results = sort_dedup(&mut results, result_key);
+    // Both lists are sorted by the key.
+    let mut labels: Vec<Option<&ResultLabel>> = vec![None; truth.len()];
+    let mut unmatched = Vec::new();
+    let mut j = 0;
+    for (i, frame) in truth.iter().enumerate() {
+        while let Some(r) = results.get(j)
+            && result_key(r) < truth_key(frame)
+        {
+            unmatched.push(*r);
+            j += 1;
+        }
+        if let Some(r) = results.get(j)
+            && result_key(r) == truth_key(frame)
+        {
+            labels[i] = Some(r);
+            j += 1;
+        }
+    }
+    unmatched.extend_from_slice(results.get(j..).unwrap_or_default());
+    Join {
+        truth,
+        results,
+        labels,
+        num_duplicate_truth,
+        num_duplicate_results,
+        unmatched,
+    }
+}
+
+/// The truth frames of `scene` (sorted, duplicates dropped) and each one's result line.
+pub(super) fn joined(scene: &SceneData) -> (Vec<&TruthFrame>, Vec<Option<&ResultLabel>>) {
+    let Join { truth, labels, .. } = join(scene);
+    (truth, labels)
+}
+
+pub(super) fn outcome(truth: Option<&SubjectId>, label: Option<&SubjectId>) -> LabelOutcome {
     match (truth, label) {
         (None, None) => LabelOutcome::Correct,
         (Some(_), None) => LabelOutcome::Anonymous,
@@ -298,30 +359,17 @@ fn analyse_scene(
     tally.issues.num_nonfinite_joints = scene.num_nonfinite_joints;
     tally.issues.num_nonfinite_tag_samples = scene.num_nonfinite_tag_samples;
 
-    let mut truth: Vec<&TruthFrame> = scene.truth.iter().collect();
-    tally.issues.num_duplicate_truth = sort_dedup(&mut truth, truth_key);
-    let mut results: Vec<&ResultLabel> = scene.results.iter().collect();
-    tally.issues.num_duplicate_results = sort_dedup(&mut results, result_key);
-
-    // Join on (camera, time, track): both lists are sorted by that key.
-    let mut labels: Vec<Option<&ResultLabel>> = vec![None; truth.len()];
-    let mut j = 0;
-    for (i, frame) in truth.iter().enumerate() {
-        while let Some(r) = results.get(j)
-            && result_key(r) < truth_key(frame)
-        {
-            tally.num_result_without_truth += 1;
-            tally.num_result_without_truth_labelled += u64::from(r.subject.is_some());
-            j += 1;
-        }
-        if let Some(r) = results.get(j)
-            && result_key(r) == truth_key(frame)
-        {
-            labels[i] = Some(r);
-            j += 1;
-        }
-    }
-    for r in results.get(j..).unwrap_or_default() {
+    let Join {
+        truth,
+        results,
+        labels,
+        num_duplicate_truth,
+        num_duplicate_results,
+        unmatched,
+    } = join(scene);
+    tally.issues.num_duplicate_truth = num_duplicate_truth;
+    tally.issues.num_duplicate_results = num_duplicate_results;
+    for r in unmatched {
         tally.num_result_without_truth += 1;
         tally.num_result_without_truth_labelled += u64::from(r.subject.is_some());
     }
@@ -334,6 +382,11 @@ fn analyse_scene(
         let is_unlabelled = result.is_none();
         let o = outcome(frame.subject.as_ref(), label);
         tally.identification.add(o, is_unlabelled);
+        if let Some(r) = result {
+            tally
+                .confidence
+                .add(r.confidence, o == LabelOutcome::Correct);
+        }
         match &frame.subject {
             Some(s) => tally
                 .per_subject

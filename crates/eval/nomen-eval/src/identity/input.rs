@@ -24,6 +24,8 @@ pub(crate) struct ResultLabel {
     pub track: TrackId,
     /// `None` for [`Identity::Anonymous`].
     pub subject: Option<SubjectId>,
+    /// The result's confidence in that identity.
+    pub confidence: f64,
 }
 
 /// A tag position: true, or raw and corrected.
@@ -122,6 +124,7 @@ impl SceneData {
                     Identity::Subject(s) => Some(s.clone()),
                     Identity::Anonymous => None,
                 },
+                confidence: m.confidence,
             }),
             Message::TruthTag(m) => {
                 if is_finite(&m.position_m) {

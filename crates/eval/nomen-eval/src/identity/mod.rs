@@ -26,12 +26,17 @@
 //!
 //! Nothing here reads files or clocks.
 
+mod confidence;
 mod config;
 mod evaluate;
 mod input;
 mod report;
 mod stats;
 
+pub use confidence::{
+    ConfidenceBin, ConfidenceReport, ConfidenceSample, NUM_CONFIDENCE_BINS, confidence_report,
+    confidence_samples,
+};
 pub use config::EvalConfig;
 pub use evaluate::evaluate;
 pub use input::SceneData;

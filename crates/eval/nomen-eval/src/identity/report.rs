@@ -8,6 +8,7 @@ use std::fmt::Write as _;
 
 use serde::{Deserialize, Serialize};
 
+use super::confidence::ConfidenceReport;
 use super::config::EvalConfig;
 use super::stats::{BoxStats, ratio};
 use crate::mot::MotMetrics;
@@ -350,6 +351,10 @@ pub struct Metrics {
     pub tag_rmse_raw_m: Option<f64>,
     /// RMSE of the corrected tag positions, metres.
     pub tag_rmse_corrected_m: Option<f64>,
+    /// Expected calibration error of the result's confidences (see [`ConfidenceReport::ece`]).
+    pub confidence_ece: Option<f64>,
+    /// Brier score of the result's confidences (see [`ConfidenceReport::brier`]).
+    pub confidence_brier: Option<f64>,
     /// Truth skeleton-frames without a result line (counted as `Anonymous`).
     pub num_unlabelled: u64,
     /// Result lines without a truth skeleton at the same (camera, time, track); not part of any
@@ -375,6 +380,8 @@ pub struct Metrics {
     pub mot: Option<MotMetrics>,
     /// Tag position errors.
     pub tags: TagReport,
+    /// How well the confidences predict correctness (reliability bins, calibration error).
+    pub confidence: ConfidenceReport,
     /// Odd input, counted.
     pub data_issues: DataIssues,
 }
@@ -413,7 +420,7 @@ impl EvalReport {
         if self.per_scene.len() > 1 {
             columns.extend(self.per_scene.iter().map(|(k, s)| (k.as_str(), &s.metrics)));
         }
-        let rows: [Row; 23] = [
+        let rows: [Row; 25] = [
             ("truth frames", |m| m.num_frames.to_string()),
             ("id_accuracy", |m| pct(m.id_accuracy)),
             ("ca", |m| pct(m.ca)),
@@ -453,6 +460,8 @@ impl EvalReport {
             }),
             ("tag_rmse_raw_m", |m| num(m.tag_rmse_raw_m, 3)),
             ("tag_rmse_corrected_m", |m| num(m.tag_rmse_corrected_m, 3)),
+            ("confidence_ece", |m| num(m.confidence_ece, 4)),
+            ("confidence_brier", |m| num(m.confidence_brier, 4)),
             ("unlabelled truth frames", |m| m.num_unlabelled.to_string()),
             ("result lines without truth", |m| {
                 m.num_result_without_truth.to_string()
