@@ -470,6 +470,77 @@ fn csv_imports_convert_units_and_reject_bad_rows_by_line() {
 }
 
 #[test]
+fn calibrate_confidence_fits_a_map_that_a_run_takes_and_eval_scores() {
+    let Some((tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
+        return;
+    };
+    let map = tmp.path().join("map.toml");
+    let o = nomen(&[
+        "calibrate",
+        "confidence",
+        "--scenes",
+        scene.to_str().unwrap(),
+        "--out",
+        map.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let summary = text(&o.stderr);
+    assert!(
+        summary.contains("raw confidence") && summary.contains("mapped"),
+        "{summary}"
+    );
+    let toml = std::fs::read_to_string(&map).unwrap();
+    assert!(toml.starts_with("[confidence_map]"), "{toml}");
+    // The map is a valid engine configuration: a run with it, and one with raw confidences.
+    let raw = tmp.path().join("raw.toml");
+    std::fs::write(&raw, "[confidence_map]\nnamed = []\nanonymous = []\n").unwrap();
+    let ece = |config: &Path, name: &str| {
+        let result = tmp.path().join(name);
+        let o = nomen(&[
+            "run",
+            scene.join("recording.jsonl").to_str().unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            result.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let o = nomen(&[
+            "eval",
+            "--truth",
+            scene.join("truth.jsonl").to_str().unwrap(),
+            "--result",
+            result.to_str().unwrap(),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        report["confidence_ece"].as_f64().unwrap()
+    };
+    // Raw correlations understate how often the names are right; the map fitted on this
+    // scene tells its frames' odds far better.
+    let (before, after) = (ece(&raw, "raw.jsonl"), ece(&map, "mapped.jsonl"));
+    assert!(before > 0.1 && after < before / 4.0, "{before} -> {after}");
+    // A map that is not monotone is refused with its place named.
+    let bad = tmp.path().join("bad.toml");
+    std::fs::write(&bad, "[confidence_map]\nnamed = [[0.5, 0.9], [0.6, 0.8]]\n").unwrap();
+    let o = nomen(&[
+        "run",
+        scene.join("recording.jsonl").to_str().unwrap(),
+        "--config",
+        bad.to_str().unwrap(),
+        "--out",
+        tmp.path().join("bad.jsonl").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("confidence_map.named[1]"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+#[test]
 fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
     let Some((tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
         return;

@@ -1,5 +1,6 @@
 //! Engine configuration: plain data, loadable from TOML, every field optional.
 
+use crate::confidence::ConfidenceMap;
 use crate::error::{EngineError, Result};
 use crate::retrack::RetrackConfig;
 use nomen_evidence::{BelmonteConfig, Fusion, FusionConfig, GeometricConfig, KinematicConfig};
@@ -280,6 +281,10 @@ pub struct EngineConfig {
     pub model_weights: ModelWeights,
     /// Belmonte-Hernández's signals ([`MotionScore::Belmonte`]).
     pub belmonte: BelmonteConfig,
+    /// How a decision's raw confidence becomes the output's: the probability that its identity
+    /// is right, fitted on simulated scenes ([`ConfidenceMap::default`]);
+    /// [`ConfidenceMap::raw`] (both sides empty) outputs the raw confidence.
+    pub confidence_map: ConfidenceMap,
     /// Pitch error scale of the Belmonte similarity, rad. Default 0.3 rad (17°).
     pub belmonte_pitch_sigma_rad: f64,
     /// Yaw-rate error scale of the Belmonte similarity, rad/s. Default 2 rad/s: the band's yaw
@@ -901,6 +906,7 @@ impl Default for EngineConfig {
             motion_score: MotionScore::Nomen,
             kinematic: KinematicConfig::default(),
             model_weights: ModelWeights::default(),
+            confidence_map: ConfidenceMap::default(),
             belmonte: BelmonteConfig::default(),
             belmonte_pitch_sigma_rad: 0.3,
             belmonte_yaw_rate_sigma_radps: 2.0,
@@ -1243,6 +1249,7 @@ impl EngineConfig {
             }
         }
         self.madgwick.validate()?;
+        self.confidence_map.validate()?;
         Ok(())
     }
 

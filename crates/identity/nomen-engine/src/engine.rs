@@ -1675,8 +1675,9 @@ impl Engine {
     /// The identity of a track named `name` (subject and score, or anonymous), a confidence in
     /// `0..=1` and the evidence behind it.
     ///
-    /// Confidence: the subject's score for a named track; for an anonymous track, one minus the
-    /// best candidate's score (0 without any evidence).
+    /// Confidence: the raw score (the subject's for a named track; for an anonymous track, one
+    /// minus the best candidate's, 0 without any evidence), mapped by
+    /// [`EngineConfig::confidence_map`] to the probability that the identity is right.
     fn identity_as(
         &self,
         tr: &TrackState,
@@ -1687,7 +1688,8 @@ impl Engine {
             .iter()
             .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
             .map(|(s, v)| (*s, *v));
-        let (identity, confidence, shown) = match (name, best) {
+        // The raw confidence (see `crate::confidence`), mapped to a probability.
+        let (identity, raw, shown) = match (name, best) {
             (Some((s, score)), _) => {
                 let id = self
                     .subjects
@@ -1700,6 +1702,8 @@ impl Engine {
             }
             (None, None) => (Identity::Anonymous, 0.0, None),
         };
+        let is_named = matches!(identity, Identity::Subject(_));
+        let confidence = self.config.confidence_map.apply(is_named, raw);
         let evidence = shown
             .and_then(|s| self.subject_imus.get(s))
             .map(|imus| {

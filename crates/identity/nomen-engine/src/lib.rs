@@ -184,7 +184,9 @@
 //! # Output and latency
 //! Exactly one `Message::Identified` per accepted skeleton observation, with its `(t, camera,
 //! track)`, labelled with the decision of the first window ending at or after
-//! `t + decision_delay_s`. While all sources send, an observation is emitted at most
+//! `t + decision_delay_s`, and a confidence: the probability that the label is right, from the
+//! decision's score through [`EngineConfig::confidence_map`] ([`ConfidenceMap`]). While all
+//! sources send, an observation is emitted at most
 //! `decision_delay_s + hop_s + reorder_window_s` (default 2.25 s) of stream time after `t`
 //! ([`EngineConfig::latency_s`]), stream time being the session time every source has reached
 //! (an IMU's stamps read through its current clock-offset estimate, so an IMU whose clock is
@@ -204,6 +206,7 @@
 //! Sans-IO and deterministic: no clocks, files, threads or printing; all maps are ordered.
 #![warn(missing_docs)]
 
+mod confidence;
 mod config;
 mod engine;
 mod error;
@@ -213,6 +216,7 @@ mod signal;
 mod stats;
 mod tags;
 
+pub use confidence::{CONFIDENCE_FIT_BINS, ConfidenceMap, Knots, MAX_KNOTS, RawConfidence};
 pub use config::{EngineConfig, ModelWeights, MotionScore, OFFSET_CONFIRM_HISTORY};
 pub use engine::Engine;
 pub use error::{EngineError, Result};

@@ -51,7 +51,9 @@ pub struct IdentifiedSkeleton {
     pub track: TrackId,
     /// The identity nomen gives it.
     pub identity: Identity,
-    /// Confidence in the identity, `0..=1`.
+    /// Confidence in the identity, `0..=1`: for nomen's engine, the probability that the
+    /// identity (the subject, or `Anonymous` for someone who wears nothing) is right, as
+    /// fitted on scenes with known truth (`nomen_engine::ConfidenceMap`).
     pub confidence: f64,
     /// Evidence used for the decision.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

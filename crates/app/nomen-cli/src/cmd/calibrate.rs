@@ -23,6 +23,9 @@ pub enum CalibrateCommand {
     /// RSSI models per antenna (Llorca's automatic calibration) from a recording in which one
     /// tagged person is tracked alone; writes the model file `nomen run` (llorca) loads.
     Rssi(super::calibrate_rssi::CalibrateRssiArgs),
+    /// The engine's confidence map (raw confidence → probability that the identity is right)
+    /// from scene folders with truth; prints the `[confidence_map]` table of a config.
+    Confidence(super::calibrate_confidence::CalibrateConfidenceArgs),
 }
 
 /// Arguments of `nomen calibrate frames`.
@@ -71,6 +74,7 @@ pub fn run(command: CalibrateCommand) -> Result<()> {
     match command {
         CalibrateCommand::Frames(args) => frames(&args),
         CalibrateCommand::Rssi(args) => super::calibrate_rssi::run(args),
+        CalibrateCommand::Confidence(args) => super::calibrate_confidence::run(&args),
     }
 }
 

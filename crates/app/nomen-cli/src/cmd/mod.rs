@@ -1,6 +1,7 @@
 //! One module per subcommand.
 
 pub mod calibrate;
+pub mod calibrate_confidence;
 pub mod calibrate_rssi;
 pub mod crosswalk;
 pub mod demo;

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Refits the engine's default confidence map (nomen_engine::ConfidenceMap::default) from the
+# scenes it was fitted on, and prints it as a [confidence_map] table.
+#
+# The scenes: the CNN's training scenes of this folder (seeds 1-4), and the library's IMU,
+# Belmonte-Hernandez, hospital and UWB scenes at seeds from 1001 on, which none of the
+# figures of the engine README use (they use seeds 1-144).
+#
+# Usage: scenarios/train/confidence.sh [OUT_DIR]   (default: out/confidence; needs ../shared/data)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+out="${1:-out/confidence}"
+cargo build --release -q -p nomen-cli
+nomen=target/release/nomen
+mkdir -p "$out"
+scenes=()
+sim() { # scenario seed
+    local dir="$out/$(basename "$1" .toml)_$2"
+    if [ ! -f "$dir/truth.jsonl" ]; then
+        local log
+        if ! log=$("$nomen" simulate "scenarios/$1" --seed "$2" --out "$dir" 2>&1); then
+            echo "$log" >&2
+            exit 1
+        fi
+    fi
+    scenes+=("$dir")
+}
+for f in train/train_mixed_5 train/train_salsa_4 train/train_veer_6; do
+    for s in 1 2 3 4; do sim "$f.toml" "$s"; done
+done
+for f in imu_ban_2 imu_ban_3 imu_ban_4 imu_ban_5 imu_ban_8 imu_wrist_2 imu_wrist_3 imu_wrist_4 \
+    imu_wrist_5 imu_wrist_8 belmonte_two_banded_one_lost belmonte_lost_redetected; do
+    for s in 1001 1002 1003; do sim "$f.toml" "$s"; done
+done
+for s in $(seq 1001 1030); do sim belmonte_one_without_band.toml "$s"; done
+for f in uwb_8_among_untagged hospital_room; do
+    for s in 1001 1002; do sim "$f.toml" "$s"; done
+done
+"$nomen" calibrate confidence --scenes "${scenes[@]}"
