@@ -24,7 +24,8 @@ pub const CONFIDENCE_FIT_BINS: usize = 20;
 /// Maps raw confidences to probabilities (see the module docs). Each side is a list of knots
 /// `[raw, probability]`, raw strictly increasing in `0..=1` and probability non-decreasing in
 /// `0..=1`; between knots the map is linear, beyond the ends constant. An empty side passes
-/// raw confidences through. [`ConfidenceMap::raw`] leaves both sides empty.
+/// raw confidences through. [`ConfidenceMap::raw`] leaves both sides empty. In a
+/// configuration file, a side left out keeps the default's knots.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ConfidenceMap {
