@@ -1,15 +1,19 @@
 #!/usr/bin/env bash
-# Refits the engine's default confidence map (nomen_engine::ConfidenceMap::default) from the
-# scenes it was fitted on, and prints it as a [confidence_map] table.
+# Refits the engine's confidence maps (nomen_engine::ConfidenceMap::fitted) from the scenes
+# they were fitted on, and prints one as a [confidence_map] table: nomen's motion score's by
+# default, another's with a config that sets it (motion_score = "de_marchi" or "belmonte").
 #
 # The scenes: the CNN's training scenes of this folder (seeds 1-4), and the library's IMU,
 # Belmonte-Hernandez, hospital and UWB scenes at seeds from 1001 on, which none of the
 # figures of the engine README use (they use seeds 1-144).
 #
-# Usage: scenarios/train/confidence.sh [OUT_DIR]   (default: out/confidence; needs ../shared/data)
+# Usage: scenarios/train/confidence.sh [OUT_DIR [CONFIG]]
+#   (OUT_DIR default: out/confidence; needs ../shared/data)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out="${1:-out/confidence}"
+config=()
+if [ -n "${2:-}" ]; then config=(--config "$2"); fi
 cargo build --release -q -p nomen-cli
 nomen=target/release/nomen
 mkdir -p "$out"
@@ -36,4 +40,4 @@ for s in $(seq 1001 1030); do sim belmonte_one_without_band.toml "$s"; done
 for f in uwb_8_among_untagged hospital_room; do
     for s in 1001 1002; do sim "$f.toml" "$s"; done
 done
-"$nomen" calibrate confidence --scenes "${scenes[@]}"
+"$nomen" calibrate confidence --scenes "${scenes[@]}" "${config[@]}"

@@ -7,7 +7,8 @@
 //! to 0.6 was right 98.9 % of the time. [`ConfidenceMap`] turns raw confidences into
 //! probabilities with two monotone piecewise-linear maps, one for named and one for anonymous
 //! frames, fitted by isotonic regression ([`ConfidenceMap::fit`]) on frames whose truth is
-//! known. `nomen calibrate confidence` fits one from simulated (or annotated) scenes.
+//! known. `nomen calibrate confidence` fits one from simulated (or annotated) scenes;
+//! [`ConfidenceMap::fitted`] holds the engine's, one per motion score.
 //!
 //! The isotonic fit is the pool-adjacent-violators algorithm over a few equal-width bins of
 //! raw confidence; it is written here because the Rust crates that offer it are either under
@@ -16,6 +17,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::config::MotionScore;
 use crate::error::{EngineError, Result};
 
 /// Bins of raw confidence per side in [`ConfidenceMap::fit`].
@@ -36,13 +38,10 @@ pub struct ConfidenceMap {
 }
 
 impl Default for ConfidenceMap {
-    /// Fitted by `nomen calibrate confidence` on simulated scenes that none of the engine
-    /// README's figures use (see the crate README, "Confidence").
+    /// [`ConfidenceMap::raw`]: a configuration's table with a side left out passes that side's
+    /// raw confidences through.
     fn default() -> Self {
-        Self {
-            named: Knots::from_slice(DEFAULT_NAMED),
-            anonymous: Knots::from_slice(DEFAULT_ANONYMOUS),
-        }
+        Self::raw()
     }
 }
 
@@ -55,8 +54,8 @@ pub struct Knots {
     points: [[f64; 2]; MAX_KNOTS],
 }
 
-/// The most knots a side may have: one per bin of [`ConfidenceMap::fit`].
-pub const MAX_KNOTS: usize = CONFIDENCE_FIT_BINS;
+/// The most knots a side may have: two per bin of [`ConfidenceMap::fit`].
+pub const MAX_KNOTS: usize = 2 * CONFIDENCE_FIT_BINS;
 
 impl Knots {
     /// No knots: raw confidences pass through.
@@ -101,27 +100,123 @@ impl From<Knots> for Vec<[f64; 2]> {
     }
 }
 
-/// The default map's named side (see [`ConfidenceMap::default`]).
-const DEFAULT_NAMED: &[[f64; 2]] = &[
-    [0.2028, 0.6854],
-    [0.3169, 0.9375],
-    [0.4521, 0.968],
-    [0.6062, 0.991],
-    [0.7037, 0.9959],
-    [0.7736, 0.9986],
-    [0.8198, 0.9999],
+/// The named side fitted for nomen's motion score ([`MotionScore::Nomen`]).
+const NOMEN_NAMED: &[[f64; 2]] = &[
+    [0.1515, 0.6854],
+    [0.2494, 0.6854],
+    [0.2502, 0.9375],
+    [0.3499, 0.9375],
+    [0.35, 0.968],
+    [0.55, 0.968],
+    [0.5501, 0.991],
+    [0.65, 0.991],
+    [0.75, 0.9959],
+    [0.8, 0.9986],
+    [0.9084, 0.9999],
 ];
-/// The default map's anonymous side.
-const DEFAULT_ANONYMOUS: &[[f64; 2]] = &[
+/// The anonymous side fitted for nomen's motion score ([`MotionScore::Nomen`]).
+const NOMEN_ANONYMOUS: &[[f64; 2]] = &[
     [0.0, 0.0036],
-    [0.2361, 0.0233],
-    [0.2798, 0.5281],
-    [0.3315, 0.6561],
-    [0.3772, 0.7305],
-    [0.568, 0.866],
-    [0.8084, 0.9631],
-    [0.876, 0.9888],
-    [0.9489, 0.9961],
+    [0.2213, 0.0233],
+    [0.2479, 0.0233],
+    [0.263, 0.5281],
+    [0.2996, 0.5281],
+    [0.3029, 0.6561],
+    [0.3489, 0.6561],
+    [0.3516, 0.7305],
+    [0.3977, 0.7305],
+    [0.4011, 0.866],
+    [0.7481, 0.866],
+    [0.7503, 0.9631],
+    [0.85, 0.9631],
+    [0.8501, 0.9888],
+    [0.9, 0.9888],
+    [0.9001, 0.9961],
+    [1.0, 0.9961],
+];
+/// The named side fitted for De Marchi's ([`MotionScore::DeMarchi`]).
+const DE_MARCHI_NAMED: &[[f64; 2]] = &[
+    [0.1502, 0.1111],
+    [0.1998, 0.1111],
+    [0.202, 0.2821],
+    [0.2494, 0.2821],
+    [0.2509, 0.892],
+    [0.7999, 0.892],
+    [0.8, 0.9255],
+    [0.9, 0.9255],
+    [0.95, 0.9479],
+    [0.9984, 0.9856],
+];
+/// The anonymous side fitted for De Marchi's ([`MotionScore::DeMarchi`]).
+const DE_MARCHI_ANONYMOUS: &[[f64; 2]] = &[
+    [0.0, 0.0031],
+    [0.0484, 0.0031],
+    [0.0557, 0.1481],
+    [0.0996, 0.1481],
+    [0.1004, 0.41],
+    [0.1479, 0.41],
+    [0.1508, 0.8075],
+    [0.1991, 0.8075],
+    [0.2017, 0.9122],
+    [0.2497, 0.9122],
+    [0.2501, 0.9864],
+    [0.7993, 0.9864],
+    [0.8019, 0.9959],
+    [0.8499, 0.9959],
+    [0.8501, 0.9997],
+    [0.8997, 0.9997],
+    [0.9001, 0.9998],
+    [0.9496, 0.9998],
+    [0.9503, 0.9999],
+    [0.9996, 0.9999],
+];
+/// The named side fitted for Belmonte-Hernández's ([`MotionScore::Belmonte`]).
+const BELMONTE_NAMED: &[[f64; 2]] = &[
+    [0.1302, 0.8075],
+    [0.1499, 0.8075],
+    [0.1501, 0.8305],
+    [0.25, 0.8305],
+    [0.2502, 0.8911],
+    [0.3, 0.8911],
+    [0.3001, 0.9304],
+    [0.35, 0.9304],
+    [0.4, 0.9496],
+    [0.55, 0.9551],
+    [0.6, 0.9589],
+    [0.6499, 0.985],
+    [0.65, 0.9854],
+    [0.7, 0.9854],
+    [0.7001, 0.9866],
+    [0.8, 0.9866],
+    [0.8001, 0.9966],
+    [0.85, 0.9966],
+    [0.9, 0.9982],
+    [0.9498, 0.9993],
+    [0.95, 0.9997],
+    [0.9883, 0.9997],
+];
+/// The anonymous side fitted for Belmonte-Hernández's ([`MotionScore::Belmonte`]).
+const BELMONTE_ANONYMOUS: &[[f64; 2]] = &[
+    [0.0, 0.0034],
+    [0.1458, 0.0035],
+    [0.3997, 0.0035],
+    [0.4056, 0.0721],
+    [0.5996, 0.0721],
+    [0.6002, 0.1398],
+    [0.6497, 0.1398],
+    [0.6503, 0.2753],
+    [0.6997, 0.2753],
+    [0.7001, 0.4904],
+    [0.75, 0.4904],
+    [0.7996, 0.7887],
+    [0.8, 0.8374],
+    [0.8499, 0.8374],
+    [0.8501, 0.9025],
+    [0.9, 0.9025],
+    [0.9001, 0.9686],
+    [0.9496, 0.9686],
+    [0.9503, 0.9947],
+    [0.9996, 0.9947],
 ];
 
 /// One frame for [`ConfidenceMap::fit`]: its raw confidence, whether it was named and whether
@@ -137,6 +232,22 @@ pub struct RawConfidence {
 }
 
 impl ConfidenceMap {
+    /// The map fitted for `motion_score` by `scenarios/train/confidence.sh` (`nomen calibrate
+    /// confidence` on 82 simulated scenes that none of the engine README's figures use; see
+    /// its "Confidence" section). The raw confidences of each motion score differ, and so do
+    /// their maps.
+    pub fn fitted(motion_score: MotionScore) -> Self {
+        let (named, anonymous) = match motion_score {
+            MotionScore::Nomen => (NOMEN_NAMED, NOMEN_ANONYMOUS),
+            MotionScore::DeMarchi => (DE_MARCHI_NAMED, DE_MARCHI_ANONYMOUS),
+            MotionScore::Belmonte => (BELMONTE_NAMED, BELMONTE_ANONYMOUS),
+        };
+        Self {
+            named: Knots::from_slice(named),
+            anonymous: Knots::from_slice(anonymous),
+        }
+    }
+
     /// Raw confidences, unmapped.
     pub fn raw() -> Self {
         Self {
@@ -158,8 +269,8 @@ impl ConfidenceMap {
     /// Fits both sides by isotonic regression: the frames of each side are binned into
     /// [`CONFIDENCE_FIT_BINS`] equal-width bins of raw confidence, each bin's accuracy (with
     /// one right and one wrong frame added, so that no probability is exactly 0 or 1) is
-    /// made non-decreasing by pooling adjacent violators, and each
-    /// pooled block becomes a knot at its frames' mean raw confidence (both rounded to 4
+    /// made non-decreasing by pooling adjacent violators, and each pooled block becomes two
+    /// knots at that accuracy, at its frames' lowest and highest raw confidence (rounded to 4
     /// decimals, probabilities kept within 0.0001 of 0 and 1). A side without frames
     /// stays empty (raw). Frames with a raw confidence that is not a finite number in `0..=1`
     /// are left out.
@@ -227,45 +338,75 @@ fn interpolate(knots: &[[f64; 2]], x: f64) -> f64 {
     }
 }
 
+/// One bin or pooled block of frames in [`fit_side`].
+#[derive(Debug, Clone, Copy)]
+struct Block {
+    num: f64,
+    num_right: f64,
+    raw_min: f64,
+    raw_max: f64,
+}
+
+impl Block {
+    /// The accuracy with one right and one wrong frame added (Laplace's rule), so that no
+    /// probability is exactly 0 or 1 after finitely many frames.
+    fn rate(&self) -> f64 {
+        (self.num_right + 1.0) / (self.num + 2.0)
+    }
+}
+
 /// One side's knots from its frames (see [`ConfidenceMap::fit`]).
 fn fit_side<'a>(samples: impl Iterator<Item = &'a RawConfidence>) -> Vec<[f64; 2]> {
-    // Per bin: frames, sum of raw confidences, frames right.
-    let mut bins = [(0.0_f64, 0.0_f64, 0.0_f64); CONFIDENCE_FIT_BINS];
+    let mut bins: [Option<Block>; CONFIDENCE_FIT_BINS] = [None; CONFIDENCE_FIT_BINS];
     for s in samples {
         let k = ((s.raw * CONFIDENCE_FIT_BINS as f64) as usize).min(CONFIDENCE_FIT_BINS - 1);
         if let Some(bin) = bins.get_mut(k) {
-            bin.0 += 1.0;
-            bin.1 += s.raw;
-            bin.2 += if s.is_correct { 1.0 } else { 0.0 };
+            let right = if s.is_correct { 1.0 } else { 0.0 };
+            *bin = Some(match *bin {
+                Some(b) => Block {
+                    num: b.num + 1.0,
+                    num_right: b.num_right + right,
+                    raw_min: b.raw_min.min(s.raw),
+                    raw_max: b.raw_max.max(s.raw),
+                },
+                None => Block {
+                    num: 1.0,
+                    num_right: right,
+                    raw_min: s.raw,
+                    raw_max: s.raw,
+                },
+            });
         }
     }
-    // A block's accuracy with one right and one wrong frame added (Laplace's rule), so that
-    // no probability is exactly 0 or 1 after finitely many frames.
-    let rate = |(n, _, right): (f64, f64, f64)| (right + 1.0) / (n + 2.0);
-    // Pool adjacent violators: a stack of blocks (frames, raw sum, right), each block's
-    // accuracy above the one before it.
-    let mut blocks: Vec<(f64, f64, f64)> = Vec::new();
-    for bin in bins.into_iter().filter(|b| b.0 > 0.0) {
-        let mut block = bin;
+    // Pool adjacent violators: a stack of blocks, each one's rate above the one before it.
+    let mut blocks: Vec<Block> = Vec::new();
+    for mut block in bins.into_iter().flatten() {
         while let Some(&top) = blocks.last()
-            && rate(top) >= rate(block)
+            && top.rate() >= block.rate()
         {
             blocks.pop();
-            block = (block.0 + top.0, block.1 + top.1, block.2 + top.2);
+            block = Block {
+                num: block.num + top.num,
+                num_right: block.num_right + top.num_right,
+                raw_min: top.raw_min,
+                raw_max: block.raw_max,
+            };
         }
         blocks.push(block);
     }
-    // Knots rounded to 4 decimals (a knot whose raw confidence rounds onto the one before
-    // it is dropped).
+    // The isotonic fit is constant over each block: a knot at each end of the block's raw
+    // confidences, the map linear in the gaps between blocks. Rounded to 4 decimals (a knot
+    // whose raw confidence rounds onto the one before it is dropped), probabilities kept
+    // within 0.0001 of 0 and 1.
     let round = |v: f64| (v * 1e4).round() / 1e4;
-    let mut knots: Vec<[f64; 2]> = Vec::with_capacity(blocks.len());
-    for &block in &blocks {
-        let knot = [
-            round(block.1 / block.0),
-            round(rate(block)).clamp(1e-4, 1.0 - 1e-4),
-        ];
-        if knots.last().is_none_or(|last| knot[0] > last[0]) {
-            knots.push(knot);
+    let mut knots: Vec<[f64; 2]> = Vec::with_capacity(2 * blocks.len());
+    for block in &blocks {
+        let p = round(block.rate()).clamp(1e-4, 1.0 - 1e-4);
+        for raw in [block.raw_min, block.raw_max] {
+            let knot = [round(raw), p];
+            if knots.last().is_none_or(|last| knot[0] > last[0]) {
+                knots.push(knot);
+            }
         }
     }
     knots
@@ -284,10 +425,18 @@ mod tests {
     }
 
     #[test]
-    fn the_default_map_is_valid_and_raises_what_correlations_understate() {
-        let map = ConfidenceMap::default();
-        assert!(map.validate().is_ok());
-        assert!(!map.named.as_slice().is_empty() && !map.anonymous.as_slice().is_empty());
+    fn the_fitted_maps_are_valid_and_raise_what_correlations_understate() {
+        for score in [
+            MotionScore::Nomen,
+            MotionScore::DeMarchi,
+            MotionScore::Belmonte,
+        ] {
+            let map = ConfidenceMap::fitted(score);
+            assert!(map.validate().is_ok(), "{score:?}");
+            assert!(!map.named.as_slice().is_empty() && !map.anonymous.as_slice().is_empty());
+        }
+        assert_eq!(ConfidenceMap::default(), ConfidenceMap::raw());
+        let map = ConfidenceMap::fitted(MotionScore::Nomen);
         // A frame named at a raw 0.55 is right far more often than that.
         assert!(map.apply(true, 0.55) > 0.95);
         // An anonymous frame without any evidence is almost never right (the person is
@@ -315,8 +464,8 @@ mod tests {
     fn the_fit_pools_violators_into_a_non_decreasing_map() {
         // Named frames: bin 0.10-0.15 right 1 of 2 (rate (1 + 1) / (2 + 2) = 0.5), then bins
         // 0.30-0.35 and 0.40-0.45 right 0 of 1 each (rate 1/3: violators, pooled with the
-        // first: 1 of 4 right, rate 2/6, at a mean raw 0.225), then bin 0.80-0.85 right 3 of 3
-        // (rate 4/5).
+        // first: 1 of 4 right, rate 2/6, over raw 0.1 to 0.4), then bin 0.80-0.85 right 3 of 3
+        // (rate 4/5, one raw value: one knot).
         let mut samples = vec![
             sample(0.1, true, true),
             sample(0.1, true, false),
@@ -330,14 +479,12 @@ mod tests {
         // Anonymous frames: one bin.
         samples.extend((0..4).map(|k| sample(0.5, false, k == 0)));
         let map = ConfidenceMap::fit(&samples);
-        let named = map.named.as_slice();
-        assert_eq!(named.len(), 2, "{named:?}");
-        let [a, b] = named[0];
-        assert!(
-            (a - 0.225).abs() < 1e-12 && (b - 0.3333).abs() < 1e-12,
-            "{a} {b}"
+        assert_eq!(
+            map.named.as_slice(),
+            &[[0.1, 0.3333], [0.4, 0.3333], [0.8, 0.8]]
         );
-        assert_eq!(named[1], [0.8, 0.8]);
+        // Between blocks the map is linear.
+        assert!((map.apply(true, 0.6) - (0.3333 + 0.8) / 2.0).abs() < 1e-12);
         // Anonymous: 1 of 4 right, rate 2/6.
         assert_eq!(map.anonymous.as_slice(), &[[0.5, 0.3333]]);
         assert!(map.validate().is_ok());

@@ -281,10 +281,12 @@ pub struct EngineConfig {
     pub model_weights: ModelWeights,
     /// Belmonte-Hernández's signals ([`MotionScore::Belmonte`]).
     pub belmonte: BelmonteConfig,
-    /// How a decision's raw confidence becomes the output's: the probability that its identity
-    /// is right, fitted on simulated scenes ([`ConfidenceMap::default`]);
-    /// [`ConfidenceMap::raw`] (both sides empty) outputs the raw confidence.
-    pub confidence_map: ConfidenceMap,
+    /// How a decision's raw confidence becomes the output's, the probability that its identity
+    /// is right. `None` (the default): the map fitted on simulated scenes for
+    /// [`EngineConfig::motion_score`] ([`ConfidenceMap::fitted`]); a map with both sides empty
+    /// ([`ConfidenceMap::raw`]) outputs the raw confidence. In TOML, a `[confidence_map]`
+    /// table with `named` and `anonymous` knots (`nomen calibrate confidence` prints one).
+    pub confidence_map: Option<ConfidenceMap>,
     /// Pitch error scale of the Belmonte similarity, rad. Default 0.3 rad (17°).
     pub belmonte_pitch_sigma_rad: f64,
     /// Yaw-rate error scale of the Belmonte similarity, rad/s. Default 2 rad/s: the band's yaw
@@ -906,7 +908,7 @@ impl Default for EngineConfig {
             motion_score: MotionScore::Nomen,
             kinematic: KinematicConfig::default(),
             model_weights: ModelWeights::default(),
-            confidence_map: ConfidenceMap::default(),
+            confidence_map: None,
             belmonte: BelmonteConfig::default(),
             belmonte_pitch_sigma_rad: 0.3,
             belmonte_yaw_rate_sigma_radps: 2.0,
@@ -1249,7 +1251,9 @@ impl EngineConfig {
             }
         }
         self.madgwick.validate()?;
-        self.confidence_map.validate()?;
+        if let Some(map) = &self.confidence_map {
+            map.validate()?;
+        }
         Ok(())
     }
 

@@ -5,6 +5,7 @@ mod offsets;
 mod scoring;
 mod tracks;
 
+use crate::confidence::ConfidenceMap;
 use crate::config::{EngineConfig, ns};
 use crate::error::{EngineError, Result};
 use crate::lag_memo::ImuLagMemo;
@@ -576,6 +577,8 @@ impl TrackState {
 /// The streaming identity engine. See the crate documentation for the pipeline and latency.
 pub struct Engine {
     config: EngineConfig,
+    /// [`EngineConfig::confidence_map`], or the map fitted for its motion score.
+    confidence_map: ConfidenceMap,
     window_ns: i64,
     hop_ns: i64,
     reorder_ns: i64,
@@ -750,6 +753,9 @@ impl Engine {
             .map(|(i, c)| (c.id.clone(), i))
             .collect();
         Ok(Engine {
+            confidence_map: config
+                .confidence_map
+                .unwrap_or_else(|| ConfidenceMap::fitted(config.motion_score)),
             window_ns: ns(config.window_s),
             hop_ns: ns(config.hop_s),
             reorder_ns: ns(config.reorder_window_s),
@@ -1677,7 +1683,8 @@ impl Engine {
     ///
     /// Confidence: the raw score (the subject's for a named track; for an anonymous track, one
     /// minus the best candidate's, 0 without any evidence), mapped by
-    /// [`EngineConfig::confidence_map`] to the probability that the identity is right.
+    /// [`EngineConfig::confidence_map`] (or the map fitted for the motion score) to the
+    /// probability that the identity is right.
     fn identity_as(
         &self,
         tr: &TrackState,
@@ -1703,7 +1710,7 @@ impl Engine {
             (None, None) => (Identity::Anonymous, 0.0, None),
         };
         let is_named = matches!(identity, Identity::Subject(_));
-        let confidence = self.config.confidence_map.apply(is_named, raw);
+        let confidence = self.confidence_map.apply(is_named, raw);
         let evidence = shown
             .and_then(|s| self.subject_imus.get(s))
             .map(|imus| {

@@ -28,7 +28,8 @@ pub struct CalibrateConfidenceArgs {
     #[arg(long, num_args = 1.., required = true)]
     scenes: Vec<PathBuf>,
     /// Engine configuration (TOML) to run the scenes with; its own `confidence_map` is not
-    /// used (the fit starts from raw confidences).
+    /// used (the fit starts from raw confidences). Fit with the `motion_score` and the other
+    /// settings the map will run with: the raw confidences depend on them.
     #[arg(long)]
     config: Option<PathBuf>,
     /// Where to write the fitted `[confidence_map]` table (TOML); default stdout.
@@ -45,7 +46,7 @@ struct Fitted {
 /// Runs `nomen calibrate confidence`.
 pub fn run(args: &CalibrateConfidenceArgs) -> Result<()> {
     let config = EngineConfig {
-        confidence_map: ConfidenceMap::raw(),
+        confidence_map: Some(ConfidenceMap::raw()),
         ..super::run::load_config(args.config.as_deref())?
     };
     let bar = progress_bar(args.scenes.len());
