@@ -27,7 +27,7 @@ pub const CONFIDENCE_FIT_BINS: usize = 20;
 /// `[raw, probability]`, raw strictly increasing in `0..=1` and probability non-decreasing in
 /// `0..=1`; between knots the map is linear, beyond the ends constant. An empty side passes
 /// raw confidences through. [`ConfidenceMap::raw`] leaves both sides empty. In a
-/// configuration file, a side left out keeps the default's knots.
+/// configuration file, a side left out has no knots (its raw confidences pass through).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ConfidenceMap {
