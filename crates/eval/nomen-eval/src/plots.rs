@@ -72,7 +72,8 @@ pub struct RenderedPlot {
 }
 
 /// Draws every plot the report has data for: `identity_timeline_<scene>.png` per scene with
-/// observations, `accuracy_over_time.png`, `tag_error_boxplot.png` (if tags were evaluated) and
+/// observations, `accuracy_over_time.png`, `confidence_reliability.png` (if some result line
+/// joined a truth frame), `tag_error_boxplot.png` (if tags were evaluated) and
 /// `time_to_identify_boxplot.png` (if some appearance was identified).
 ///
 /// # Errors
@@ -97,6 +98,13 @@ pub fn render_plots(report: &EvalReport, config: &PlotConfig) -> Result<Vec<Rend
         let file_name = "accuracy_over_time.png".to_owned();
         let png = render(&file_name, w, h, |root| {
             draw_accuracy_over_time(root, report, has_text)
+        })?;
+        plots.push(RenderedPlot { file_name, png });
+    }
+    if report.overall.confidence.num_frames > 0 {
+        let file_name = "confidence_reliability.png".to_owned();
+        let png = render(&file_name, w, h, |root| {
+            draw_reliability(root, report, has_text)
         })?;
         plots.push(RenderedPlot { file_name, png });
     }
@@ -443,6 +451,66 @@ fn draw_accuracy_over_time(
                 .iter()
                 .map(|&p| Circle::new(p, 3, CORRECTED.filled())),
         )
+        .map_err(err)?;
+    Ok(())
+}
+
+/// The reliability diagram of the confidences (all scenes): each confidence bin's accuracy
+/// against its mean confidence, a dot whose area grows with the bin's frames, over the diagonal
+/// of perfect calibration.
+fn draw_reliability(
+    root: &DrawingArea<BitMapBackend<'_>, Shift>,
+    report: &EvalReport,
+    has_text: bool,
+) -> std::result::Result<(), String> {
+    let confidence = &report.overall.confidence;
+    let mut builder = ChartBuilder::on(root);
+    builder
+        .margin(10)
+        .margin_right(30)
+        .set_label_area_size(LabelAreaPosition::Left, if has_text { 60 } else { 10 })
+        .set_label_area_size(LabelAreaPosition::Bottom, if has_text { 40 } else { 10 });
+    if has_text {
+        let fmt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3}"));
+        builder.caption(
+            format!(
+                "Confidence reliability (all scenes): ECE {}, Brier {}",
+                fmt(confidence.ece),
+                fmt(confidence.brier)
+            ),
+            text(22),
+        );
+    }
+    let mut chart = builder
+        .build_cartesian_2d(0.0..1.0, 0.0..1.05)
+        .map_err(err)?;
+    let mut mesh = chart.configure_mesh();
+    if has_text {
+        mesh.x_desc("mean confidence of the bin")
+            .y_desc("fraction right")
+            .label_style(text(14));
+    } else {
+        mesh.x_labels(0).y_labels(0);
+    }
+    mesh.draw().map_err(err)?;
+    chart
+        .draw_series(LineSeries::new(
+            [(0.0, 0.0), (1.0, 1.0)],
+            ANONYMOUS.stroke_width(1),
+        ))
+        .map_err(err)?;
+    let points: Vec<((f64, f64), u64)> = confidence
+        .bins
+        .iter()
+        .filter_map(|b| Some(((b.mean_confidence?, b.accuracy?), b.num_frames)))
+        .collect();
+    let most = points.iter().map(|(_, n)| *n).max().unwrap_or(1).max(1) as f64;
+    chart
+        .draw_series(points.iter().map(|&(p, n)| {
+            // Radius 3 to 12 px, the area in proportion to the frames.
+            let radius = 3.0 + 9.0 * (n as f64 / most).sqrt();
+            Circle::new(p, radius.round() as i32, CORRECTED.filled())
+        }))
         .map_err(err)?;
     Ok(())
 }

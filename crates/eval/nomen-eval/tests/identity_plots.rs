@@ -110,6 +110,7 @@ fn plots_are_written_as_png_files() {
         [
             "identity_timeline_lab_day_1.png",
             "accuracy_over_time.png",
+            "confidence_reliability.png",
             "tag_error_boxplot.png",
             "time_to_identify_boxplot.png",
         ]

@@ -44,8 +44,9 @@ fn plots_without_a_font_are_still_png() {
         ..PlotConfig::default()
     };
     let plots = render_plots(&report, &config).unwrap();
-    // Timeline, accuracy over time, time to identify (no tags in this scene).
-    assert_eq!(plots.len(), 3);
+    // Timeline, accuracy over time, confidence reliability, time to identify (no tags in this
+    // scene).
+    assert_eq!(plots.len(), 4);
     for plot in plots {
         assert!(
             plot.png.starts_with(&[0x89, b'P', b'N', b'G']),
