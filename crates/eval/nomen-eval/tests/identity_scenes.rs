@@ -416,3 +416,44 @@ fn the_json_report_has_the_documented_top_level_keys() {
         "{table}"
     );
 }
+
+#[test]
+fn confidences_are_scored_against_whether_each_identity_was_right() {
+    // Frames 0-9: ana (track 1) named ana, eve (track 2, wears nothing) named ana, both at the
+    // helper's confidence 0.9; a result line for a track without truth (track 9), which no
+    // confidence measure sees. Right: ana's 10 frames; wrong: eve's 10.
+    let mut truth_msgs = Vec::new();
+    let mut result = Vec::new();
+    for k in 0..10 {
+        truth_msgs.push(truth(k, 1, "p1", Some("ana"), 0.0));
+        truth_msgs.push(truth(k, 2, "p2", None, 2.0));
+        result.push(label(k, 1, Some("ana")));
+        result.push(label(k, 2, Some("ana")));
+        result.push(label(k, 9, None));
+    }
+    let report = run(&truth_msgs, &result, &EvalConfig::default());
+    let c = &report.overall.confidence;
+    assert_eq!(c.num_frames, 20);
+    // One bin (0.9-1.0): mean confidence 0.9, half right.
+    assert!(close(report.overall.confidence_ece, 0.4));
+    // Brier: half the frames (0.9 - 1)², half 0.9².
+    assert!(close(
+        report.overall.confidence_brier,
+        0.5 * 0.01 + 0.5 * 0.81
+    ));
+    assert_eq!(c.bins[9].num_frames, 20);
+    // The samples for fitting: the same 20 frames, all named, eve's wrong.
+    let scene = SceneData::from_messages("scene", &truth_msgs, &result);
+    let samples = nomen_eval::identity::confidence_samples(&scene);
+    assert_eq!(samples.len(), 20);
+    assert_eq!(samples.iter().filter(|s| s.is_correct).count(), 10);
+    assert!(samples.iter().all(|s| s.is_named && s.confidence == 0.9));
+    // Eve left anonymous instead: right, and not named.
+    let result: Vec<Message> = (0..10)
+        .flat_map(|k| [label(k, 1, Some("ana")), label(k, 2, None)])
+        .collect();
+    let scene = SceneData::from_messages("scene", &truth_msgs, &result);
+    let samples = nomen_eval::identity::confidence_samples(&scene);
+    assert!(samples.iter().all(|s| s.is_correct));
+    assert_eq!(samples.iter().filter(|s| !s.is_named).count(), 10);
+}
