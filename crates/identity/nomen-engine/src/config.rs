@@ -212,8 +212,8 @@ pub struct EngineConfig {
     /// track of the camera, seen at the observation's time, carries it when the observation
     /// is sent (it was given before the subject's clock was known, to a look-alike): the man
     /// anonymous in 99.51 → 99.74 % of his frames over seeds 1–144 (episode 97.82 → 97.94 %,
-    /// no seed worse). `0` turns it off (and `warmup_sync_s` with it). While no clock is known the warm-up may last longer: see
-    /// [`EngineConfig::warmup_sync_s`].
+    /// no seed worse). `0` turns it off (and `warmup_sync_s` with it). While no clock is known
+    /// the warm-up may last longer: see [`EngineConfig::warmup_sync_s`].
     pub warmup_s: f64,
     /// How much longer than `warmup_s` the warm-up's observations may wait for decisions made
     /// at known clocks, s. Before any clock offset is accepted (about 4.5 s into a session at
@@ -279,14 +279,14 @@ pub struct EngineConfig {
     pub kinematic: KinematicConfig,
     /// Weights of the models in [`MotionScore::Nomen`]'s mean (see [`ModelWeights`]).
     pub model_weights: ModelWeights,
-    /// Belmonte-Hernández's signals ([`MotionScore::Belmonte`]).
-    pub belmonte: BelmonteConfig,
     /// How a decision's raw confidence becomes the output's, the probability that its identity
     /// is right. `None` (the default): the map fitted on simulated scenes for
     /// [`EngineConfig::motion_score`] ([`ConfidenceMap::fitted`]); a map with both sides empty
     /// ([`ConfidenceMap::raw`]) outputs the raw confidence. In TOML, a `[confidence_map]`
     /// table with `named` and `anonymous` knots (`nomen calibrate confidence` prints one).
     pub confidence_map: Option<ConfidenceMap>,
+    /// Belmonte-Hernández's signals ([`MotionScore::Belmonte`]).
+    pub belmonte: BelmonteConfig,
     /// Pitch error scale of the Belmonte similarity, rad. Default 0.3 rad (17°).
     pub belmonte_pitch_sigma_rad: f64,
     /// Yaw-rate error scale of the Belmonte similarity, rad/s. Default 2 rad/s: the band's yaw

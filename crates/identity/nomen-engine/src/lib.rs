@@ -186,8 +186,7 @@
 //! track)`, labelled with the decision of the first window ending at or after
 //! `t + decision_delay_s`, and a confidence: the probability that the label is right, from the
 //! decision's score through [`EngineConfig::confidence_map`] ([`ConfidenceMap::fitted`] by
-//! default). While all
-//! sources send, an observation is emitted at most
+//! default). While all sources send, an observation is emitted at most
 //! `decision_delay_s + hop_s + reorder_window_s` (default 2.25 s) of stream time after `t`
 //! ([`EngineConfig::latency_s`]), stream time being the session time every source has reached
 //! (an IMU's stamps read through its current clock-offset estimate, so an IMU whose clock is
