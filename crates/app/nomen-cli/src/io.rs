@@ -147,3 +147,34 @@ pub fn find_data(flag: Option<&Path>) -> Result<PathBuf> {
         tried.join(", ")
     )
 }
+
+/// Every message of a recording file, and its header's registry; stops at the first bad line,
+/// naming the file.
+pub fn read_messages(
+    path: &Path,
+) -> Result<(Vec<nomen_core::Message>, Option<nomen_core::Registry>)> {
+    let mut reader = nomen_recording::RecordingReader::open(path)
+        .with_context(|| format!("reading {}", path.display()))?;
+    let registry = reader.header().registry.clone();
+    let mut out = Vec::new();
+    for m in reader.by_ref() {
+        out.push(m.with_context(|| format!("reading {}", path.display()))?);
+    }
+    Ok((out, registry))
+}
+
+/// A progress bar of `len` steps with a message, drawn on stderr when it is a terminal and
+/// hidden otherwise.
+pub fn step_progress_bar(len: u64) -> indicatif::ProgressBar {
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>24} [{bar:40}] {pos}/{len}").map_or_else(
+            |_| indicatif::ProgressStyle::default_bar(),
+            |s| s.progress_chars("=> "),
+        ),
+    );
+    bar
+}

@@ -11,13 +11,10 @@
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
-use nomen_core::Message;
 use nomen_engine::{ConfidenceMap, Engine, EngineConfig, RawConfidence};
 use nomen_eval::identity::{ConfidenceReport, ConfidenceSample, SceneData, confidence_report};
-use nomen_recording::RecordingReader;
 use serde::Serialize;
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nomen calibrate confidence`.
@@ -49,7 +46,7 @@ pub fn run(args: &CalibrateConfidenceArgs) -> Result<()> {
         confidence_map: Some(ConfidenceMap::raw()),
         ..super::run::load_config(args.config.as_deref())?
     };
-    let bar = progress_bar(args.scenes.len());
+    let bar = crate::io::step_progress_bar(args.scenes.len() as u64);
     let mut samples: Vec<ConfidenceSample> = Vec::new();
     for dir in &args.scenes {
         bar.set_message(dir.display().to_string());
@@ -118,14 +115,14 @@ fn summary(out: &mut impl Write, what: &str, r: &ConfidenceReport) -> Result<()>
 
 /// One scene's samples: the engine run on its recording with `config`, joined with its truth.
 fn scene_samples(dir: &Path, config: &EngineConfig) -> Result<Vec<ConfidenceSample>> {
-    let (recording, registry) = read_messages(&dir.join("recording.jsonl"))?;
+    let (recording, registry) = crate::io::read_messages(&dir.join("recording.jsonl"))?;
     let Some(registry) = registry else {
         bail!(
             "{}: the header carries no registry",
             dir.join("recording.jsonl").display()
         );
     };
-    let (truth, _) = read_messages(&dir.join("truth.jsonl"))?;
+    let (truth, _) = crate::io::read_messages(&dir.join("truth.jsonl"))?;
     let mut engine = Engine::new(registry, *config)
         .with_context(|| format!("{}: starting the engine", dir.display()))?;
     let mut result = Vec::new();
@@ -139,30 +136,4 @@ fn scene_samples(dir: &Path, config: &EngineConfig) -> Result<Vec<ConfidenceSamp
     let name = dir.display().to_string();
     let scene = SceneData::from_messages(&name, &truth, &result);
     Ok(nomen_eval::identity::confidence_samples(&scene))
-}
-
-/// Every message of a recording file, and its registry.
-fn read_messages(path: &Path) -> Result<(Vec<Message>, Option<nomen_core::Registry>)> {
-    let mut reader =
-        RecordingReader::open(path).with_context(|| format!("reading {}", path.display()))?;
-    let registry = reader.header().registry.clone();
-    let mut out = Vec::new();
-    for m in reader.by_ref() {
-        out.push(m.with_context(|| format!("reading {}", path.display()))?);
-    }
-    Ok((out, registry))
-}
-
-fn progress_bar(len: usize) -> ProgressBar {
-    if !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(len as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{msg:>24} [{bar:40}] {pos}/{len}").map_or_else(
-            |_| ProgressStyle::default_bar(),
-            |s| s.progress_chars("=> "),
-        ),
-    );
-    bar
 }

@@ -8,15 +8,11 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
-use indicatif::{ProgressBar, ProgressStyle};
 use nomen_cnn::{
     CnnModel, CnnScorer, Example, ModelSize, PairRecorder, TrainConfig, TrainEvent, TruthLabels,
     balance, label_pairs,
 };
-use nomen_core::Message;
 use nomen_engine::{Engine, EngineConfig};
-use nomen_recording::RecordingReader;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -154,7 +150,7 @@ fn train_cnn(args: &CnnArgs) -> Result<()> {
         val.len()
     );
     let t_train = std::time::Instant::now();
-    let bar = progress_bar();
+    let bar = crate::io::step_progress_bar(1);
     let model = nomen_cnn::train::train(&train, &val, &cfg, &mut |e| match e {
         TrainEvent::Batch {
             epoch,
@@ -198,42 +194,16 @@ fn train_cnn(args: &CnnArgs) -> Result<()> {
     Ok(())
 }
 
-fn progress_bar() -> ProgressBar {
-    if !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(1);
-    bar.set_style(
-        ProgressStyle::with_template("{msg:>24} [{bar:40}] {pos}/{len}").map_or_else(
-            |_| ProgressStyle::default_bar(),
-            |s| s.progress_chars("=> "),
-        ),
-    );
-    bar
-}
-
-/// Reads every message of a recording file.
-fn read_messages(path: &Path) -> Result<(Vec<Message>, Option<nomen_core::Registry>)> {
-    let mut reader =
-        RecordingReader::open(path).with_context(|| format!("reading {}", path.display()))?;
-    let registry = reader.header().registry.clone();
-    let mut out = Vec::new();
-    for m in reader.by_ref() {
-        out.push(m.with_context(|| format!("reading {}", path.display()))?);
-    }
-    Ok((out, registry))
-}
-
 /// Runs one scene through the engine with a recorder and labels the pairs.
 fn scene_examples(dir: &Path, name: &str, cfg: &TrainConfig) -> Result<Vec<Example>> {
-    let (recording, registry) = read_messages(&dir.join("recording.jsonl"))?;
+    let (recording, registry) = crate::io::read_messages(&dir.join("recording.jsonl"))?;
     let Some(registry) = registry else {
         bail!(
             "{}: the header carries no registry",
             dir.join("recording.jsonl").display()
         );
     };
-    let (truth, _) = read_messages(&dir.join("truth.jsonl"))?;
+    let (truth, _) = crate::io::read_messages(&dir.join("truth.jsonl"))?;
     let recorder = Arc::new(PairRecorder::new(cfg.input.clone()));
     let engine_config = EngineConfig {
         geometric: cfg.input.geometric,
