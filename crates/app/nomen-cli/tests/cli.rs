@@ -495,27 +495,14 @@ fn calibrate_confidence_fits_a_map_that_a_run_takes_and_eval_scores() {
     let raw = tmp.path().join("raw.toml");
     std::fs::write(&raw, "[confidence_map]\nnamed = []\nanonymous = []\n").unwrap();
     let ece = |config: &Path, name: &str| {
-        let result = tmp.path().join(name);
-        let o = nomen(&[
-            "run",
-            scene.join("recording.jsonl").to_str().unwrap(),
-            "--config",
-            config.to_str().unwrap(),
-            "--out",
-            result.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", text(&o.stderr));
-        let o = nomen(&[
-            "eval",
-            "--truth",
-            scene.join("truth.jsonl").to_str().unwrap(),
-            "--result",
-            result.to_str().unwrap(),
-            "--json",
-        ]);
-        assert!(o.status.success(), "{}", text(&o.stderr));
-        let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        report["confidence_ece"].as_f64().unwrap()
+        run_and_eval(
+            &scene.join("recording.jsonl"),
+            Some(config),
+            &tmp.path().join(name),
+            &scene.join("truth.jsonl"),
+        )["confidence_ece"]
+            .as_f64()
+            .unwrap()
     };
     // Raw correlations understate how often the names are right; the map fitted on this
     // scene tells its frames' odds far better.
@@ -1302,6 +1289,19 @@ fn run_with_the_shipped_cnn_labels_every_skeleton_and_a_missing_model_is_named()
 /// `nomen run RECORDING [--config CONFIG] --out OUT`, failing the test if it fails; returns
 /// the share of frames `nomen eval` finds named right against `truth`.
 fn run_and_score(recording: &Path, config: Option<&Path>, out: &Path, truth: &Path) -> f64 {
+    run_and_eval(recording, config, out, truth)["id_accuracy"]
+        .as_f64()
+        .unwrap()
+}
+
+/// `nomen run RECORDING [--config CONFIG] --out OUT` then `nomen eval --json` against
+/// `truth`, failing the test if either fails; returns the report.
+fn run_and_eval(
+    recording: &Path,
+    config: Option<&Path>,
+    out: &Path,
+    truth: &Path,
+) -> serde_json::Value {
     let mut args = vec!["run", recording.to_str().unwrap()];
     if let Some(c) = config {
         args.extend(["--config", c.to_str().unwrap()]);
@@ -1318,8 +1318,7 @@ fn run_and_score(recording: &Path, config: Option<&Path>, out: &Path, truth: &Pa
         "--json",
     ]);
     assert!(o.status.success(), "{}", text(&o.stderr));
-    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    report["id_accuracy"].as_f64().unwrap()
+    serde_json::from_slice(&o.stdout).unwrap()
 }
 
 #[test]
