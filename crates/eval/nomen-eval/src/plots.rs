@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use crate::error::{EvalError, Result};
@@ -402,6 +403,40 @@ fn draw_timeline(
     Ok(())
 }
 
+/// A chart of `ranges` (x, y) on `root` with its mesh drawn: the caption and the axis
+/// descriptions `axes` (x, y) when text can be drawn, bare axes otherwise.
+fn xy_chart<'a, 'b>(
+    root: &'a DrawingArea<BitMapBackend<'b>, Shift>,
+    caption: &str,
+    ranges: (std::ops::Range<f64>, std::ops::Range<f64>),
+    axes: (&str, &str),
+    has_text: bool,
+) -> std::result::Result<
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    String,
+> {
+    let mut builder = ChartBuilder::on(root);
+    builder
+        .margin(10)
+        .margin_right(30)
+        .set_label_area_size(LabelAreaPosition::Left, if has_text { 60 } else { 10 })
+        .set_label_area_size(LabelAreaPosition::Bottom, if has_text { 40 } else { 10 });
+    if has_text {
+        builder.caption(caption, text(22));
+    }
+    let mut chart = builder
+        .build_cartesian_2d(ranges.0, ranges.1)
+        .map_err(err)?;
+    let mut mesh = chart.configure_mesh();
+    if has_text {
+        mesh.x_desc(axes.0).y_desc(axes.1).label_style(text(14));
+    } else {
+        mesh.x_labels(0).y_labels(0);
+    }
+    mesh.draw().map_err(err)?;
+    Ok(chart)
+}
+
 fn draw_accuracy_over_time(
     root: &DrawingArea<BitMapBackend<'_>, Shift>,
     report: &EvalReport,
@@ -410,31 +445,12 @@ fn draw_accuracy_over_time(
     let bins = &report.overall.over_time;
     let t0 = bins.first().map_or(0.0, |b| b.start_s);
     let t1 = bins.last().map_or(1.0, |b| b.end_s);
-    let mut builder = ChartBuilder::on(root);
-    builder
-        .margin(10)
-        .margin_right(30)
-        .set_label_area_size(LabelAreaPosition::Left, if has_text { 60 } else { 10 })
-        .set_label_area_size(LabelAreaPosition::Bottom, if has_text { 40 } else { 10 });
-    if has_text {
-        builder.caption(
-            format!(
-                "Identification accuracy per {} s bin (all scenes)",
-                report.config.time_bin_s
-            ),
-            text(22),
-        );
-    }
-    let mut chart = builder.build_cartesian_2d(t0..t1, 0.0..1.05).map_err(err)?;
-    let mut mesh = chart.configure_mesh();
-    if has_text {
-        mesh.x_desc("session time (s)")
-            .y_desc("accuracy")
-            .label_style(text(14));
-    } else {
-        mesh.x_labels(0).y_labels(0);
-    }
-    mesh.draw().map_err(err)?;
+    let caption = format!(
+        "Identification accuracy per {} s bin (all scenes)",
+        report.config.time_bin_s
+    );
+    let axes = ("session time (s)", "accuracy");
+    let mut chart = xy_chart(root, &caption, (t0..t1, 0.0..1.05), axes, has_text)?;
     let points: Vec<(f64, f64)> = bins
         .iter()
         .filter_map(|b| b.accuracy.map(|a| (0.5 * (b.start_s + b.end_s), a)))
@@ -464,35 +480,14 @@ fn draw_reliability(
     has_text: bool,
 ) -> std::result::Result<(), String> {
     let confidence = &report.overall.confidence;
-    let mut builder = ChartBuilder::on(root);
-    builder
-        .margin(10)
-        .margin_right(30)
-        .set_label_area_size(LabelAreaPosition::Left, if has_text { 60 } else { 10 })
-        .set_label_area_size(LabelAreaPosition::Bottom, if has_text { 40 } else { 10 });
-    if has_text {
-        let fmt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3}"));
-        builder.caption(
-            format!(
-                "Confidence reliability (all scenes): ECE {}, Brier {}",
-                fmt(confidence.ece),
-                fmt(confidence.brier)
-            ),
-            text(22),
-        );
-    }
-    let mut chart = builder
-        .build_cartesian_2d(0.0..1.0, 0.0..1.05)
-        .map_err(err)?;
-    let mut mesh = chart.configure_mesh();
-    if has_text {
-        mesh.x_desc("mean confidence of the bin")
-            .y_desc("fraction right")
-            .label_style(text(14));
-    } else {
-        mesh.x_labels(0).y_labels(0);
-    }
-    mesh.draw().map_err(err)?;
+    let fmt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3}"));
+    let caption = format!(
+        "Confidence reliability (all scenes): ECE {}, Brier {}",
+        fmt(confidence.ece),
+        fmt(confidence.brier)
+    );
+    let axes = ("mean confidence of the bin", "fraction right");
+    let mut chart = xy_chart(root, &caption, (0.0..1.0, 0.0..1.05), axes, has_text)?;
     chart
         .draw_series(LineSeries::new(
             [(0.0, 0.0), (1.0, 1.0)],
