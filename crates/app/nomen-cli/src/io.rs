@@ -163,6 +163,27 @@ pub fn read_messages(
     Ok((out, registry))
 }
 
+/// A scene folder as `nomen simulate` writes it: the messages of `recording.jsonl`, the
+/// registry its header carries (an error without one) and the messages of `truth.jsonl`.
+pub fn read_scene(
+    dir: &Path,
+) -> Result<(
+    Vec<nomen_core::Message>,
+    nomen_core::Registry,
+    Vec<nomen_core::Message>,
+)> {
+    let recording_path = dir.join("recording.jsonl");
+    let (recording, registry) = read_messages(&recording_path)?;
+    let Some(registry) = registry else {
+        bail!(
+            "{}: the header carries no registry",
+            recording_path.display()
+        );
+    };
+    let (truth, _) = read_messages(&dir.join("truth.jsonl"))?;
+    Ok((recording, registry, truth))
+}
+
 /// A progress bar of `len` steps with a message, drawn on stderr when it is a terminal and
 /// hidden otherwise.
 pub fn step_progress_bar(len: u64) -> indicatif::ProgressBar {

@@ -115,14 +115,7 @@ fn summary(out: &mut impl Write, what: &str, r: &ConfidenceReport) -> Result<()>
 
 /// One scene's samples: the engine run on its recording with `config`, joined with its truth.
 fn scene_samples(dir: &Path, config: &EngineConfig) -> Result<Vec<ConfidenceSample>> {
-    let (recording, registry) = crate::io::read_messages(&dir.join("recording.jsonl"))?;
-    let Some(registry) = registry else {
-        bail!(
-            "{}: the header carries no registry",
-            dir.join("recording.jsonl").display()
-        );
-    };
-    let (truth, _) = crate::io::read_messages(&dir.join("truth.jsonl"))?;
+    let (recording, registry, truth) = crate::io::read_scene(dir)?;
     let mut engine = Engine::new(registry, *config)
         .with_context(|| format!("{}: starting the engine", dir.display()))?;
     let mut result = Vec::new();

@@ -196,14 +196,7 @@ fn train_cnn(args: &CnnArgs) -> Result<()> {
 
 /// Runs one scene through the engine with a recorder and labels the pairs.
 fn scene_examples(dir: &Path, name: &str, cfg: &TrainConfig) -> Result<Vec<Example>> {
-    let (recording, registry) = crate::io::read_messages(&dir.join("recording.jsonl"))?;
-    let Some(registry) = registry else {
-        bail!(
-            "{}: the header carries no registry",
-            dir.join("recording.jsonl").display()
-        );
-    };
-    let (truth, _) = crate::io::read_messages(&dir.join("truth.jsonl"))?;
+    let (recording, registry, truth) = crate::io::read_scene(dir)?;
     let recorder = Arc::new(PairRecorder::new(cfg.input.clone()));
     let engine_config = EngineConfig {
         geometric: cfg.input.geometric,
