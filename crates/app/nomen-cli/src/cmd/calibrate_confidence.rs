@@ -29,7 +29,8 @@ pub struct CalibrateConfidenceArgs {
     /// settings the map will run with: the raw confidences depend on them.
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Where to write the fitted `[confidence_map]` table (TOML); default stdout.
+    /// Where to write the fitted `[confidence_map]` table (TOML; folders created); default
+    /// `-`, stdout.
     #[arg(long)]
     out: Option<PathBuf>,
 }
@@ -93,12 +94,11 @@ pub fn run(args: &CalibrateConfidenceArgs) -> Result<()> {
         confidence_map: map,
     })
     .context("writing the map as TOML")?;
-    match &args.out {
-        Some(path) => {
-            std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?
-        }
-        None => std::io::stdout().lock().write_all(text.as_bytes())?,
-    }
+    let out = args.out.as_deref().unwrap_or(Path::new("-"));
+    let mut w = crate::io::create_write(out)?;
+    w.write_all(text.as_bytes())
+        .and_then(|()| w.flush())
+        .with_context(|| format!("writing {}", crate::io::sink_name(out)))?;
     Ok(())
 }
 
