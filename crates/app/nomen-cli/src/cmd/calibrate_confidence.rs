@@ -82,9 +82,10 @@ pub fn run(args: &CalibrateConfidenceArgs) -> Result<()> {
     let mut err = std::io::stderr().lock();
     writeln!(
         err,
-        "{} frames from {} scenes ({} named, {} anonymous); in-sample:",
+        "{} frames from {} scene{} ({} named, {} anonymous); in-sample:",
         samples.len(),
         args.scenes.len(),
+        if args.scenes.len() == 1 { "" } else { "s" },
         samples.iter().filter(|s| s.is_named).count(),
         samples.iter().filter(|s| !s.is_named).count(),
     )?;
