@@ -508,6 +508,17 @@ fn calibrate_confidence_fits_a_map_that_a_run_takes_and_eval_scores() {
     // scene tells its frames' odds far better.
     let (before, after) = (ece(&raw, "raw.jsonl"), ece(&map, "mapped.jsonl"));
     assert!(before > 0.1 && after < before / 4.0, "{before} -> {after}");
+    // A CNN model that is not there is named.
+    let o = nomen(&[
+        "calibrate",
+        "confidence",
+        "--scenes",
+        scene.to_str().unwrap(),
+        "--cnn",
+        tmp.path().join("no_model").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o.stderr).contains("no_model"), "{}", text(&o.stderr));
     // A map that is not monotone is refused with its place named.
     let bad = tmp.path().join("bad.toml");
     std::fs::write(&bad, "[confidence_map]\nnamed = [[0.5, 0.9], [0.6, 0.8]]\n").unwrap();

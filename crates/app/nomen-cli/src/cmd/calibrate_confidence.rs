@@ -29,6 +29,10 @@ pub struct CalibrateConfidenceArgs {
     /// settings the map will run with: the raw confidences depend on them.
     #[arg(long)]
     config: Option<PathBuf>,
+    /// A model from `nomen train cnn` to run the scenes with, as `nomen run --cnn` would (fit
+    /// with it when the map will run with it).
+    #[arg(long, value_name = "MODEL")]
+    cnn: Option<PathBuf>,
     /// Where to write the fitted `[confidence_map]` table (TOML; folders created); default
     /// `-`, stdout.
     #[arg(long)]
@@ -51,7 +55,7 @@ pub fn run(args: &CalibrateConfidenceArgs) -> Result<()> {
     let mut samples: Vec<ConfidenceSample> = Vec::new();
     for dir in &args.scenes {
         bar.set_message(dir.display().to_string());
-        let scene = scene_samples(dir, &config)?;
+        let scene = scene_samples(dir, &config, args.cnn.as_deref())?;
         if scene.is_empty() {
             bail!(
                 "{}: no decision joins a truth skeleton (is truth.jsonl this recording's?)",
@@ -114,11 +118,19 @@ fn summary(out: &mut impl Write, what: &str, r: &ConfidenceReport) -> Result<()>
     Ok(())
 }
 
-/// One scene's samples: the engine run on its recording with `config`, joined with its truth.
-fn scene_samples(dir: &Path, config: &EngineConfig) -> Result<Vec<ConfidenceSample>> {
+/// One scene's samples: the engine run on its recording with `config` (and the CNN model at
+/// `cnn`), joined with its truth.
+fn scene_samples(
+    dir: &Path,
+    config: &EngineConfig,
+    cnn: Option<&Path>,
+) -> Result<Vec<ConfidenceSample>> {
     let (recording, registry, truth) = crate::io::read_scene(dir)?;
     let mut engine = Engine::new(registry, *config)
         .with_context(|| format!("{}: starting the engine", dir.display()))?;
+    if let Some(path) = cnn {
+        engine = engine.with_pair_scorer(Box::new(super::train::load_scorer(path)?));
+    }
     let mut result = Vec::new();
     for m in &recording {
         // A message the engine refuses is counted there and costs nothing else, as in
