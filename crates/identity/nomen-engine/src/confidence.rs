@@ -256,8 +256,12 @@ impl ConfidenceMap {
         }
     }
 
-    /// The probability for a frame with raw confidence `raw`, named or anonymous.
+    /// The probability for a frame with raw confidence `raw`, named or anonymous; 0 for a raw
+    /// confidence that is not a number.
     pub fn apply(&self, is_named: bool, raw: f64) -> f64 {
+        if raw.is_nan() {
+            return 0.0;
+        }
         let knots = if is_named {
             &self.named
         } else {
@@ -448,6 +452,11 @@ mod tests {
     fn raw_passes_through_and_knots_interpolate_and_hold_at_the_ends() {
         assert_eq!(ConfidenceMap::raw().apply(true, 0.37), 0.37);
         assert_eq!(ConfidenceMap::raw().apply(false, 1.7), 1.0);
+        assert_eq!(ConfidenceMap::raw().apply(true, f64::NAN), 0.0);
+        assert_eq!(
+            ConfidenceMap::fitted(MotionScore::Nomen).apply(true, f64::NAN),
+            0.0
+        );
         let map = ConfidenceMap {
             named: Knots::from_slice(&[[0.2, 0.5], [0.6, 0.9]]),
             anonymous: Knots::EMPTY,
