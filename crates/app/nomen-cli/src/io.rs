@@ -153,14 +153,9 @@ pub fn find_data(flag: Option<&Path>) -> Result<PathBuf> {
 pub fn read_messages(
     path: &Path,
 ) -> Result<(Vec<nomen_core::Message>, Option<nomen_core::Registry>)> {
-    let mut reader = nomen_recording::RecordingReader::open(path)
-        .with_context(|| format!("reading {}", path.display()))?;
-    let registry = reader.header().registry.clone();
-    let mut out = Vec::new();
-    for m in reader.by_ref() {
-        out.push(m.with_context(|| format!("reading {}", path.display()))?);
-    }
-    Ok((out, registry))
+    let recording =
+        nomen_recording::read_file(path).with_context(|| format!("reading {}", path.display()))?;
+    Ok((recording.messages, recording.header.registry))
 }
 
 /// A scene folder as `nomen simulate` writes it: the messages of `recording.jsonl`, the
