@@ -284,7 +284,7 @@ impl ConfidenceMap {
                 samples
                     .iter()
                     .filter(|s| s.is_named == named)
-                    .filter(|s| s.raw.is_finite() && (0.0..=1.0).contains(&s.raw)),
+                    .filter(|s| is_unit(s.raw)),
             ))
         };
         Self {
@@ -301,8 +301,7 @@ impl ConfidenceMap {
         for (name, knots) in [("named", &self.named), ("anonymous", &self.anonymous)] {
             let mut previous: Option<[f64; 2]> = None;
             for (k, &[raw, p]) in knots.as_slice().iter().enumerate() {
-                let in_range = |v: f64| v.is_finite() && (0.0..=1.0).contains(&v);
-                if !(in_range(raw) && in_range(p)) {
+                if !(is_unit(raw) && is_unit(p)) {
                     return Err(EngineError::InvalidConfig(format!(
                         "confidence_map.{name}[{k}] = [{raw}, {p}]: both must be in 0..=1"
                     )));
@@ -320,6 +319,11 @@ impl ConfidenceMap {
         }
         Ok(())
     }
+}
+
+/// Whether `v` is a finite number in `0..=1`.
+fn is_unit(v: f64) -> bool {
+    v.is_finite() && (0.0..=1.0).contains(&v)
 }
 
 /// Piecewise-linear through `knots` (raw increasing), constant beyond the ends; `x` itself

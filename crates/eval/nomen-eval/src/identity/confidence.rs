@@ -68,7 +68,7 @@ pub(crate) struct ConfidenceTally {
 
 impl ConfidenceTally {
     pub(crate) fn add(&mut self, confidence: f64, is_correct: bool) {
-        if !(confidence.is_finite() && (0.0..=1.0).contains(&confidence)) {
+        if !is_valid(confidence) {
             self.num_invalid += 1;
             return;
         }
@@ -135,6 +135,11 @@ pub fn confidence_report(samples: &[ConfidenceSample]) -> ConfidenceReport {
     tally.report()
 }
 
+/// Whether `confidence` is a finite number in `0..=1` (others are left out and counted).
+fn is_valid(confidence: f64) -> bool {
+    confidence.is_finite() && (0.0..=1.0).contains(&confidence)
+}
+
 /// The bin of a confidence in `0..=1`.
 fn bin_of(confidence: f64) -> usize {
     ((confidence * NUM_CONFIDENCE_BINS as f64) as usize).min(NUM_CONFIDENCE_BINS - 1)
@@ -155,7 +160,7 @@ pub fn confidence_samples(scene: &SceneData) -> Vec<ConfidenceSample> {
 
 fn sample(frame: &TruthFrame, result: &ResultLabel) -> Option<ConfidenceSample> {
     let confidence = result.confidence;
-    (confidence.is_finite() && (0.0..=1.0).contains(&confidence)).then(|| ConfidenceSample {
+    is_valid(confidence).then(|| ConfidenceSample {
         confidence,
         is_named: result.subject.is_some(),
         is_correct: super::evaluate::outcome(frame.subject.as_ref(), result.subject.as_ref())

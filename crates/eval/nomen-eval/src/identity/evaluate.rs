@@ -256,7 +256,6 @@ fn tag_error_stats(raw: Vec<f64>, corrected: Vec<f64>) -> TagErrorStats {
     }
 }
 
-/// How a truth frame with subject `truth` and label `label` counts.
 /// A scene's truth and result joined on (camera, time, track), each sorted by that key with
 /// duplicates dropped (the first kept).
 struct Join<'a> {
@@ -310,6 +309,7 @@ pub(super) fn joined(scene: &SceneData) -> (Vec<&TruthFrame>, Vec<Option<&Result
     (truth, labels)
 }
 
+/// How a truth frame with subject `truth` and label `label` counts.
 pub(super) fn outcome(truth: Option<&SubjectId>, label: Option<&SubjectId>) -> LabelOutcome {
     match (truth, label) {
         (None, None) => LabelOutcome::Correct,
