@@ -508,6 +508,30 @@ fn calibrate_confidence_fits_a_map_that_a_run_takes_and_eval_scores() {
     // scene tells its frames' odds far better.
     let (before, after) = (ece(&raw, "raw.jsonl"), ece(&map, "mapped.jsonl"));
     assert!(before > 0.1 && after < before / 4.0, "{before} -> {after}");
+    // A truncated recording is refused with its file and line, a missing truth file by name.
+    let bad = tmp.path().join("bad_scene");
+    std::fs::create_dir_all(&bad).unwrap();
+    let recording = std::fs::read_to_string(scene.join("recording.jsonl")).unwrap();
+    let cut: String = recording.lines().take(3).collect::<Vec<_>>().join("\n");
+    let cut = &cut[..cut.len() - 10];
+    std::fs::write(bad.join("recording.jsonl"), cut).unwrap();
+    std::fs::copy(scene.join("truth.jsonl"), bad.join("truth.jsonl")).unwrap();
+    let o = nomen(&["calibrate", "confidence", "--scenes", bad.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let e = text(&o.stderr);
+    assert!(
+        e.contains("recording.jsonl:3") && e.contains("truncated"),
+        "{e}"
+    );
+    std::fs::write(bad.join("recording.jsonl"), &recording).unwrap();
+    std::fs::remove_file(bad.join("truth.jsonl")).unwrap();
+    let o = nomen(&["calibrate", "confidence", "--scenes", bad.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("truth.jsonl"),
+        "{}",
+        text(&o.stderr)
+    );
     // A CNN model that is not there is named.
     let o = nomen(&[
         "calibrate",
