@@ -11,11 +11,13 @@
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use nomen_cnn::CnnScorer;
 use nomen_engine::{ConfidenceMap, Engine, EngineConfig, RawConfidence};
 use nomen_eval::identity::{ConfidenceReport, ConfidenceSample, SceneData, confidence_report};
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Arguments of `nomen calibrate confidence`.
 #[derive(Debug, Args)]
@@ -51,11 +53,18 @@ pub fn run(args: &CalibrateConfidenceArgs) -> Result<()> {
         confidence_map: Some(ConfidenceMap::raw()),
         ..super::run::load_config(args.config.as_deref())?
     };
+    // The CNN is read once and shared by every scene's engine (it keeps no state).
+    let cnn = args
+        .cnn
+        .as_deref()
+        .map(super::train::load_scorer)
+        .transpose()?
+        .map(Arc::new);
     let bar = crate::io::step_progress_bar(args.scenes.len() as u64);
     let mut samples: Vec<ConfidenceSample> = Vec::new();
     for dir in &args.scenes {
         bar.set_message(dir.display().to_string());
-        let scene = scene_samples(dir, &config, args.cnn.as_deref())?;
+        let scene = scene_samples(dir, &config, cnn.as_ref())?;
         if scene.is_empty() {
             bail!(
                 "{}: no decision joins a truth skeleton (is truth.jsonl this recording's?)",
@@ -118,18 +127,18 @@ fn summary(out: &mut impl Write, what: &str, r: &ConfidenceReport) -> Result<()>
     Ok(())
 }
 
-/// One scene's samples: the engine run on its recording with `config` (and the CNN model at
+/// One scene's samples: the engine run on its recording with `config` (and the CNN voter
 /// `cnn`), joined with its truth.
 fn scene_samples(
     dir: &Path,
     config: &EngineConfig,
-    cnn: Option<&Path>,
+    cnn: Option<&Arc<CnnScorer>>,
 ) -> Result<Vec<ConfidenceSample>> {
     let (recording, registry, truth) = crate::io::read_scene(dir)?;
     let mut engine = Engine::new(registry, *config)
         .with_context(|| format!("{}: starting the engine", dir.display()))?;
-    if let Some(path) = cnn {
-        engine = engine.with_pair_scorer(Box::new(super::train::load_scorer(path)?));
+    if let Some(cnn) = cnn {
+        engine = engine.with_pair_scorer(Box::new(Arc::clone(cnn)));
     }
     let mut result = Vec::new();
     for m in &recording {
