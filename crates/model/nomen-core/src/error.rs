@@ -69,7 +69,9 @@ pub(crate) fn check_finite_all(field: &str, values: &[f64]) -> Result<()> {
 }
 
 /// [`check_range`] naming the field only when the value fails (validation runs on every
-/// message; formatting names up front costs more than the checks).
+/// message; formatting names up front costs more than the checks). The passing test is
+/// inlined into the caller, the error path kept out of line.
+#[inline]
 pub(crate) fn check_range_lazy(
     field: impl FnOnce() -> String,
     value: f64,
@@ -80,14 +82,35 @@ pub(crate) fn check_range_lazy(
     if value.is_finite() && value >= min && value <= max {
         return Ok(());
     }
+    range_error(field, value, min, max, unit)
+}
+
+/// The error of a failed [`check_range_lazy`], out of the callers' hot paths.
+#[cold]
+#[inline(never)]
+fn range_error(
+    field: impl FnOnce() -> String,
+    value: f64,
+    min: f64,
+    max: f64,
+    unit: &'static str,
+) -> Result<()> {
     check_range(&field(), value, min, max, unit)
 }
 
 /// [`check_finite_all`] naming the field only when a value fails.
+#[inline]
 pub(crate) fn check_finite_all_lazy(field: impl FnOnce() -> String, values: &[f64]) -> Result<()> {
     if values.iter().all(|v| v.is_finite()) {
         return Ok(());
     }
+    finite_error(field, values)
+}
+
+/// The error of a failed [`check_finite_all_lazy`], out of the callers' hot paths.
+#[cold]
+#[inline(never)]
+fn finite_error(field: impl FnOnce() -> String, values: &[f64]) -> Result<()> {
     check_finite_all(&field(), values)
 }
 

@@ -39,8 +39,8 @@ impl ImuSample {
     /// Checks finiteness and plausible ranges.
     pub fn validate(&self) -> Result<()> {
         self.t.check_plausible()?;
-        check_finite_all("accel_mps2", self.accel_mps2.as_slice())?;
-        check_finite_all("gyro_radps", self.gyro_radps.as_slice())?;
+        check_finite_all_lazy(|| "accel_mps2".into(), self.accel_mps2.as_slice())?;
+        check_finite_all_lazy(|| "gyro_radps".into(), self.gyro_radps.as_slice())?;
         for (i, v) in self.accel_mps2.iter().enumerate() {
             check_range_lazy(
                 || format!("accel_mps2[{i}]"),

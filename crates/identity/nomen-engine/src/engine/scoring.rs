@@ -370,12 +370,12 @@ impl Engine {
                             &belmonte,
                         )
                     });
-                    ImuGridFeatures {
+                    Box::new(ImuGridFeatures {
                         window: win,
                         units: features.units(),
                         features,
                         band,
-                    }
+                    })
                 };
                 let hypotheses: &[i64] = if imu.is_offset_known {
                     &[]
@@ -793,8 +793,9 @@ pub(super) fn lateral_distance_m(eye: &Point3<f64>, a: &Point3<f64>, b: &Point3<
 }
 
 /// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
-/// per (IMU, offset, grid index).
-pub(super) type ImuFeatureCache = BTreeMap<(usize, i64, usize), ImuGridFeatures>;
+/// per (IMU, offset, grid index). Boxed: the value is over a kilobyte, and an insertion into a
+/// B-tree node shifts the node's values (about 1 % of the engine's time when they were inline).
+pub(super) type ImuFeatureCache = BTreeMap<(usize, i64, usize), Box<ImuGridFeatures>>;
 
 /// An IMU's window on one grid at one offset, with what every pair reads from it.
 pub(super) struct ImuGridFeatures {
