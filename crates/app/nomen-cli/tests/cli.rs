@@ -1402,8 +1402,13 @@ fn run_fills_the_joint_gaps_of_a_pose_estimator_that_drops_occluded_joints() {
         &tmp.path().join("b.jsonl"),
         &truth,
     );
-    // Measured: 97.7 % against 67.4 % (bands' clock offsets found on wrong peaks).
-    assert!(filled >= 0.95 && gappy <= 0.85, "{filled} vs {gappy}");
+    // Measured: 97.8 % against 90.7 % (seeds 8 and 9: 97.2 % against 92.1 %, 98.2 % against
+    // 90.5 %). Until stop 57, 67.4 % unfilled at this seed (bands' clock offsets found on wrong
+    // peaks), before tracks that missed a window's first frames took the whole grid.
+    assert!(
+        filled >= 0.95 && filled - gappy >= 0.04,
+        "{filled} vs {gappy}"
+    );
 
     // A depth camera's skeletons, inferred joints and all, are not filled: the setting for
     // pose estimators changes nothing there.
