@@ -69,8 +69,8 @@ pub(crate) fn check_finite_all(field: &str, values: &[f64]) -> Result<()> {
 }
 
 /// [`check_range`] naming the field only when the value fails (validation runs on every
-/// message; formatting names up front costs more than the checks). The passing test is
-/// inlined into the caller, the error path kept out of line.
+/// message; formatting names up front costs more than the checks). Inlined: a call per check
+/// cost more than the check.
 #[inline]
 pub(crate) fn check_range_lazy(
     field: impl FnOnce() -> String,
@@ -82,19 +82,6 @@ pub(crate) fn check_range_lazy(
     if value.is_finite() && value >= min && value <= max {
         return Ok(());
     }
-    range_error(field, value, min, max, unit)
-}
-
-/// The error of a failed [`check_range_lazy`], out of the callers' hot paths.
-#[cold]
-#[inline(never)]
-fn range_error(
-    field: impl FnOnce() -> String,
-    value: f64,
-    min: f64,
-    max: f64,
-    unit: &'static str,
-) -> Result<()> {
     check_range(&field(), value, min, max, unit)
 }
 
@@ -104,13 +91,6 @@ pub(crate) fn check_finite_all_lazy(field: impl FnOnce() -> String, values: &[f6
     if values.iter().all(|v| v.is_finite()) {
         return Ok(());
     }
-    finite_error(field, values)
-}
-
-/// The error of a failed [`check_finite_all_lazy`], out of the callers' hot paths.
-#[cold]
-#[inline(never)]
-fn finite_error(field: impl FnOnce() -> String, values: &[f64]) -> Result<()> {
     check_finite_all(&field(), values)
 }
 
