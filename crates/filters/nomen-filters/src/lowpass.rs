@@ -307,7 +307,11 @@ impl ZeroPhaseLowpass {
     /// The forward-backward pass over `x` (each lane separately), padded by odd extension:
     /// `2·x[0] − x[edge..=1]`, `x`, `2·x[n−1] − x[n−2..=n−1−edge]`; `ext` holds the padded,
     /// filtered signal afterwards.
-    fn filter_lanes<T: Lanes>(&mut self, x: &[T], ext: &mut Vec<T>) -> Result<()> {
+    fn filter_lanes<const N: usize, T: Lanes<N>>(
+        &mut self,
+        x: &[T],
+        ext: &mut Vec<T>,
+    ) -> Result<()> {
         let edge = self.pad_len();
         if x.len() <= edge {
             return Err(FilterError::WindowTooShort {
@@ -331,28 +335,38 @@ impl ZeroPhaseLowpass {
         ext.extend(x[1..=edge].iter().rev().map(|v| first.reflect(v)));
         ext.extend_from_slice(x);
         ext.extend(x[n - 1 - edge..n - 1].iter().rev().map(|v| last.reflect(v)));
-        // Per section, the delays of every lane.
-        let mut state: Vec<[[f64; 2]; 3]> = vec![[[0.0; 2]; 3]; self.sections.len()];
+        // Per section, its two delays, each for every lane: the lanes sit innermost, so one
+        // section's step runs on all of them side by side (the same arithmetic per lane as
+        // `Section::step`, so the same result as filtering each lane alone).
+        let mut state: Vec<[[f64; N]; 2]> = vec![[[0.0; N]; 2]; self.sections.len()];
         for backward in [false, true] {
             // Each pass starts from the steady state of its first sample (the forward output's
             // last sample for the backward pass).
             let start = if backward { ext.last() } else { ext.first() };
             if let Some(&v0) = start {
-                for lane in 0..T::LANES {
-                    set_steady_state(&self.sections, &mut self.state, v0.lane(lane));
-                    for (lanes, z) in state.iter_mut().zip(&self.state) {
-                        lanes[lane] = *z;
+                for (lane, x0) in v0.to_lanes().into_iter().enumerate() {
+                    set_steady_state(&self.sections, &mut self.state, x0);
+                    for (delays, z) in state.iter_mut().zip(&self.state) {
+                        delays[0][lane] = z[0];
+                        delays[1][lane] = z[1];
                     }
                 }
             }
+            let sections = &self.sections;
             let mut pass = |v: &mut T| {
-                for lane in 0..T::LANES {
-                    let mut y = v.lane(lane);
-                    for (section, lanes) in self.sections.iter().zip(state.iter_mut()) {
-                        y = section.step(&mut lanes[lane], y);
+                let mut x = v.to_lanes();
+                for (section, [z0, z1]) in sections.iter().zip(state.iter_mut()) {
+                    let [b0, b1, b2] = section.b;
+                    let [a1, a2] = section.a;
+                    let mut y = [0.0; N];
+                    for lane in 0..N {
+                        y[lane] = b0 * x[lane] + z0[lane];
+                        z0[lane] = b1 * x[lane] - a1 * y[lane] + z1[lane];
+                        z1[lane] = b2 * x[lane] - a2 * y[lane];
                     }
-                    v.set_lane(lane, y);
+                    x = y;
                 }
+                v.set_lanes(x);
             };
             if backward {
                 ext.iter_mut().rev().for_each(&mut pass);
@@ -364,22 +378,20 @@ impl ZeroPhaseLowpass {
     }
 }
 
-/// A sample of one or more independent signals filtered side by side (up to three lanes).
-trait Lanes: Copy {
-    const LANES: usize;
-    fn lane(&self, i: usize) -> f64;
-    fn set_lane(&mut self, i: usize, v: f64);
+/// A sample of `N` independent signals filtered side by side.
+trait Lanes<const N: usize>: Copy {
+    fn to_lanes(&self) -> [f64; N];
+    fn set_lanes(&mut self, v: [f64; N]);
     fn is_finite(&self) -> bool;
     /// The odd reflection `2·self − v` of `v` about `self`.
     fn reflect(&self, v: &Self) -> Self;
 }
 
-impl Lanes for f64 {
-    const LANES: usize = 1;
-    fn lane(&self, _: usize) -> f64 {
-        *self
+impl Lanes<1> for f64 {
+    fn to_lanes(&self) -> [f64; 1] {
+        [*self]
     }
-    fn set_lane(&mut self, _: usize, v: f64) {
+    fn set_lanes(&mut self, [v]: [f64; 1]) {
         *self = v;
     }
     fn is_finite(&self) -> bool {
@@ -390,13 +402,12 @@ impl Lanes for f64 {
     }
 }
 
-impl Lanes for Vector3<f64> {
-    const LANES: usize = 3;
-    fn lane(&self, i: usize) -> f64 {
-        self[i]
+impl Lanes<3> for Vector3<f64> {
+    fn to_lanes(&self) -> [f64; 3] {
+        [self.x, self.y, self.z]
     }
-    fn set_lane(&mut self, i: usize, v: f64) {
-        self[i] = v;
+    fn set_lanes(&mut self, v: [f64; 3]) {
+        *self = Vector3::from(v);
     }
     fn is_finite(&self) -> bool {
         self.iter().all(|c| c.is_finite())
