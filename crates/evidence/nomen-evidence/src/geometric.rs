@@ -177,6 +177,43 @@ pub(crate) fn leak(dt_s: f64, cfg: &GeometricConfig) -> f64 {
     }
 }
 
+/// [`leak`] over the successive steps of one grid, each distinct step computed once: a grid's
+/// steps take few distinct values (a camera's frame interval as its times round), and the
+/// exponential per step was about 2 % of the engine's time.
+pub(crate) struct LeakSteps<'a> {
+    cfg: &'a GeometricConfig,
+    /// `(dt_s` bits, factor)` of the latest distinct steps, the newest at `next − 1`.
+    seen: [(u64, f64); 4],
+    len: usize,
+    next: usize,
+}
+
+impl<'a> LeakSteps<'a> {
+    pub(crate) fn new(cfg: &'a GeometricConfig) -> Self {
+        Self {
+            cfg,
+            seen: [(0, 0.0); 4],
+            len: 0,
+            next: 0,
+        }
+    }
+
+    /// [`leak`] of `dt_s`, bit for bit.
+    pub(crate) fn factor(&mut self, dt_s: f64) -> f64 {
+        let bits = dt_s.to_bits();
+        if let Some(&(_, f)) = self.seen.iter().take(self.len).find(|(b, _)| *b == bits) {
+            return f;
+        }
+        let f = leak(dt_s, self.cfg);
+        if let Some(slot) = self.seen.get_mut(self.next) {
+            *slot = (bits, f);
+        }
+        self.len = (self.len + 1).min(self.seen.len());
+        self.next = (self.next + 1) % self.seen.len();
+        f
+    }
+}
+
 /// IMU linear-acceleration magnitude on the window's grid, m/s²: gravity removed with
 /// `world_from_sensor`, each world axis zero-phase low-passed (De Marchi's 3 Hz), norm, moving
 /// average. `NaN` where missing; all `NaN` if the window is inconsistent or too short to filter.
@@ -200,12 +237,13 @@ pub(crate) fn imu_velocity_magnitude_from(
     let mut v = Vector3::zeros();
     let mut out = Vec::with_capacity(lin.len());
     let mut is_started = false;
+    let mut leaks = LeakSteps::new(cfg);
     for (k, a) in lin.iter().enumerate() {
         if k > 0
             && let (Some(t1), Some(t0)) = (imu.t_s.get(k), imu.t_s.get(k - 1))
         {
             let dt_s = t1 - t0;
-            v *= leak(dt_s, cfg);
+            v *= leaks.factor(dt_s);
             if is_started && is_finite3(a) {
                 v += a * dt_s;
             }
@@ -318,11 +356,12 @@ pub(crate) fn joint_velocity_magnitude_from(
     let mut u = Vector3::zeros();
     let mut last: Option<Vector3<f64>> = None;
     let mut out = Vec::with_capacity(vel.len());
+    let mut leaks = LeakSteps::new(cfg);
     for (k, v) in vel.iter().enumerate() {
         if k > 0
             && let (Some(t1), Some(t0)) = (skel.t_s.get(k), skel.t_s.get(k - 1))
         {
-            u *= leak(t1 - t0, cfg);
+            u *= leaks.factor(t1 - t0);
         }
         if is_finite3(v) {
             if let Some(prev) = last {

@@ -40,8 +40,8 @@ use crate::angle::{angle_between_rad, rotation_angle_rad};
 use crate::belmonte::{BelmonteConfig, band_yaw_rate_radps, skeleton_yaw_rate_radps};
 use crate::features::{ImuFeatures, SegmentFeatures, compare_features};
 use crate::geometric::{
-    GeometricConfig, carrying_segment, filtered_joint_derivative, imu_linear_accel_world,
-    joint_positions, leak,
+    GeometricConfig, LeakSteps, carrying_segment, filtered_joint_derivative,
+    imu_linear_accel_world, joint_positions,
 };
 use crate::signal::{Derivative, grid_rate_hz, moving_average};
 use crate::window::{ImuWindow, SkeletonWindow};
@@ -192,13 +192,14 @@ pub(crate) fn imu_vertical_velocity(
     let mut v = 0.0;
     let mut started = false;
     let mut out = Vec::with_capacity(lin.len());
+    let mut leaks = LeakSteps::new(geo);
     for (k, a) in lin.iter().enumerate() {
         if let (Some(t1), Some(t0)) = (
             imu.t_s.get(k),
             k.checked_sub(1).and_then(|i| imu.t_s.get(i)),
         ) {
             let dt = t1 - t0;
-            v *= leak(dt, geo);
+            v *= leaks.factor(dt);
             if started && a.z.is_finite() {
                 v += a.z * dt;
             }
@@ -223,12 +224,13 @@ pub(crate) fn joint_vertical_velocity(
     let mut u = 0.0;
     let mut last: Option<f64> = None;
     let mut out = Vec::with_capacity(vel.len());
+    let mut leaks = LeakSteps::new(geo);
     for (k, v) in vel.iter().enumerate() {
         if let (Some(t1), Some(t0)) = (
             skel.t_s.get(k),
             k.checked_sub(1).and_then(|i| skel.t_s.get(i)),
         ) {
-            u *= leak(t1 - t0, geo);
+            u *= leaks.factor(t1 - t0);
         }
         if v.z.is_finite() {
             if let Some(prev) = last {
