@@ -138,7 +138,8 @@ impl ObservationModel<f64, U6, U3> for PositionObservation {
 pub(crate) fn is_usable_covariance(r: &Matrix3<f64>) -> bool {
     r.iter().all(|v| v.is_finite())
         && (0..3).all(|i| r[(i, i)] > 0.0)
-        && (r - r.transpose()).abs().max() <= 1e-9 * (1.0 + r.abs().max())
+        // A diagonal `r` (the usual, per-joint isotropic noise) is symmetric as it stands.
+        && (is_diagonal(r) || (r - r.transpose()).abs().max() <= 1e-9 * (1.0 + r.abs().max()))
 }
 
 /// One axis of a decoupled estimate: position (m), velocity (m/s) and their covariance.

@@ -332,6 +332,7 @@ impl ZeroPhaseLowpass {
         };
         let n = x.len();
         ext.clear();
+        ext.reserve(n + 2 * edge);
         ext.extend(x[1..=edge].iter().rev().map(|v| first.reflect(v)));
         ext.extend_from_slice(x);
         ext.extend(x[n - 1 - edge..n - 1].iter().rev().map(|v| last.reflect(v)));
