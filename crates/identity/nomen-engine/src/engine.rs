@@ -12,6 +12,7 @@ use crate::lag_memo::ImuLagMemo;
 use crate::signal::ImuSeries;
 use crate::stats::EngineStats;
 use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m};
+use crate::time_queue::TimeQueue;
 use decide::pooled_mean;
 use nalgebra::{Isometry3, Matrix3, Point3, UnitQuaternion, Vector3};
 use nomen_core::skeleton::{JointState, Joints};
@@ -31,7 +32,6 @@ use nomen_rssi::{
     background_log_likelihood, log_likelihood, pair_score,
 };
 use scoring::key_joint_near;
-use std::collections::btree_map::Entry;
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 
 /// Step of the clock-offset search, ns (one IMU sample at 100 Hz).
@@ -328,7 +328,7 @@ struct ImuState {
     side_votes: f64,
     num_side_votes: u32,
     /// Received, not yet settled: device time → (accel, gyro).
-    pending: BTreeMap<i64, (Vector3<f64>, Vector3<f64>)>,
+    pending: TimeQueue<(Vector3<f64>, Vector3<f64>)>,
     /// Settled samples, device time, increasing.
     t: VecDeque<i64>,
     /// Specific force, sensor frame, m/s².
@@ -689,7 +689,7 @@ impl Engine {
                         .then(|| w.site.mirrored()),
                     side_votes: 0.0,
                     num_side_votes: 0,
-                    pending: BTreeMap::new(),
+                    pending: TimeQueue::default(),
                     t: VecDeque::new(),
                     accel: VecDeque::new(),
                     gyro: VecDeque::new(),
@@ -986,17 +986,12 @@ impl Engine {
         let session = t.saturating_add(imu.offset_ns);
         self.time_jumps
             .check(self.global_max, "imu", s.device.as_str(), session, s.t)?;
-        match imu.pending.entry(t) {
-            Entry::Occupied(_) => {
-                return Err(EngineError::Duplicate {
-                    kind: "imu",
-                    source_id: s.device.to_string(),
-                    t: s.t,
-                });
-            }
-            Entry::Vacant(slot) => {
-                slot.insert((s.accel_mps2, s.gyro_radps));
-            }
+        if imu.pending.insert(t, (s.accel_mps2, s.gyro_radps)).is_err() {
+            return Err(EngineError::Duplicate {
+                kind: "imu",
+                source_id: s.device.to_string(),
+                t: s.t,
+            });
         }
         imu.newest = Some(imu.newest.map_or(t, |n| n.max(t)));
         imu.frontier = imu.frontier.max(t.saturating_sub(self.reorder_ns));
@@ -1790,7 +1785,7 @@ const AHRS_MAX_GAP_NS: i64 = 1_000_000_000;
 /// filter (re)starts at the first sample and after a gap of a second or more (see
 /// [`start_ahrs`]); samples wait until it can.
 fn settle_imu(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats) {
-    while let Some((&t, &(accel, gyro))) = imu.pending.first_key_value() {
+    while let Some((t, &(accel, gyro))) = imu.pending.first() {
         if t >= imu.frontier {
             break;
         }
@@ -1829,17 +1824,13 @@ fn settle_imu(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats
 /// along the vertical), and Madgwick's gain corrects that at only about 4°/s. Returns whether
 /// the filter started.
 fn start_ahrs(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats) -> bool {
-    let Some(&first) = imu.pending.keys().next() else {
+    let Some((first, _)) = imu.pending.first() else {
         return false;
     };
     // While the samples below the frontier span less than the start, none of them can end it
     // (neither its length nor a gap): wait without scanning them again.
     let is_finishing = imu.frontier == i64::MAX;
-    let newest_settled = imu
-        .pending
-        .range(..imu.frontier)
-        .next_back()
-        .map(|(&t, _)| t);
+    let newest_settled = imu.pending.last_time_before(imu.frontier);
     if !is_finishing && newest_settled.is_none_or(|t| t.saturating_sub(first) < AHRS_START_NS) {
         return false;
     }
@@ -1850,7 +1841,7 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats
     // The times the start reads, for the samples' rate.
     let mut times: Vec<i64> = Vec::new();
     let mut is_complete = is_finishing;
-    for (&t, (accel, gyro)) in &imu.pending {
+    for (t, (accel, gyro)) in imu.pending.iter() {
         if t >= imu.frontier {
             break;
         }

@@ -215,6 +215,7 @@ pub mod retrack;
 mod signal;
 mod stats;
 mod tags;
+mod time_queue;
 
 pub use confidence::{CONFIDENCE_FIT_BINS, ConfidenceMap, Knots, MAX_KNOTS, RawConfidence};
 pub use config::{EngineConfig, ModelWeights, MotionScore, OFFSET_CONFIRM_HISTORY};
