@@ -183,25 +183,44 @@ pub(crate) fn lag_curve(
         .zip(&track.models)
         .map(|(a, b)| (first_finite(a), first_finite(b)))
         .collect();
+    // Per model, whether both sides have a value at every time: then every pair the weights
+    // make is complete, and the sums take them without a check each (the same sums in the
+    // same order).
+    let is_complete: Vec<bool> = imu
+        .models
+        .iter()
+        .zip(&track.models)
+        .map(|(a, b)| {
+            a.len() >= imu.t_ns.len()
+                && b.len() >= track.t_ns.len()
+                && a.iter().chain(b).all(|v| v.is_finite())
+        })
+        .collect();
     for &offset in offsets_ns {
         // Where each track time falls among the IMU's samples at this offset, once for every
         // model; track times outside the IMU's samples or in a gap pair with nothing.
         interpolation_weights(&imu.t_ns, offset, &track.t_ns, max_gap_ns, weights);
         let (mut sum, mut num) = (0.0, 0usize);
-        for (m, ((a, b), (sa, sb))) in imu
+        for (m, (((a, b), (sa, sb)), &is_complete)) in imu
             .models
             .iter()
             .zip(&track.models)
             .zip(&shifts)
+            .zip(&is_complete)
             .enumerate()
         {
             let mut sums = PearsonSums::new(*sa, *sb);
-            sums.extend(weights.iter().map(|w| {
+            let pairs = weights.iter().map(|w| {
                 (
                     w.interpolate(a),
                     b.get(w.query).copied().unwrap_or(f64::NAN),
                 )
-            }));
+            });
+            if is_complete {
+                sums.extend_finite(pairs);
+            } else {
+                sums.extend(pairs);
+            }
             match sums.correlation(min_samples) {
                 Some(r) => {
                     sum += r;
