@@ -354,37 +354,27 @@ impl PearsonSums {
     /// meanwhile, so a long run of pairs costs no store per pair).
     #[inline]
     pub fn extend(&mut self, pairs: impl IntoIterator<Item = (f64, f64)>) {
-        let (shift_x, shift_y) = (self.shift_x, self.shift_y);
-        let (mut n, mut sx, mut sy) = (self.n, self.sx, self.sy);
-        let (mut sxx, mut syy, mut sxy) = (self.sxx, self.syy, self.sxy);
-        let (mut qx, mut qy) = (self.qx, self.qy);
-        for (x, y) in pairs {
-            if x.is_finite() && y.is_finite() {
-                let (dx, dy) = (x - shift_x, y - shift_y);
-                n += 1;
-                sx += dx;
-                sy += dy;
-                sxx += dx * dx;
-                syy += dy * dy;
-                sxy += dx * dy;
-                qx += x * x;
-                qy += y * y;
-            }
-        }
-        (self.n, self.sx, self.sy) = (n, sx, sy);
-        (self.sxx, self.syy, self.sxy) = (sxx, syy, sxy);
-        (self.qx, self.qy) = (qx, qy);
+        self.accumulate::<true>(pairs);
     }
 
     /// [`PearsonSums::extend`] with pairs whose values are all finite (unchecked: a
     /// non-finite value would spoil the sums).
     #[inline]
     pub fn extend_finite(&mut self, pairs: impl IntoIterator<Item = (f64, f64)>) {
+        self.accumulate::<false>(pairs);
+    }
+
+    /// Adds every pair in order; with `CHECKED`, only those whose values are both finite.
+    #[inline(always)]
+    fn accumulate<const CHECKED: bool>(&mut self, pairs: impl IntoIterator<Item = (f64, f64)>) {
         let (shift_x, shift_y) = (self.shift_x, self.shift_y);
         let (mut n, mut sx, mut sy) = (self.n, self.sx, self.sy);
         let (mut sxx, mut syy, mut sxy) = (self.sxx, self.syy, self.sxy);
         let (mut qx, mut qy) = (self.qx, self.qy);
         for (x, y) in pairs {
+            if CHECKED && !(x.is_finite() && y.is_finite()) {
+                continue;
+            }
             let (dx, dy) = (x - shift_x, y - shift_y);
             n += 1;
             sx += dx;
