@@ -182,7 +182,7 @@ pub(crate) fn leak(dt_s: f64, cfg: &GeometricConfig) -> f64 {
 /// exponential per step was about 2 % of the engine's time.
 pub(crate) struct LeakSteps<'a> {
     cfg: &'a GeometricConfig,
-    /// `(dt_s` bits, factor)` of the latest distinct steps, the newest at `next − 1`.
+    /// `(bits of dt_s, factor)` of the latest distinct steps, the newest at `next − 1`.
     seen: [(u64, f64); 4],
     len: usize,
     next: usize,
