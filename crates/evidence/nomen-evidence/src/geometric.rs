@@ -33,7 +33,8 @@ use crate::angle::{angle_between_rad, rotation_angle_rad};
 use crate::features::{ImuFeatures, SegmentFeatures, compare_features};
 use crate::kinematic::KinematicConfig;
 use crate::signal::{
-    Derivative, differentiate_runs, grid_rate_hz, is_finite3, lowpass_vectors, moving_average, nan3,
+    Derivative, differentiate_runs, differentiate_runs_both, grid_rate_hz, is_finite3,
+    lowpass_vector_pairs, lowpass_vectors, moving_average, nan3,
 };
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -317,6 +318,22 @@ pub(crate) fn filtered_joint_derivative(
     let mut d = differentiate_runs(&skel.t_s, &joint_positions(skel, joint), which);
     lowpass_vectors(&mut d, &cfg.butterworth(rate), cfg.zero_phase);
     Some(d)
+}
+
+/// [`filtered_joint_derivative`] for both derivatives, `(velocity, acceleration)`, each the
+/// same as its own call: the positions are read once and both are filtered side by side.
+pub(crate) fn filtered_joint_derivatives(
+    skel: &SkeletonWindow,
+    joint: Joint,
+    cfg: &GeometricConfig,
+) -> Option<(Vec<Vector3<f64>>, Vec<Vector3<f64>>)> {
+    if skel.joints_world_m.len() != skel.t_s.len() {
+        return None;
+    }
+    let rate = grid_rate_hz(&skel.t_s)?;
+    let (mut vel, mut acc) = differentiate_runs_both(&skel.t_s, &joint_positions(skel, joint));
+    lowpass_vector_pairs(&mut vel, &mut acc, &cfg.butterworth(rate), cfg.zero_phase);
+    Some((vel, acc))
 }
 
 /// Joint acceleration magnitude, m/s²: second derivative of the position

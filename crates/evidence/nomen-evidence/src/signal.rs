@@ -656,6 +656,73 @@ pub(crate) fn differentiate_runs(
     out
 }
 
+/// [`differentiate_runs`] of `x` for both derivatives, `(velocity, acceleration)`: each the
+/// same as its own call, with the times converted and the runs found once.
+pub(crate) fn differentiate_runs_both(
+    t_s: &[f64],
+    x: &[Vector3<f64>],
+) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
+    let mut vel = vec![nan3(); x.len()];
+    let mut acc = vel.clone();
+    if t_s.len() != x.len() {
+        return (vel, acc);
+    }
+    let t: Option<Vec<SessionTime>> = t_s.iter().map(|&s| SessionTime::from_secs_f64(s)).collect();
+    let Some(t) = t else {
+        return (vel, acc);
+    };
+    for run in finite_runs(x.len(), |i| is_finite3(&x[i])) {
+        if run.len() < 3 {
+            continue;
+        }
+        let (tr, xr) = (&t[run.clone()], &x[run.clone()]);
+        let v = &mut vel[run.clone()];
+        if derivative::velocity(tr, xr, v).is_err() {
+            v.iter_mut().for_each(|v| *v = nan3());
+        }
+        let a = &mut acc[run];
+        if derivative::acceleration(tr, xr, a).is_err() {
+            a.iter_mut().for_each(|v| *v = nan3());
+        }
+    }
+    (vel, acc)
+}
+
+/// [`lowpass_vectors`] of two series at once: the zero-phase filter runs over both side by
+/// side where their runs of present samples are the same (as a velocity's and an acceleration's
+/// from one joint are), which gives each the same result as its own call.
+pub(crate) fn lowpass_vector_pairs(
+    a: &mut [Vector3<f64>],
+    b: &mut [Vector3<f64>],
+    butter: &ButterworthConfig,
+    zero_phase: bool,
+) {
+    let runs = finite_runs(a.len(), |i| is_finite3(&a[i]));
+    if !zero_phase || a.len() != b.len() || runs != finite_runs(b.len(), |i| is_finite3(&b[i])) {
+        lowpass_vectors(a, butter, zero_phase);
+        lowpass_vectors(b, butter, zero_phase);
+        return;
+    }
+    let Ok(mut filter) = ZeroPhaseLowpass::new(butter) else {
+        a.iter_mut().chain(b.iter_mut()).for_each(|v| *v = nan3());
+        return;
+    };
+    let mut covered = vec![false; a.len()];
+    for run in runs {
+        if let (Some(sa), Some(sb)) = (a.get_mut(run.clone()), b.get_mut(run.clone()))
+            && filter.filter_vector_pairs(sa, sb).is_ok()
+        {
+            covered[run].iter_mut().for_each(|c| *c = true);
+        }
+    }
+    for ((a, b), c) in a.iter_mut().zip(b.iter_mut()).zip(covered) {
+        if !c {
+            *a = nan3();
+            *b = nan3();
+        }
+    }
+}
+
 /// Causal moving average of `len` samples over a series with gaps, in place; a `NaN` stays `NaN`
 /// and does not enter the average. `len` of 0 or 1 leaves the series unchanged.
 pub(crate) use nomen_filters::lowpass::moving_average_in_place as moving_average;
