@@ -405,6 +405,53 @@ impl JointKalman {
 }
 
 impl JointKalman {
+    /// [`Self::step`] where it stays on the per-axis form (initialised per axis, `t` after the
+    /// last step, no measurement that would switch to the full form), returning the prior at
+    /// `t` as well; `None` elsewhere, with nothing changed. `dt_s` is `t`'s distance from the
+    /// last step. The same arithmetic as [`Self::predict`] then [`Self::update`], and the same
+    /// errors, with nothing changed before an error's cause is checked.
+    fn step_per_axis(
+        &mut self,
+        t: SessionTime,
+        dt_s: f64,
+        measurement: Option<(&Point3<f64>, &Matrix3<f64>)>,
+    ) -> Option<Result<([Axis; 3], Option<UpdateOutcome>)>> {
+        if self.last_t.is_none_or(|last| t <= last) {
+            return None;
+        }
+        let usable =
+            measurement.filter(|(z, r)| z.iter().all(|v| v.is_finite()) && is_usable_covariance(r));
+        if usable.is_some_and(|(_, r)| self.is_full_only || !is_diagonal(r)) {
+            return None;
+        }
+        let Some(Estimate::Axes(axes)) = &mut self.estimate else {
+            return None;
+        };
+        if let Err(e) = check_non_negative("dt_s", dt_s) {
+            return Some(Err(e));
+        }
+        for a in axes.iter_mut() {
+            a.predict(dt_s, self.config.accel_psd_m2ps3);
+        }
+        let prior = *axes;
+        self.last_t = Some(t);
+        let outcome = match (measurement, usable) {
+            (None, _) => None,
+            (Some(_), None) => Some(UpdateOutcome::RejectedAsMissing),
+            (Some(_), Some((z, r))) => {
+                let mut next = prior;
+                for (i, a) in next.iter_mut().enumerate() {
+                    if !a.update(z[i], r[(i, i)]) {
+                        return Some(Err(FilterError::Numerical("joint kalman update")));
+                    }
+                }
+                *axes = next;
+                Some(UpdateOutcome::Applied)
+            }
+        };
+        Some(Ok((prior, outcome)))
+    }
+
     /// The three decoupled axes, while the filter is initialised and in the per-axis form.
     fn axes(&self) -> Option<[Axis; 3]> {
         match &self.estimate {
@@ -486,17 +533,26 @@ impl JointSmoother {
             // The first step, or one the filter refuses below.
             _ => 0.0,
         };
-        // The prior at `t`: the filter's step predicts first, so predicting a copy gives it.
-        let prior = match self.filter.axes() {
-            Some(mut axes) if self.filter.last_time().is_some_and(|last| t > last) => {
-                for a in &mut axes {
-                    a.predict(dt_s, self.filter.config.accel_psd_m2ps3);
-                }
-                Some(axes)
+        let (prior, outcome) = match self.filter.step_per_axis(t, dt_s, measurement) {
+            Some(stepped) => {
+                let (prior, outcome) = stepped?;
+                (Some(prior), outcome)
             }
-            _ => None,
+            None => {
+                // The prior at `t`: the filter's step predicts first, so predicting a copy
+                // gives it.
+                let prior = match self.filter.axes() {
+                    Some(mut axes) if self.filter.last_time().is_some_and(|last| t > last) => {
+                        for a in &mut axes {
+                            a.predict(dt_s, self.filter.config.accel_psd_m2ps3);
+                        }
+                        Some(axes)
+                    }
+                    _ => None,
+                };
+                (prior, self.filter.step(t, measurement)?)
+            }
         };
-        let outcome = self.filter.step(t, measurement)?;
         match (prior, self.filter.axes()) {
             (Some(prior), Some(posterior)) => {
                 if let (Some(last), Some(cur)) = (self.history.back_mut(), &self.newest_posterior) {
@@ -740,6 +796,49 @@ mod tests {
                 (SessionTime::from_ns((k as i64) * 33_333_333), m)
             })
             .collect()
+    }
+
+    #[test]
+    fn the_smoothers_filter_steps_exactly_as_the_filter_alone() {
+        // Measurements, gaps, a NaN, an unusable and a full covariance, a repeated time and a
+        // time going back: the smoother's filter (which takes a per-axis shortcut) must give
+        // the filter's own outcomes, errors and estimates, bit for bit.
+        let mut steps = noisy_swing(60);
+        if let Some((_, m)) = steps.get_mut(7) {
+            *m = Some((Point3::new(f64::NAN, 0.0, 1.0), Matrix3::identity() * 1e-4));
+        }
+        if let Some((_, m)) = steps.get_mut(11) {
+            *m = Some((Point3::new(0.1, 0.0, 1.0), Matrix3::identity() * -1.0));
+        }
+        let repeat = steps[20].0;
+        steps.insert(21, (repeat, None));
+        steps.insert(30, (SessionTime::from_ns(0), None));
+        if let Some((_, m)) = steps.get_mut(45) {
+            let mut r = Matrix3::identity() * 1e-4;
+            r[(0, 1)] = 2e-5;
+            r[(1, 0)] = 2e-5;
+            *m = Some((Point3::new(0.9, 0.1, 1.1), r));
+        }
+        let config = ConstantVelocityConfig::default();
+        let mut alone = JointKalman::new(config).unwrap();
+        let mut smoother = JointSmoother::new(config, 0.2).unwrap();
+        let bits = |kf: &JointKalman| -> Option<Vec<u64>> {
+            let (x, p) = (kf.state()?, kf.covariance()?);
+            Some(x.iter().chain(p.iter()).map(|v| v.to_bits()).collect())
+        };
+        let (mut num_errors, mut num_full) = (0, 0);
+        for (t, m) in &steps {
+            let m = m.as_ref().map(|(z, r)| (z, r));
+            let a = alone.step(*t, m);
+            let b = smoother.step(*t, m);
+            assert_eq!(format!("{a:?}"), format!("{b:?}"), "at {t:?}");
+            assert_eq!(bits(&alone), bits(smoother.filter()), "at {t:?}");
+            assert_eq!(alone.last_time(), smoother.filter().last_time());
+            num_errors += usize::from(a.is_err());
+            num_full += usize::from(alone.axes().is_none());
+        }
+        assert_eq!(num_errors, 2);
+        assert!(num_full > 0, "the full covariance switched the form");
     }
 
     #[test]
