@@ -562,6 +562,8 @@ pub struct ImuUnits {
     vertical_accel: Option<UnitSignal>,
     vertical_velocity: Option<UnitSignal>,
     axis_elevation: [Option<UnitSignal>; 3],
+    /// Whether both horizontal accelerations have every sample ([`horizontal_cross_prepared`]).
+    is_horizontal_complete: bool,
 }
 
 /// Each Pearson-correlated signal of a [`SegmentFeatures`] prepared for many correlations
@@ -576,6 +578,9 @@ pub struct SegmentUnits {
     vertical_accel: Option<UnitSignal>,
     vertical_velocity: Option<UnitSignal>,
     elevation: Option<UnitSignal>,
+    /// The samples where both horizontal accelerations are present, increasing; `None` where
+    /// the two differ in length ([`horizontal_cross_prepared`]).
+    horizontal_present: Option<Vec<usize>>,
 }
 
 impl ImuFeatures {
@@ -590,6 +595,10 @@ impl ImuFeatures {
             vertical_accel: UnitSignal::new(&self.vertical_accel),
             vertical_velocity: UnitSignal::new(&self.vertical_velocity),
             axis_elevation: [ex, ey, ez].map(|e| UnitSignal::new(e)),
+            is_horizontal_complete: self
+                .horizontal_accel
+                .iter()
+                .all(|h| h.iter().all(|v| v.is_finite())),
         }
     }
 }
@@ -605,6 +614,14 @@ impl SegmentFeatures {
             vertical_accel: UnitSignal::new(&self.vertical_accel),
             vertical_velocity: UnitSignal::new(&self.vertical_velocity),
             elevation: UnitSignal::new(&self.elevation),
+            horizontal_present: {
+                let [sx, sy] = &self.horizontal_accel;
+                (sx.len() == sy.len()).then(|| {
+                    (0..sx.len())
+                        .filter(|&k| sx[k].is_finite() && sy[k].is_finite())
+                        .collect()
+                })
+            },
         }
     }
 }
@@ -710,17 +727,47 @@ pub fn horizontal_cross(
     if ax.len() != sx.len() || ay.len() != ax.len() || sy.len() != sx.len() {
         return None;
     }
-    let both = || {
-        ax.iter()
-            .zip(ay)
-            .zip(sx.iter().zip(sy))
-            .filter(|((ax, ay), (sx, sy))| {
-                ax.is_finite() && ay.is_finite() && sx.is_finite() && sy.is_finite()
-            })
-    };
+    let both = (0..ax.len()).filter(|&k| {
+        ax[k].is_finite() && ay[k].is_finite() && sx[k].is_finite() && sy[k].is_finite()
+    });
+    cross_over(imu, seg, both, min_samples)
+}
+
+/// [`horizontal_cross`] with each side's units ([`ImuFeatures::units`],
+/// [`SegmentFeatures::units`]): where the IMU has every sample, the samples both have are the
+/// segment's, found once per segment. The same sums in the same order, so the same result.
+pub fn horizontal_cross_prepared(
+    imu: &ImuFeatures,
+    imu_units: &ImuUnits,
+    seg: &SegmentFeatures,
+    seg_units: &SegmentUnits,
+    min_samples: usize,
+) -> Option<HorizontalCross> {
+    let [ax, ay] = &imu.horizontal_accel;
+    let [sx, sy] = &seg.horizontal_accel;
+    let lengths_match = ax.len() == sx.len() && ay.len() == ax.len() && sy.len() == sx.len();
+    match &seg_units.horizontal_present {
+        Some(present) if imu_units.is_horizontal_complete && lengths_match => {
+            cross_over(imu, seg, present.iter().copied(), min_samples)
+        }
+        _ => horizontal_cross(imu, seg, min_samples),
+    }
+}
+
+/// The body of [`horizontal_cross`] over the samples `both` (increasing indices, in range,
+/// each finite on both sides).
+fn cross_over(
+    imu: &ImuFeatures,
+    seg: &SegmentFeatures,
+    both: impl Iterator<Item = usize> + Clone,
+    min_samples: usize,
+) -> Option<HorizontalCross> {
+    let [ax, ay] = &imu.horizontal_accel;
+    let [sx, sy] = &seg.horizontal_accel;
+    let at = |k: usize| (ax[k], ay[k], sx[k], sy[k]);
     let mut n = 0usize;
     let mut mean = [0.0f64; 4];
-    for ((ax, ay), (sx, sy)) in both() {
+    for (ax, ay, sx, sy) in both.clone().map(at) {
         n += 1;
         for (m, v) in mean.iter_mut().zip([ax, ay, sx, sy]) {
             *m += v;
@@ -733,7 +780,7 @@ pub fn horizontal_cross(
         *m /= n as f64;
     }
     let mut out = HorizontalCross::default();
-    for ((ax, ay), (sx, sy)) in both() {
+    for (ax, ay, sx, sy) in both.map(at) {
         let (ax, ay, sx, sy) = (ax - mean[0], ay - mean[1], sx - mean[2], sy - mean[3]);
         out.re += ax * sx + ay * sy;
         out.im += ay * sx - ax * sy;
@@ -1300,6 +1347,41 @@ mod tests {
         assert!((opposite + aligned).abs() < 1e-12, "{opposite}");
         let across = c.aligned_correlation(-im, re).expect("power");
         assert!(across.abs() < 0.05, "{across}");
+    }
+
+    #[test]
+    fn the_prepared_horizontal_cross_sum_equals_the_plain_one_bit_for_bit() {
+        let (imu, seg) = horizontal_pair(0.7, 40);
+        let bits = |c: Option<HorizontalCross>| {
+            c.map(|c| [c.re, c.im, c.imu_power, c.joint_power].map(f64::to_bits))
+        };
+        let check = |imu: &ImuFeatures, seg: &SegmentFeatures, min: usize| {
+            let prepared = horizontal_cross_prepared(imu, &imu.units(), seg, &seg.units(), min);
+            assert_eq!(bits(prepared), bits(horizontal_cross(imu, seg, min)));
+            prepared
+        };
+        // Both complete; the segment with gaps (the shortcut); the IMU with a gap as well
+        // (the plain path); too few samples left; grids of different lengths.
+        assert!(check(&imu, &seg, 10).is_some());
+        let mut gapped = seg.clone();
+        gapped.horizontal_accel[0][5] = f64::NAN;
+        gapped.horizontal_accel[1][6] = f64::INFINITY;
+        gapped.horizontal_accel[1][30] = f64::NAN;
+        assert!(
+            gapped
+                .units()
+                .horizontal_present
+                .is_some_and(|p| p.len() == 37)
+        );
+        assert!(check(&imu, &gapped, 10).is_some());
+        let mut imu_gapped = imu.clone();
+        imu_gapped.horizontal_accel[1][9] = f64::NAN;
+        assert!(!imu_gapped.units().is_horizontal_complete);
+        assert!(check(&imu_gapped, &gapped, 10).is_some());
+        assert_eq!(check(&imu, &gapped, 38), None);
+        let mut short = gapped.clone();
+        short.horizontal_accel[0].truncate(20);
+        assert_eq!(check(&imu, &short, 10), None);
     }
 
     #[test]

@@ -37,8 +37,8 @@ pub use belmonte::{
 };
 pub use features::{
     HorizontalCross, ImuFeatures, ImuUnits, SegmentFeatures, SegmentUnits, axis_elevations_rad,
-    compare_features, compare_prepared, horizontal_cross, imu_lag_models, segment_lag_models,
-    segment_site_lag_models,
+    compare_features, compare_prepared, horizontal_cross, horizontal_cross_prepared,
+    imu_lag_models, segment_lag_models, segment_site_lag_models,
 };
 pub use fusion::{Fusion, FusionConfig, MAX_TENSOR_ENTRIES, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{

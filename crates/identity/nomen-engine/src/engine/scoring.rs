@@ -16,7 +16,7 @@ use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
     BandSignals, ForearmSignals, ImuFeatures, ImuUnits, ImuWindow, ScoreTensor, SegmentFeatures,
     SegmentUnits, Side, SkeletonWindow, belmonte_costs_from, body_turn_rate_signal,
-    compare_prepared, fuse, horizontal_cross, imu_linear_accel_world,
+    compare_prepared, fuse, horizontal_cross_prepared, imu_linear_accel_world,
 };
 use std::collections::{BTreeMap, VecDeque};
 use std::rc::Rc;
@@ -513,7 +513,7 @@ impl Engine {
                         }
                     }
                 };
-                let Some((site, seg_features, _)) = segments.get(segment) else {
+                let Some((site, seg_features, seg_units)) = segments.get(segment) else {
                     continue;
                 };
                 let site = *site;
@@ -521,7 +521,15 @@ impl Engine {
                 // is that of the IMU's own clock (a pair scored at its own best lag would
                 // mix a lag error into the heading).
                 let cross = (wants_heading && imu.is_offset_known)
-                    .then(|| horizontal_cross(imu_features, seg_features, geometric.min_samples))
+                    .then(|| {
+                        horizontal_cross_prepared(
+                            imu_features,
+                            &cached.units,
+                            seg_features,
+                            seg_units,
+                            geometric.min_samples,
+                        )
+                    })
                     .flatten()
                     .filter(|c| c.norm() > 0.0);
                 let heading_score = cross.and_then(|c| {
