@@ -85,6 +85,21 @@ impl ImuFeatures {
         geo: &GeometricConfig,
         kin: &KinematicConfig,
     ) -> Self {
+        Self::from_parts_sharing(imu, lin_world_mps2, elevations, None, geo, kin)
+    }
+
+    /// [`ImuFeatures::from_parts`] taking the window's swing angles from `shared_swing`, the
+    /// [`RawSwing`] of a longer window that this one ends (and the index of this window's first
+    /// sample in it), where that holds them at the lag this window's swing uses: the same
+    /// values, each computed once for all the suffixes of a grid.
+    pub fn from_parts_sharing(
+        imu: &ImuWindow,
+        lin_world_mps2: &[Vector3<f64>],
+        elevations: &[[f64; 3]],
+        shared_swing: Option<(&RawSwing, usize)>,
+        geo: &GeometricConfig,
+        kin: &KinematicConfig,
+    ) -> Self {
         let smooth = |mut v: Vec<f64>| {
             moving_average(&mut v, geo.moving_average_len);
             v
@@ -106,7 +121,12 @@ impl ImuFeatures {
             accel_magnitude: smoothed_norms(lin, geo),
             velocity_magnitude: imu_velocity_magnitude_from(imu, lin, geo),
             orientation_magnitude: imu_orientation_magnitude(imu, geo),
-            swing: smooth(imu_swing(imu, lag_samples(&imu.t_s, kin))),
+            swing: smooth({
+                let lag = lag_samples(&imu.t_s, kin);
+                shared_swing
+                    .and_then(|(raw, from)| raw.suffix(from, lag, n))
+                    .unwrap_or_else(|| imu_swing(imu, lag))
+            }),
             vertical_accel: smooth(lin.iter().map(|a| a.z).collect()),
             vertical_velocity: smooth(imu_vertical_velocity(imu, lin, geo)),
             axis_elevation: [smooth(ex), smooth(ey), smooth(ez)],
@@ -131,7 +151,22 @@ impl ImuFeatures {
         kin: &KinematicConfig,
         anchor: usize,
     ) -> Self {
-        let mut features = Self::from_parts(imu, lin_world_mps2, elevations, geo, kin);
+        Self::from_parts_anchored_sharing(imu, lin_world_mps2, elevations, None, geo, kin, anchor)
+    }
+
+    /// [`ImuFeatures::from_parts_anchored`] with the swing angles shared as in
+    /// [`ImuFeatures::from_parts_sharing`].
+    pub fn from_parts_anchored_sharing(
+        imu: &ImuWindow,
+        lin_world_mps2: &[Vector3<f64>],
+        elevations: &[[f64; 3]],
+        shared_swing: Option<(&RawSwing, usize)>,
+        geo: &GeometricConfig,
+        kin: &KinematicConfig,
+        anchor: usize,
+    ) -> Self {
+        let mut features =
+            Self::from_parts_sharing(imu, lin_world_mps2, elevations, shared_swing, geo, kin);
         if anchor == 0 {
             return features;
         }
@@ -184,6 +219,39 @@ impl ImuFeatures {
     /// Whether the grid is empty.
     pub fn is_empty(&self) -> bool {
         self.accel_magnitude.is_empty()
+    }
+}
+
+/// A window's swing angles before smoothing (the angle each orientation turned from the one
+/// `lag` samples before; `NaN` where either is missing or out of the window), kept so that the
+/// window's suffixes take theirs from it ([`ImuFeatures::from_parts_sharing`]): a suffix's
+/// angle at a sample whose earlier sample is in the suffix too is the same number.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RawSwing {
+    lag: usize,
+    values: Vec<f64>,
+}
+
+impl RawSwing {
+    /// The swing angles of `imu` at the lag [`ImuFeatures::from_parts`] uses for it.
+    pub fn new(imu: &ImuWindow, kin: &KinematicConfig) -> Self {
+        let lag = lag_samples(&imu.t_s, kin);
+        Self {
+            lag,
+            values: imu_swing(imu, lag),
+        }
+    }
+
+    /// The angles of the `n` samples from `from` on at `lag`, as a window starting there has
+    /// them (its first `lag` samples have no sample that far back); `None` at another lag or
+    /// past the end.
+    fn suffix(&self, from: usize, lag: usize, n: usize) -> Option<Vec<f64>> {
+        if lag != self.lag {
+            return None;
+        }
+        let mut out = self.values.get(from..from.checked_add(n)?)?.to_vec();
+        out.iter_mut().take(lag).for_each(|v| *v = f64::NAN);
+        Some(out)
     }
 }
 
@@ -866,6 +934,51 @@ mod tests {
             .iter()
             .map(axis_elevations_rad)
             .collect()
+    }
+
+    #[test]
+    fn a_suffix_sharing_its_grids_swing_angles_gets_its_own_features_bit_for_bit() {
+        let (mut imu, _) = windows();
+        // A missing orientation, so that the shared angles carry gaps too.
+        if let Some(q) = imu.world_from_sensor.get_mut(50) {
+            *q = UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(f64::NAN, 0.0, 0.0, 0.0));
+        }
+        let geo = GeometricConfig::default();
+        let kin = KinematicConfig::default();
+        let elevations = axis_elevations_of(&imu);
+        let lin = crate::imu_linear_accel_world(&imu, &geo);
+        let raw = RawSwing::new(&imu, &kin);
+        let bits = |f: &ImuFeatures| -> Vec<u64> { f.swing.iter().map(|v| v.to_bits()).collect() };
+        for from in [0, 1, 3, 45, 52, 100] {
+            let tail = imu.tail(from);
+            let (lin, elevations) = (&lin[from..], &elevations[from..]);
+            let own = ImuFeatures::from_parts(&tail, lin, elevations, &geo, &kin);
+            let shared = ImuFeatures::from_parts_sharing(
+                &tail,
+                lin,
+                elevations,
+                Some((&raw, from)),
+                &geo,
+                &kin,
+            );
+            assert_eq!(bits(&own), bits(&shared), "from {from}");
+            assert_eq!(
+                format!("{own:?}"),
+                format!("{shared:?}"),
+                "every other signal too"
+            );
+            assert!(own.swing.iter().any(|v| v.is_finite()));
+        }
+        // A suffix at another lag (another rate) computes its own.
+        let other = KinematicConfig {
+            swing_lag_s: kin.swing_lag_s * 2.0,
+            ..kin
+        };
+        let own = ImuFeatures::from_parts(&imu, &lin, &elevations, &geo, &other);
+        let shared =
+            ImuFeatures::from_parts_sharing(&imu, &lin, &elevations, Some((&raw, 0)), &geo, &other);
+        assert_eq!(bits(&own), bits(&shared));
+        assert_eq!(raw.suffix(110, raw.lag, 20), None, "past the end");
     }
 
     #[test]

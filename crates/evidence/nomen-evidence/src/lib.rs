@@ -36,9 +36,9 @@ pub use belmonte::{
     belmonte_costs, belmonte_costs_from,
 };
 pub use features::{
-    HorizontalCross, ImuFeatures, ImuUnits, SegmentFeatures, SegmentUnits, axis_elevations_rad,
-    compare_features, compare_prepared, horizontal_cross, horizontal_cross_prepared,
-    imu_lag_models, segment_lag_models, segment_site_lag_models,
+    HorizontalCross, ImuFeatures, ImuUnits, RawSwing, SegmentFeatures, SegmentUnits,
+    axis_elevations_rad, compare_features, compare_prepared, horizontal_cross,
+    horizontal_cross_prepared, imu_lag_models, segment_lag_models, segment_site_lag_models,
 };
 pub use fusion::{Fusion, FusionConfig, MAX_TENSOR_ENTRIES, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{

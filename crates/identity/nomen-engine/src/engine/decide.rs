@@ -502,16 +502,16 @@ pub(super) fn mean_common_distance(
 /// A track's settled [`TORSO_ANCHORS`] positions in `[lo, hi)` (samples with none left out).
 pub(super) fn anchor_path(tr: &TrackState, lo: i64, hi: i64) -> AnchorPath {
     let (a, b) = sample_range(tr, lo, hi);
-    tr.samples
-        .range(a..b)
-        .filter_map(|s| {
-            let anchors = TORSO_ANCHORS.map(|j| s.joints.get(j).copied());
-            anchors
-                .iter()
-                .any(Option::is_some)
-                .then_some((s.t, anchors))
-        })
-        .collect()
+    // Sized for every sample up front: growing it by doubling moved it whole several times.
+    let mut path = AnchorPath::with_capacity(b.saturating_sub(a));
+    path.extend(tr.samples.range(a..b).filter_map(|s| {
+        let anchors = TORSO_ANCHORS.map(|j| s.joints.get(j).copied());
+        anchors
+            .iter()
+            .any(Option::is_some)
+            .then_some((s.t, anchors))
+    }));
+    path
 }
 
 /// What [`Engine::camera_partners`] found.

@@ -14,9 +14,10 @@ use nomen_core::skeleton::Joints;
 use nomen_core::{Joint, TrackId};
 use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
-    BandSignals, ForearmSignals, ImuFeatures, ImuUnits, ImuWindow, ScoreTensor, SegmentFeatures,
-    SegmentUnits, Side, SkeletonWindow, belmonte_costs_from, body_turn_rate_signal,
-    compare_prepared, fuse, horizontal_cross_prepared, imu_linear_accel_world,
+    BandSignals, ForearmSignals, ImuFeatures, ImuUnits, ImuWindow, RawSwing, ScoreTensor,
+    SegmentFeatures, SegmentUnits, Side, SkeletonWindow, belmonte_costs_from,
+    body_turn_rate_signal, compare_prepared, fuse, horizontal_cross_prepared,
+    imu_linear_accel_world,
 };
 use std::collections::{BTreeMap, VecDeque};
 use std::rc::Rc;
@@ -337,10 +338,12 @@ impl Engine {
                             );
                             window.device = Some(imu.device.clone());
                             let lin_world_mps2 = imu_linear_accel_world(&window, &geometric);
+                            let swing = RawSwing::new(&window, &self.config.kinematic);
                             ImuBase {
                                 window: Rc::new(window),
                                 orientation_from,
                                 lin_world_mps2,
+                                swing,
                             }
                         });
                     // The camera's whole grid shares the base's window; a suffix copies its part.
@@ -359,10 +362,11 @@ impl Engine {
                             .map(|v| v.unwrap_or([f64::NAN; 3]))
                             .collect()
                     };
-                    let features = ImuFeatures::from_parts_anchored(
+                    let features = ImuFeatures::from_parts_anchored_sharing(
                         &win,
                         base.lin_world_mps2.get(grid_from..).unwrap_or(&[]),
                         &terms(&imu.axis_elevation_rad),
+                        Some((&base.swing, grid_from)),
                         &geometric,
                         &self.config.kinematic,
                         anchor,
@@ -694,6 +698,8 @@ struct ImuBase {
     /// Per grid point, the IMU sample whose orientation it took.
     orientation_from: Vec<Option<usize>>,
     lin_world_mps2: Vec<Vector3<f64>>,
+    /// The swing angles on the whole grid, which its suffixes share.
+    swing: RawSwing,
 }
 
 /// How much of a skeleton run's low-passed signals is dropped next to its edges inside the
