@@ -258,6 +258,19 @@ impl ForearmSignals {
             yaw_rate_radps: skeleton_yaw_rate_radps(skel, cfg),
         }
     }
+
+    /// [`ForearmSignals::new`] for `side`, of the skeleton and config these signals were built
+    /// from: the yaw rate, which is the body's whatever the side, is taken from them.
+    pub fn for_side(&self, skel: &SkeletonWindow, side: Side, cfg: &BelmonteConfig) -> Self {
+        ForearmSignals {
+            wrist_pitch_rad: side
+                .wrists()
+                .iter()
+                .map(|&w| (w, forearm_pitch_rad(skel, w, cfg)))
+                .collect(),
+            yaw_rate_radps: self.yaw_rate_radps.clone(),
+        }
+    }
 }
 
 /// [`belmonte_costs`] from signals built beforehand on the same grid; `side` picks the wrists

@@ -7,10 +7,10 @@ use nomen_core::skeleton::{Joint, Joints};
 use nomen_evidence::belmonte::band_axis_pitch_rad;
 use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
-    BandSignals, BelmonteConfig, GeometricConfig, ImuWindow, SensorAxis, Side, SkeletonWindow,
-    belmonte_costs, best_lag, geometric_scores, imu_accel_magnitude, imu_orientation_magnitude,
-    imu_velocity_magnitude, joint_accel_magnitude, joint_velocity_magnitude,
-    segment_orientation_magnitude,
+    BandSignals, BelmonteConfig, ForearmSignals, GeometricConfig, ImuWindow, SensorAxis, Side,
+    SkeletonWindow, belmonte_costs, best_lag, geometric_scores, imu_accel_magnitude,
+    imu_orientation_magnitude, imu_velocity_magnitude, joint_accel_magnitude,
+    joint_velocity_magnitude, segment_orientation_magnitude,
 };
 use std::f64::consts::{FRAC_PI_2, TAU};
 
@@ -335,6 +335,26 @@ fn unknown_side_tries_both_wrists() {
     let unknown = belmonte_costs(&imu, &mirrored, Side::Unknown, &cfg);
     assert_eq!(unknown.wrist, Some(Joint::RightWrist));
     assert_eq!(unknown.pitch_mse, left.pitch_mse);
+}
+
+#[test]
+fn a_forearm_built_for_another_side_equals_one_built_afresh() {
+    let t_s = grid(200);
+    let cfg = BelmonteConfig::default();
+    let skel = skeleton_window(&ALICE, &t_s);
+    for first in [Side::Left, Side::Right, Side::Unknown] {
+        let built = ForearmSignals::new(&skel, first, &cfg);
+        for side in [Side::Left, Side::Right, Side::Unknown] {
+            let shared = built.for_side(&skel, side, &cfg);
+            let fresh = ForearmSignals::new(&skel, side, &cfg);
+            assert_eq!(
+                format!("{shared:?}"),
+                format!("{fresh:?}"),
+                "{first:?} → {side:?}"
+            );
+            assert!(shared.yaw_rate_radps.iter().any(|v| v.is_finite()));
+        }
+    }
 }
 
 #[test]

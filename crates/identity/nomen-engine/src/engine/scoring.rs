@@ -563,7 +563,12 @@ impl Engine {
                     let arm = match arms.iter().position(|(s, _)| *s == side) {
                         Some(k) => k,
                         None => {
-                            arms.push((side, ForearmSignals::new(skel, side, &belmonte)));
+                            // The yaw rate is the same for every side: built once.
+                            let arm = match arms.first() {
+                                Some((_, first)) => first.for_side(skel, side, &belmonte),
+                                None => ForearmSignals::new(skel, side, &belmonte),
+                            };
+                            arms.push((side, arm));
                             arms.len() - 1
                         }
                     };
