@@ -136,10 +136,15 @@ impl ObservationModel<f64, U6, U3> for PositionObservation {
 
 /// True when `r` is finite and symmetric with a positive diagonal (a usable covariance).
 pub(crate) fn is_usable_covariance(r: &Matrix3<f64>) -> bool {
+    let is_positive_diagonal = (0..3).all(|i| r[(i, i)] > 0.0);
+    if is_diagonal(r) {
+        // The usual, per-joint isotropic noise: symmetric as it stands, and finite where its
+        // diagonal is (the rest is zero).
+        return is_positive_diagonal && (0..3).all(|i| r[(i, i)].is_finite());
+    }
     r.iter().all(|v| v.is_finite())
-        && (0..3).all(|i| r[(i, i)] > 0.0)
-        // A diagonal `r` (the usual, per-joint isotropic noise) is symmetric as it stands.
-        && (is_diagonal(r) || (r - r.transpose()).abs().max() <= 1e-9 * (1.0 + r.abs().max()))
+        && is_positive_diagonal
+        && (r - r.transpose()).abs().max() <= 1e-9 * (1.0 + r.abs().max())
 }
 
 /// One axis of a decoupled estimate: position (m), velocity (m/s) and their covariance.
@@ -796,6 +801,40 @@ mod tests {
                 (SessionTime::from_ns((k as i64) * 33_333_333), m)
             })
             .collect()
+    }
+
+    #[test]
+    fn a_usable_covariance_is_finite_symmetric_and_positive_on_its_diagonal() {
+        // The definition, checked entry by entry, against the shortcut for diagonal ones.
+        let reference = |r: &Matrix3<f64>| {
+            r.iter().all(|v| v.is_finite())
+                && (0..3).all(|i| r[(i, i)] > 0.0)
+                && (r - r.transpose()).abs().max() <= 1e-9 * (1.0 + r.abs().max())
+        };
+        let mut cases = Vec::new();
+        for bad in [0.0, -1e-4, f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e-4] {
+            for i in 0..3 {
+                let mut r = Matrix3::identity() * 1e-4;
+                r[(i, i)] = bad;
+                cases.push(r);
+                let mut off = Matrix3::identity() * 1e-4;
+                off[(i, (i + 1) % 3)] = bad;
+                cases.push(off);
+                let mut symmetric = off;
+                symmetric[((i + 1) % 3, i)] = bad;
+                cases.push(symmetric);
+            }
+        }
+        let (mut num_usable, mut num_not) = (0, 0);
+        for r in &cases {
+            assert_eq!(is_usable_covariance(r), reference(r), "{r}");
+            if reference(r) {
+                num_usable += 1;
+            } else {
+                num_not += 1;
+            }
+        }
+        assert!(num_usable > 0 && num_not > 0);
     }
 
     #[test]
