@@ -320,13 +320,16 @@ pub(crate) fn filtered_joint_derivative(
     Some(d)
 }
 
+/// A joint's low-passed velocity and acceleration on a window's grid.
+pub(crate) type JointDerivatives = (Vec<Vector3<f64>>, Vec<Vector3<f64>>);
+
 /// [`filtered_joint_derivative`] for both derivatives, `(velocity, acceleration)`, each the
 /// same as its own call: the positions are read once and both are filtered side by side.
 pub(crate) fn filtered_joint_derivatives(
     skel: &SkeletonWindow,
     joint: Joint,
     cfg: &GeometricConfig,
-) -> Option<(Vec<Vector3<f64>>, Vec<Vector3<f64>>)> {
+) -> Option<JointDerivatives> {
     if skel.joints_world_m.len() != skel.t_s.len() {
         return None;
     }
