@@ -250,11 +250,7 @@ impl ForearmSignals {
     /// The skeleton's signals for a band on `side` over its window.
     pub fn new(skel: &SkeletonWindow, side: Side, cfg: &BelmonteConfig) -> Self {
         ForearmSignals {
-            wrist_pitch_rad: side
-                .wrists()
-                .iter()
-                .map(|&w| (w, forearm_pitch_rad(skel, w, cfg)))
-                .collect(),
+            wrist_pitch_rad: wrist_pitches(skel, side, cfg),
             yaw_rate_radps: skeleton_yaw_rate_radps(skel, cfg),
         }
     }
@@ -263,14 +259,22 @@ impl ForearmSignals {
     /// from: the yaw rate, which is the body's whatever the side, is taken from them.
     pub fn for_side(&self, skel: &SkeletonWindow, side: Side, cfg: &BelmonteConfig) -> Self {
         ForearmSignals {
-            wrist_pitch_rad: side
-                .wrists()
-                .iter()
-                .map(|&w| (w, forearm_pitch_rad(skel, w, cfg)))
-                .collect(),
+            wrist_pitch_rad: wrist_pitches(skel, side, cfg),
             yaw_rate_radps: self.yaw_rate_radps.clone(),
         }
     }
+}
+
+/// [`forearm_pitch_rad`] of each wrist `side` names.
+fn wrist_pitches(
+    skel: &SkeletonWindow,
+    side: Side,
+    cfg: &BelmonteConfig,
+) -> Vec<(Joint, Vec<f64>)> {
+    side.wrists()
+        .iter()
+        .map(|&w| (w, forearm_pitch_rad(skel, w, cfg)))
+        .collect()
 }
 
 /// [`belmonte_costs`] from signals built beforehand on the same grid; `side` picks the wrists

@@ -695,21 +695,31 @@ mod tests {
         }
     }
 
+    /// A 3 Hz zero-phase low-pass of `order` at 30 Hz.
+    fn lowpass_3hz(order: usize) -> ZeroPhaseLowpass {
+        ZeroPhaseLowpass::new(&ButterworthConfig {
+            order,
+            cutoff_hz: 3.0,
+            sample_rate_hz: 30.0,
+        })
+        .unwrap()
+    }
+
+    /// Two seconds at 30 Hz of a swing, a parabola and a sawtooth, one per axis.
+    fn three_signals() -> Vec<Vector3<f64>> {
+        (0..60)
+            .map(|k| {
+                let t = k as f64 / 30.0;
+                Vector3::new((7.0 * t).sin(), t * t, (k % 5) as f64 - 2.0)
+            })
+            .collect()
+    }
+
     #[test]
     fn vector_filter_equals_the_scalar_filter_per_component() {
         for order in [1, 3, 4] {
-            let mut f = ZeroPhaseLowpass::new(&ButterworthConfig {
-                order,
-                cutoff_hz: 3.0,
-                sample_rate_hz: 30.0,
-            })
-            .unwrap();
-            let x: Vec<Vector3<f64>> = (0..60)
-                .map(|k| {
-                    let t = k as f64 / 30.0;
-                    Vector3::new((7.0 * t).sin(), t * t, (k % 5) as f64 - 2.0)
-                })
-                .collect();
+            let mut f = lowpass_3hz(order);
+            let x = three_signals();
             let mut v = x.clone();
             f.filter_vectors(&mut v).unwrap();
             for axis in 0..3 {
@@ -736,18 +746,8 @@ mod tests {
     #[test]
     fn vector_pairs_filter_like_each_series_alone_bit_for_bit() {
         for order in [1, 3, 4] {
-            let mut f = ZeroPhaseLowpass::new(&ButterworthConfig {
-                order,
-                cutoff_hz: 3.0,
-                sample_rate_hz: 30.0,
-            })
-            .unwrap();
-            let x: Vec<Vector3<f64>> = (0..60)
-                .map(|k| {
-                    let t = k as f64 / 30.0;
-                    Vector3::new((7.0 * t).sin(), t * t, (k % 5) as f64 - 2.0)
-                })
-                .collect();
+            let mut f = lowpass_3hz(order);
+            let x = three_signals();
             let y: Vec<Vector3<f64>> = x
                 .iter()
                 .map(|v| Vector3::new(v.z, -3.0 * v.x, v.y.cos()))
