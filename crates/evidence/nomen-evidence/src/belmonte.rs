@@ -215,17 +215,24 @@ impl BandSignals {
             None => &SensorAxis::ALL,
         };
         // A −axis's pitch is the +axis's negated, exactly (see [`axis_pitches_rad`]): the
-        // arctangents are computed for three axes, not six, and once per sample.
+        // arctangents are computed for three axes, not six, and once per sample. So is its
+        // moving average (rounding is symmetric), which is smoothed once per axis too.
+        let mut smoothed: [Option<Vec<f64>>; 3] = Default::default();
         let axis_pitch_rad = axes
             .iter()
             .map(|&axis| {
                 let (k, is_positive) = axis.index_and_sign();
-                let mut out: Vec<f64> = pitches
-                    .iter()
-                    .map(|p| if is_positive { p[k] } else { -p[k] })
-                    .collect();
-                out.resize(imu.t_s.len(), f64::NAN);
-                moving_average(&mut out, cfg.moving_average_len);
+                let positive = smoothed[k].get_or_insert_with(|| {
+                    let mut out: Vec<f64> = pitches.iter().map(|p| p[k]).collect();
+                    out.resize(imu.t_s.len(), f64::NAN);
+                    moving_average(&mut out, cfg.moving_average_len);
+                    out
+                });
+                let out = if is_positive {
+                    positive.clone()
+                } else {
+                    positive.iter().map(|v| -v).collect()
+                };
                 (axis, out)
             })
             .collect();

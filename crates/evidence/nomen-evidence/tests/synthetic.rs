@@ -288,17 +288,28 @@ fn belmonte_costs_are_lower_for_the_wearer() {
 #[test]
 fn a_bands_six_axis_pitches_from_three_per_sample_equal_each_axis_computed_alone() {
     let t_s = grid(200);
-    let cfg = BelmonteConfig::default();
-    let imu = imu_window(&ALICE, &t_s, 0.0);
-    let band = BandSignals::new(&imu, &cfg);
-    assert_eq!(band.axis_pitch_rad.len(), SensorAxis::ALL.len());
-    for (axis, pitch) in &band.axis_pitch_rad {
-        // Exactly what the axis gives computed on its own (a zero may come out with the other
-        // sign, which compares equal).
-        let alone = band_axis_pitch_rad(&imu, *axis, &cfg);
-        assert_eq!(pitch.len(), alone.len());
-        for (a, b) in pitch.iter().zip(&alone) {
-            assert!(a == b || (a.is_nan() && b.is_nan()), "{axis:?}: {a} {b}");
+    let mut imu = imu_window(&ALICE, &t_s, 0.0);
+    // A missing orientation: the smoothed pitches carry a gap.
+    imu.world_from_sensor[70] =
+        UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(f64::NAN, 0.0, 0.0, 0.0));
+    let all = BelmonteConfig::default();
+    let one = BelmonteConfig {
+        forearm_axis: Some(SensorAxis::NegY),
+        ..BelmonteConfig::default()
+    };
+    for (cfg, num_axes) in [(all, SensorAxis::ALL.len()), (one, 1)] {
+        let band = BandSignals::new(&imu, &cfg);
+        assert_eq!(band.axis_pitch_rad.len(), num_axes);
+        for (axis, pitch) in &band.axis_pitch_rad {
+            // Exactly what the axis gives computed on its own (a zero may come out with the
+            // other sign, which compares equal).
+            let alone = band_axis_pitch_rad(&imu, *axis, &cfg);
+            assert_eq!(pitch.len(), alone.len());
+            for (a, b) in pitch.iter().zip(&alone) {
+                assert!(a == b || (a.is_nan() && b.is_nan()), "{axis:?}: {a} {b}");
+            }
+            assert!(pitch.iter().any(|v| v.is_nan()));
+            assert!(pitch.iter().any(|v| v.is_finite() && *v != 0.0));
         }
     }
 }
