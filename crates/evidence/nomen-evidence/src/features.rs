@@ -12,15 +12,15 @@
 //! for one pair.
 
 use crate::geometric::{
-    GeometricConfig, carrying_segment, filtered_joint_derivative, filtered_joint_derivatives,
+    GeometricConfig, bone_directions, filtered_joint_derivative, filtered_joint_derivatives,
     imu_linear_accel_world, imu_orientation_magnitude, imu_orientation_magnitude_every,
-    imu_velocity_magnitude_from, joint_positions, joint_velocity_magnitude_from,
-    segment_orientation_magnitude, smoothed_norms,
+    imu_velocity_magnitude_from, joint_velocity_magnitude_from, segment_bones,
+    segment_orientation_magnitude, segment_orientation_magnitude_from, smoothed_norms,
 };
 use crate::kinematic::{
     KinematicConfig, KinematicScores, body_turn_rate_signal, elevation_rad, imu_swing,
     imu_swing_every, imu_turn_rate_signal, imu_vertical_velocity, joint_vertical_velocity,
-    lag_samples, segment_swing,
+    lag_samples, segment_swing_from,
 };
 use crate::signal::{Derivative, UnitSignal, finite_runs, moving_average, pearson_prepared};
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
@@ -342,12 +342,10 @@ impl SegmentFeatures {
             v
         };
         let missing = || vec![f64::NAN; n];
-        let (from, to) = carrying_segment(site);
-        let elevation = joint_positions(skel, to)
-            .iter()
-            .zip(joint_positions(skel, from))
-            .map(|(b, a)| elevation_rad(&(b - a)))
-            .collect();
+        // The carrying segment, read once for its inclination, orientation change and swing.
+        let bones = segment_bones(skel, site);
+        let dirs = bone_directions(&bones);
+        let elevation = bones.iter().map(elevation_rad).collect();
         // One world axis of the joint's acceleration, smoothed.
         let accel_axis = |axis: usize| {
             smooth(acc.map_or_else(missing, |a| {
@@ -360,8 +358,8 @@ impl SegmentFeatures {
             accel_magnitude: acc.map_or_else(missing, |a| smoothed_norms(a, geo)),
             velocity_magnitude: vel
                 .map_or_else(missing, |v| joint_velocity_magnitude_from(skel, v, geo)),
-            orientation_magnitude: segment_orientation_magnitude(skel, site, geo),
-            swing: smooth(segment_swing(skel, site, lag_samples(&skel.t_s, kin))),
+            orientation_magnitude: segment_orientation_magnitude_from(&dirs, n, geo),
+            swing: smooth(segment_swing_from(&dirs, n, lag_samples(&skel.t_s, kin))),
             vertical_accel: accel_axis(2),
             vertical_velocity: smooth(
                 vel.map_or_else(missing, |v| joint_vertical_velocity(skel, v, geo)),
@@ -580,7 +578,8 @@ pub fn segment_site_lag_models(
         .as_deref()
         .map_or_else(|| vec![f64::NAN; n], |a| a.iter().map(|a| a.z).collect());
     moving_average(&mut vertical, geo.moving_average_len);
-    let mut swing = segment_swing(skel, site, lag_samples(&skel.t_s, kin));
+    let dirs = bone_directions(&segment_bones(skel, site));
+    let mut swing = segment_swing_from(&dirs, n, lag_samples(&skel.t_s, kin));
     moving_average(&mut swing, geo.moving_average_len);
     [
         every_nth(
@@ -588,7 +587,7 @@ pub fn segment_site_lag_models(
                 .map_or_else(|| vec![f64::NAN; n], |a| smoothed_norms(a, geo)),
             step,
         ),
-        every_nth(segment_orientation_magnitude(skel, site, geo), step),
+        every_nth(segment_orientation_magnitude_from(&dirs, n, geo), step),
         every_nth(vertical, step),
         every_nth(swing, step),
     ]
@@ -979,6 +978,66 @@ mod tests {
             ImuFeatures::from_parts_sharing(&imu, &lin, &elevations, Some((&raw, 0)), &geo, &other);
         assert_eq!(bits(&own), bits(&shared));
         assert_eq!(raw.suffix(110, raw.lag, 20), None, "past the end");
+    }
+
+    #[test]
+    fn a_segments_signals_read_from_one_set_of_bones_equal_each_built_alone() {
+        let (_, mut skel) = windows();
+        // A missing wrist, and an elbow on its wrist (a bone of no length).
+        if let Some(j) = skel.joints_world_m.get_mut(30) {
+            j.remove(Joint::LeftWrist);
+        }
+        if let Some(j) = skel.joints_world_m.get_mut(50)
+            && let Some(&w) = j.get(Joint::LeftWrist)
+        {
+            j.insert(Joint::LeftElbow, w);
+        }
+        let geo = GeometricConfig::default();
+        let kin = KinematicConfig::default();
+        let bits = |v: &[f64]| -> Vec<u64> { v.iter().map(|x| x.to_bits()).collect() };
+        let site = Joint::LeftWrist;
+        let features = SegmentFeatures::new(&skel, site, &geo, &kin);
+        // Each signal as it was built before the bones were shared: positions read, the bone
+        // formed and (for the angles) normalised afresh per signal.
+        let (from, to) = crate::geometric::carrying_segment(site);
+        let bone = |j: &nomen_core::skeleton::Joints<nalgebra::Point3<f64>>| match (
+            j.get(to),
+            j.get(from),
+        ) {
+            (Some(b), Some(a)) => b - a,
+            _ => Vector3::repeat(f64::NAN),
+        };
+        let mut elevation: Vec<f64> = skel
+            .joints_world_m
+            .iter()
+            .map(|j| elevation_rad(&bone(j)))
+            .collect();
+        moving_average(&mut elevation, geo.moving_average_len);
+        let dirs: Vec<Option<Vector3<f64>>> = skel
+            .joints_world_m
+            .iter()
+            .map(|j| bone(j).try_normalize(1e-9))
+            .collect();
+        let lag = lag_samples(&skel.t_s, &kin);
+        let mut swing: Vec<f64> = (0..dirs.len())
+            .map(
+                |k| match (k.checked_sub(lag).and_then(|i| dirs[i]), dirs[k]) {
+                    (Some(a), Some(b)) => crate::angle::angle_between_rad(&a, &b),
+                    _ => f64::NAN,
+                },
+            )
+            .collect();
+        moving_average(&mut swing, geo.moving_average_len);
+        assert_eq!(bits(&features.elevation), bits(&elevation));
+        assert_eq!(bits(&features.swing), bits(&swing));
+        assert_eq!(
+            bits(&features.orientation_magnitude),
+            bits(&segment_orientation_magnitude(&skel, site, &geo))
+        );
+        assert!(
+            features.swing.iter().any(|v| v.is_nan())
+                && features.swing.iter().any(|v| v.is_finite())
+        );
     }
 
     #[test]

@@ -404,12 +404,36 @@ pub fn segment_orientation_magnitude(
     site: Joint,
     cfg: &GeometricConfig,
 ) -> Vec<f64> {
+    let dirs = bone_directions(&segment_bones(skel, site));
+    segment_orientation_magnitude_from(&dirs, skel.t_s.len(), cfg)
+}
+
+/// The segment carrying a sensor at `site` ([`carrying_segment`]) per sample of a window, from
+/// its parent joint to its child (`NaN` where either is missing).
+pub(crate) fn segment_bones(skel: &SkeletonWindow, site: Joint) -> Vec<Vector3<f64>> {
     let (from, to) = carrying_segment(site);
-    let dirs: Vec<Option<Vector3<f64>>> = joint_positions(skel, to)
+    joint_positions(skel, to)
         .iter()
         .zip(joint_positions(skel, from))
-        .map(|(b, a)| (b - a).try_normalize(1e-9).filter(is_finite3))
-        .collect();
+        .map(|(b, a)| b - a)
+        .collect()
+}
+
+/// Each bone's unit direction (`None` where it is missing or shorter than a nanometre).
+pub(crate) fn bone_directions(bones: &[Vector3<f64>]) -> Vec<Option<Vector3<f64>>> {
+    bones
+        .iter()
+        .map(|d| d.try_normalize(1e-9).filter(is_finite3))
+        .collect()
+}
+
+/// [`segment_orientation_magnitude`] from the segment's directions ([`bone_directions`]) on
+/// a grid of `n` samples.
+pub(crate) fn segment_orientation_magnitude_from(
+    dirs: &[Option<Vector3<f64>>],
+    n: usize,
+    cfg: &GeometricConfig,
+) -> Vec<f64> {
     let d0 = dirs.iter().flatten().next().copied();
     let mut out: Vec<f64> = dirs
         .iter()
@@ -418,7 +442,7 @@ pub fn segment_orientation_magnitude(
             _ => f64::NAN,
         })
         .collect();
-    out.resize(skel.t_s.len(), f64::NAN);
+    out.resize(n, f64::NAN);
     moving_average(&mut out, cfg.moving_average_len);
     out
 }

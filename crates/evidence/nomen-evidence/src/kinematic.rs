@@ -40,8 +40,8 @@ use crate::angle::{angle_between_rad, rotation_angle_rad};
 use crate::belmonte::{BelmonteConfig, band_yaw_rate_radps, skeleton_yaw_rate_radps};
 use crate::features::{ImuFeatures, SegmentFeatures, compare_features};
 use crate::geometric::{
-    GeometricConfig, LeakSteps, carrying_segment, filtered_joint_derivative,
-    imu_linear_accel_world, joint_positions,
+    GeometricConfig, LeakSteps, bone_directions, filtered_joint_derivative, imu_linear_accel_world,
+    segment_bones,
 };
 use crate::signal::{Derivative, grid_rate_hz, moving_average};
 use crate::window::{ImuWindow, SkeletonWindow};
@@ -162,13 +162,14 @@ pub(crate) fn imu_swing_every(imu: &ImuWindow, lag: usize, step: usize) -> Vec<f
 
 /// Angle the carrying bone turned over the last `lag` samples, rad (NaN where unknown).
 pub(crate) fn segment_swing(skel: &SkeletonWindow, site: Joint, lag: usize) -> Vec<f64> {
-    let (from, to) = carrying_segment(site);
-    let dirs: Vec<Option<Vector3<f64>>> = joint_positions(skel, to)
-        .iter()
-        .zip(joint_positions(skel, from))
-        .map(|(b, a)| (b - a).try_normalize(1e-9))
-        .collect();
-    (0..skel.t_s.len())
+    let dirs = bone_directions(&segment_bones(skel, site));
+    segment_swing_from(&dirs, skel.t_s.len(), lag)
+}
+
+/// [`segment_swing`] from the segment's directions ([`bone_directions`]) on a grid of `n`
+/// samples.
+pub(crate) fn segment_swing_from(dirs: &[Option<Vector3<f64>>], n: usize, lag: usize) -> Vec<f64> {
+    (0..n)
         .map(|k| {
             let a = k
                 .checked_sub(lag)
