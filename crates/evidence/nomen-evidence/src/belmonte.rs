@@ -262,6 +262,21 @@ impl ForearmSignals {
         }
     }
 
+    /// [`ForearmSignals::new`] with the skeleton's yaw rate before smoothing given
+    /// ([`skeleton_yaw_rate_unsmoothed_radps`] of the same skeleton and config).
+    pub fn with_unsmoothed_yaw_rate(
+        skel: &SkeletonWindow,
+        side: Side,
+        cfg: &BelmonteConfig,
+        mut yaw_rate_radps: Vec<f64>,
+    ) -> Self {
+        moving_average(&mut yaw_rate_radps, cfg.moving_average_len);
+        ForearmSignals {
+            wrist_pitch_rad: wrist_pitches(skel, side, cfg),
+            yaw_rate_radps,
+        }
+    }
+
     /// [`ForearmSignals::new`] for `side`, of the skeleton and config these signals were built
     /// from: the yaw rate, which is the body's whatever the side, is taken from them.
     pub fn for_side(&self, skel: &SkeletonWindow, side: Side, cfg: &BelmonteConfig) -> Self {
@@ -424,16 +439,22 @@ pub fn skeleton_heading_rad(skel: &SkeletonWindow, cfg: &BelmonteConfig) -> Vec<
 
 /// The skeleton's yaw rate, rad/s: derivative of [`skeleton_heading_rad`], smoothed.
 pub fn skeleton_yaw_rate_radps(skel: &SkeletonWindow, cfg: &BelmonteConfig) -> Vec<f64> {
+    let mut out = skeleton_yaw_rate_unsmoothed_radps(skel, cfg);
+    moving_average(&mut out, cfg.moving_average_len);
+    out
+}
+
+/// [`skeleton_yaw_rate_radps`] before its moving average (`cfg`'s other fields apply), for a
+/// caller that smooths one skeleton's rate over several lengths.
+pub fn skeleton_yaw_rate_unsmoothed_radps(skel: &SkeletonWindow, cfg: &BelmonteConfig) -> Vec<f64> {
     let heading: Vec<Vector3<f64>> = skeleton_heading_rad(skel, cfg)
         .into_iter()
         .map(|psi| Vector3::new(psi, 0.0, 0.0))
         .collect();
-    let mut out: Vec<f64> = differentiate_runs(&skel.t_s, &heading, Derivative::Velocity)
+    differentiate_runs(&skel.t_s, &heading, Derivative::Velocity)
         .iter()
         .map(|v| v.x)
-        .collect();
-    moving_average(&mut out, cfg.moving_average_len);
-    out
+        .collect()
 }
 
 /// An angle wrapped into `(−π, π]`.

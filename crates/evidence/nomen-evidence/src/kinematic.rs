@@ -311,6 +311,21 @@ pub fn body_turn_rate_signal(skel: &SkeletonWindow, cfg: &KinematicConfig) -> Ve
     skeleton_yaw_rate_radps(skel, &belmonte)
 }
 
+/// [`body_turn_rate_signal`] from the skeleton's yaw rate before smoothing
+/// ([`crate::belmonte::skeleton_yaw_rate_unsmoothed_radps`] of `skel` with the default
+/// [`BelmonteConfig`]), for a caller that smooths it for Belmonte-Hernández's model as well.
+pub fn body_turn_rate_from(
+    skel: &SkeletonWindow,
+    mut unsmoothed_yaw_rate_radps: Vec<f64>,
+    cfg: &KinematicConfig,
+) -> Vec<f64> {
+    moving_average(
+        &mut unsmoothed_yaw_rate_radps,
+        smoothing_samples(&skel.t_s, cfg),
+    );
+    unsmoothed_yaw_rate_radps
+}
+
 /// The turn-rate smoothing in samples of a grid (at least one, and no more than the grid has
 /// plus one: an average longer than its series is that series' running mean, and a grid of
 /// stamps a nanosecond apart would otherwise ask for billions).

@@ -47,7 +47,7 @@ pub use geometric::{
     joint_accel_magnitude, joint_velocity_magnitude, segment_orientation_magnitude,
 };
 pub use kinematic::{
-    KinematicConfig, KinematicScores, body_turn_rate_signal, imu_swing_signal,
+    KinematicConfig, KinematicScores, body_turn_rate_from, body_turn_rate_signal, imu_swing_signal,
     imu_turn_rate_signal, imu_vertical_accel, joint_vertical_accel, kinematic_scores,
     segment_swing_signal,
 };

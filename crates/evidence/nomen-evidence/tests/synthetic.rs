@@ -4,13 +4,14 @@
 
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
 use nomen_core::skeleton::{Joint, Joints};
-use nomen_evidence::belmonte::band_axis_pitch_rad;
+use nomen_evidence::belmonte::{band_axis_pitch_rad, skeleton_yaw_rate_unsmoothed_radps};
 use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
-    BandSignals, BelmonteConfig, ForearmSignals, GeometricConfig, ImuWindow, SensorAxis, Side,
-    SkeletonWindow, belmonte_costs, best_lag, geometric_scores, imu_accel_magnitude,
-    imu_orientation_magnitude, imu_velocity_magnitude, joint_accel_magnitude,
-    joint_velocity_magnitude, segment_orientation_magnitude,
+    BandSignals, BelmonteConfig, ForearmSignals, GeometricConfig, ImuWindow, KinematicConfig,
+    SensorAxis, Side, SkeletonWindow, belmonte_costs, best_lag, body_turn_rate_from,
+    body_turn_rate_signal, geometric_scores, imu_accel_magnitude, imu_orientation_magnitude,
+    imu_velocity_magnitude, joint_accel_magnitude, joint_velocity_magnitude,
+    segment_orientation_magnitude,
 };
 use std::f64::consts::{FRAC_PI_2, TAU};
 
@@ -349,7 +350,7 @@ fn unknown_side_tries_both_wrists() {
 }
 
 #[test]
-fn a_forearm_built_for_another_side_equals_one_built_afresh() {
+fn forearm_and_turn_rate_signals_from_shared_parts_equal_ones_built_afresh() {
     let t_s = grid(200);
     let cfg = BelmonteConfig::default();
     let skel = skeleton_window(&ALICE, &t_s);
@@ -366,6 +367,19 @@ fn a_forearm_built_for_another_side_equals_one_built_afresh() {
             assert!(shared.yaw_rate_radps.iter().any(|v| v.is_finite()));
         }
     }
+    // One yaw rate before smoothing, smoothed for the turn-rate model and for the forearm.
+    let kin = KinematicConfig::default();
+    let unsmoothed = skeleton_yaw_rate_unsmoothed_radps(&skel, &cfg);
+    let bits = |v: &[f64]| -> Vec<u64> { v.iter().map(|x| x.to_bits()).collect() };
+    assert_eq!(
+        bits(&body_turn_rate_from(&skel, unsmoothed.clone(), &kin)),
+        bits(&body_turn_rate_signal(&skel, &kin))
+    );
+    let with = ForearmSignals::with_unsmoothed_yaw_rate(&skel, Side::Left, &cfg, unsmoothed);
+    assert_eq!(
+        format!("{with:?}"),
+        format!("{:?}", ForearmSignals::new(&skel, Side::Left, &cfg))
+    );
 }
 
 #[test]

@@ -12,12 +12,12 @@ use crate::tags::{MAX_PAIR_DT_NS, TagState, fix_similarity};
 use nalgebra::{Point3, Vector3};
 use nomen_core::skeleton::Joints;
 use nomen_core::{Joint, TrackId};
+use nomen_evidence::belmonte::skeleton_yaw_rate_unsmoothed_radps;
 use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
-    BandSignals, ForearmSignals, ImuFeatures, ImuUnits, ImuWindow, RawSwing, ScoreTensor,
-    SegmentFeatures, SegmentUnits, Side, SkeletonWindow, belmonte_costs_from,
-    body_turn_rate_signal, compare_prepared, fuse, horizontal_cross_prepared,
-    imu_linear_accel_world,
+    BandSignals, BelmonteConfig, ForearmSignals, ImuFeatures, ImuUnits, ImuWindow, RawSwing,
+    ScoreTensor, SegmentFeatures, SegmentUnits, Side, SkeletonWindow, belmonte_costs_from,
+    body_turn_rate_from, compare_prepared, fuse, horizontal_cross_prepared, imu_linear_accel_world,
 };
 use std::collections::{BTreeMap, VecDeque};
 use std::rc::Rc;
@@ -312,6 +312,13 @@ impl Engine {
             let mut segments: Vec<(Joint, SegmentFeatures, SegmentUnits)> = Vec::new();
             // The body's turn rate, the same for every site: computed once per track.
             let mut turn_rate: Option<Vec<f64>> = None;
+            // The body's yaw rate before smoothing, once per track: its turn rate smooths it,
+            // and so does Belmonte-Hernández's forearm model where that reads the same window
+            // and heading line.
+            let mut unsmoothed_yaw: Option<Vec<f64>> = None;
+            let heading_line = BelmonteConfig::default();
+            let shares_yaw =
+                anchor == 0 && belmonte.min_heading_line_m == heading_line.min_heading_line_m;
             // The skeleton side of Belmonte's costs, per band side.
             let mut arms: Vec<(Side, ForearmSignals)> = Vec::new();
             for (i, imu) in self.imus.iter().enumerate() {
@@ -411,7 +418,14 @@ impl Engine {
                         None => {
                             let turn = turn_rate
                                 .get_or_insert_with(|| {
-                                    body_turn_rate_signal(&padded, &self.config.kinematic)
+                                    let yaw = unsmoothed_yaw.get_or_insert_with(|| {
+                                        skeleton_yaw_rate_unsmoothed_radps(&padded, &heading_line)
+                                    });
+                                    body_turn_rate_from(
+                                        &padded,
+                                        yaw.clone(),
+                                        &self.config.kinematic,
+                                    )
                                 })
                                 .clone();
                             let features = SegmentFeatures::with_turn_rate_anchored(
@@ -566,6 +580,17 @@ impl Engine {
                             // The yaw rate is the same for every side: built once.
                             let arm = match arms.first() {
                                 Some((_, first)) => first.for_side(skel, side, &belmonte),
+                                None if shares_yaw => {
+                                    let yaw = unsmoothed_yaw.get_or_insert_with(|| {
+                                        skeleton_yaw_rate_unsmoothed_radps(&padded, &heading_line)
+                                    });
+                                    ForearmSignals::with_unsmoothed_yaw_rate(
+                                        skel,
+                                        side,
+                                        &belmonte,
+                                        yaw.clone(),
+                                    )
+                                }
                                 None => ForearmSignals::new(skel, side, &belmonte),
                             };
                             arms.push((side, arm));
