@@ -22,7 +22,7 @@ use crate::kinematic::{
     imu_swing_every, imu_turn_rate_signal, imu_vertical_velocity, joint_vertical_velocity,
     lag_samples, segment_swing_from,
 };
-use crate::signal::{Derivative, UnitSignal, finite_runs, moving_average, pearson_prepared};
+use crate::signal::{Derivative, UnitSignal, moving_average, pearson_prepared};
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
 use nalgebra::{UnitQuaternion, Vector3};
 use nomen_core::skeleton::Joint;
@@ -465,8 +465,11 @@ impl SegmentFeatures {
             hy,
         ] {
             let n = v.len();
-            for run in finite_runs(n, |i| v[i].is_finite()) {
-                let (a, b) = (run.start, run.end);
+            // Each run of present samples `a..b` in turn (as `finite_runs` finds them, without
+            // collecting them: the edges are blanked behind the scan).
+            let mut b = 0;
+            while let Some(a) = (b..n).find(|&i| v[i].is_finite()) {
+                b = (a..n).find(|&i| !v[i].is_finite()).unwrap_or(n);
                 let head = if a == 0 && keep_grid_start {
                     a
                 } else {
