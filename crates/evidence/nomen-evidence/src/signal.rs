@@ -676,13 +676,10 @@ pub(crate) fn differentiate_runs_both(
             continue;
         }
         let (tr, xr) = (&t[run.clone()], &x[run.clone()]);
-        let v = &mut vel[run.clone()];
-        if derivative::velocity(tr, xr, v).is_err() {
-            v.iter_mut().for_each(|v| *v = nan3());
-        }
-        let a = &mut acc[run];
-        if derivative::acceleration(tr, xr, a).is_err() {
-            a.iter_mut().for_each(|v| *v = nan3());
+        let (v, a) = (&mut vel[run.clone()], &mut acc[run]);
+        // Both fail alike (the same checks), and then both are missing.
+        if derivative::velocity_and_acceleration(tr, xr, v, a).is_err() {
+            v.iter_mut().chain(a.iter_mut()).for_each(|v| *v = nan3());
         }
     }
     (vel, acc)

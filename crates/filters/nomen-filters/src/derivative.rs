@@ -124,9 +124,80 @@ pub fn acceleration<T: Differentiable>(t: &[SessionTime], x: &[T], out: &mut [T]
     Ok(())
 }
 
+/// [`velocity`] into `vel` and [`acceleration`] into `acc` at once: the same values as each
+/// alone, with the inputs checked and each sample's spacings found once. Errors as [`velocity`]
+/// (whose checks [`acceleration`] shares), or for an `acc` of another length; on an error
+/// neither output is written.
+pub fn velocity_and_acceleration<T: Differentiable>(
+    t: &[SessionTime],
+    x: &[T],
+    vel: &mut [T],
+    acc: &mut [T],
+) -> Result<()> {
+    let n = check_inputs(t, x, vel.len(), "velocity")?;
+    if acc.len() != n {
+        return Err(FilterError::LengthMismatch {
+            what: "acceleration",
+            expected: n,
+            got: acc.len(),
+        });
+    }
+    for (i, (v, a)) in vel.iter_mut().zip(acc.iter_mut()).enumerate() {
+        let c = i.clamp(1, n - 2);
+        let at = i + 1 - c;
+        let h1 = t[c].secs_since(t[c - 1]);
+        let h2 = t[c + 1].secs_since(t[c]);
+        let (w0, w1, w2) = velocity_weights(h1, h2, at);
+        *v = x[c - 1] * w0 + x[c] * w1 + x[c + 1] * w2;
+        let s = h1 + h2;
+        *a = x[c - 1] * (2.0 / (h1 * s)) + x[c] * (-2.0 / (h1 * h2)) + x[c + 1] * (2.0 / (h2 * s));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn both_derivatives_at_once_equal_each_alone_bit_for_bit() {
+        let t: Vec<SessionTime> = (0..25)
+            .map(|i| SessionTime::from_ns(i * 33_333_333 + (i * 7919 % 5_000_000)))
+            .collect();
+        let x: Vec<Vector3<f64>> = t
+            .iter()
+            .map(|t| {
+                let s = t.as_secs_f64();
+                Vector3::new((3.0 * s).sin(), s * s * s, 1.0 / (1.0 + s))
+            })
+            .collect();
+        let zero = Vector3::zeros();
+        let (mut v1, mut a1) = (vec![zero; 25], vec![zero; 25]);
+        velocity(&t, &x, &mut v1).unwrap();
+        acceleration(&t, &x, &mut a1).unwrap();
+        let (mut v2, mut a2) = (vec![zero; 25], vec![zero; 25]);
+        velocity_and_acceleration(&t, &x, &mut v2, &mut a2).unwrap();
+        let bits = |v: &[Vector3<f64>]| -> Vec<u64> {
+            v.iter()
+                .flat_map(|p| p.iter().map(|c| c.to_bits()))
+                .collect()
+        };
+        assert_eq!(bits(&v1), bits(&v2));
+        assert_eq!(bits(&a1), bits(&a2));
+        // Errors leave both outputs as they were.
+        let mut back = t.clone();
+        back.swap(3, 4);
+        let (mut v3, mut a3) = (vec![zero; 25], vec![zero; 25]);
+        assert!(matches!(
+            velocity_and_acceleration(&back, &x, &mut v3, &mut a3),
+            Err(FilterError::NonIncreasingTime { index: 4, .. })
+        ));
+        assert!(matches!(
+            velocity_and_acceleration(&t, &x, &mut v3, &mut a3[..24]),
+            Err(FilterError::LengthMismatch { .. })
+        ));
+        assert!(v3.iter().chain(&a3).all(|v| *v == zero));
+    }
 
     #[test]
     fn quadratic_motion_has_exact_velocity_and_acceleration_on_jittered_times() {
