@@ -12,10 +12,11 @@
 //! for one pair.
 
 use crate::geometric::{
-    GeometricConfig, bone_directions, filtered_joint_derivative, filtered_joint_derivatives,
+    GeometricConfig, bone_directions, filtered_derivatives_of, filtered_joint_derivative,
     imu_linear_accel_world, imu_orientation_magnitude, imu_orientation_magnitude_every,
-    imu_velocity_magnitude_from, joint_velocity_magnitude_from, segment_bones,
-    segment_orientation_magnitude, segment_orientation_magnitude_from, smoothed_norms,
+    imu_velocity_magnitude_from, joint_positions, joint_velocity_magnitude_from, segment_bones,
+    segment_bones_with, segment_orientation_magnitude, segment_orientation_magnitude_from,
+    smoothed_norms,
 };
 use crate::kinematic::{
     KinematicConfig, KinematicScores, body_turn_rate_signal, elevation_rad, imu_swing,
@@ -292,6 +293,27 @@ pub struct SegmentFeatures {
     pub horizontal_accel: [Vec<f64>; 2],
 }
 
+/// A joint's positions on a window's grid ([`joint_positions`]), read once for its derivatives
+/// and its segment, and its velocity and acceleration low-passed (`None` where they could not
+/// be built).
+struct SiteMotion {
+    positions: Vec<Vector3<f64>>,
+    vel: Option<Vec<Vector3<f64>>>,
+    acc: Option<Vec<Vector3<f64>>>,
+}
+
+impl SiteMotion {
+    fn new(skel: &SkeletonWindow, site: Joint, geo: &GeometricConfig) -> Self {
+        let positions = joint_positions(skel, site);
+        let (vel, acc) = filtered_derivatives_of(skel, &positions, geo).unzip();
+        Self {
+            positions,
+            vel,
+            acc,
+        }
+    }
+}
+
 impl SegmentFeatures {
     /// Every skeleton-side signal for a sensor worn at `site`.
     pub fn new(
@@ -313,29 +335,21 @@ impl SegmentFeatures {
         kin: &KinematicConfig,
         turn_rate: Vec<f64>,
     ) -> Self {
-        let (vel, acc) = filtered_joint_derivatives(skel, site, geo).unzip();
-        Self::from_derivatives(
-            skel,
-            site,
-            geo,
-            kin,
-            turn_rate,
-            acc.as_deref(),
-            vel.as_deref(),
-        )
+        let motion = SiteMotion::new(skel, site, geo);
+        Self::from_derivatives(skel, site, geo, kin, turn_rate, &motion)
     }
 
-    /// [`SegmentFeatures::with_turn_rate`] from the joint's low-passed acceleration and velocity
-    /// on the same grid (`None` where they could not be built).
+    /// [`SegmentFeatures::with_turn_rate`] from the joint's positions and their low-passed
+    /// derivatives on the same grid.
     fn from_derivatives(
         skel: &SkeletonWindow,
         site: Joint,
         geo: &GeometricConfig,
         kin: &KinematicConfig,
         turn_rate: Vec<f64>,
-        acc: Option<&[Vector3<f64>]>,
-        vel: Option<&[Vector3<f64>]>,
+        motion: &SiteMotion,
     ) -> Self {
+        let (acc, vel) = (motion.acc.as_deref(), motion.vel.as_deref());
         let n = skel.t_s.len();
         let smooth = |mut v: Vec<f64>| {
             moving_average(&mut v, geo.moving_average_len);
@@ -343,7 +357,7 @@ impl SegmentFeatures {
         };
         let missing = || vec![f64::NAN; n];
         // The carrying segment, read once for its inclination, orientation change and swing.
-        let bones = segment_bones(skel, site);
+        let bones = segment_bones_with(skel, site, &motion.positions);
         let dirs = bone_directions(&bones);
         let elevation = bones.iter().map(elevation_rad).collect();
         // One world axis of the joint's acceleration, smoothed.
@@ -384,16 +398,9 @@ impl SegmentFeatures {
         anchor: usize,
         run_edges: (usize, bool),
     ) -> Self {
-        let (vel, acc) = filtered_joint_derivatives(skel, site, geo).unzip();
-        let mut features = Self::from_derivatives(
-            skel,
-            site,
-            geo,
-            kin,
-            turn_rate,
-            acc.as_deref(),
-            vel.as_deref(),
-        );
+        let motion = SiteMotion::new(skel, site, geo);
+        let mut features = Self::from_derivatives(skel, site, geo, kin, turn_rate, &motion);
+        let vel = motion.vel;
         features.drop_run_edges(run_edges.0, run_edges.1);
         if anchor == 0 {
             return features;
@@ -1065,7 +1072,8 @@ mod tests {
                 ..GeometricConfig::default()
             };
             for site in [Joint::LeftWrist, Joint::LeftElbow, Joint::RightWrist] {
-                let (vel, acc) = filtered_joint_derivatives(&skel, site, &geo).unzip();
+                let positions = joint_positions(&skel, site);
+                let (vel, acc) = filtered_derivatives_of(&skel, &positions, &geo).unzip();
                 let vel1 = filtered_joint_derivative(&skel, site, Derivative::Velocity, &geo);
                 let acc1 = filtered_joint_derivative(&skel, site, Derivative::Acceleration, &geo);
                 assert_eq!(bits(&vel), bits(&vel1), "{site:?} zero phase {zero_phase}");

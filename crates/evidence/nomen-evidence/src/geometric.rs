@@ -324,17 +324,18 @@ pub(crate) fn filtered_joint_derivative(
 pub(crate) type JointDerivatives = (Vec<Vector3<f64>>, Vec<Vector3<f64>>);
 
 /// [`filtered_joint_derivative`] for both derivatives, `(velocity, acceleration)`, each the
-/// same as its own call: the positions are read once and both are filtered side by side.
-pub(crate) fn filtered_joint_derivatives(
+/// same as its own call, of a joint's positions read beforehand ([`joint_positions`] of the
+/// same window): both are differentiated in one pass and filtered side by side.
+pub(crate) fn filtered_derivatives_of(
     skel: &SkeletonWindow,
-    joint: Joint,
+    positions: &[Vector3<f64>],
     cfg: &GeometricConfig,
 ) -> Option<JointDerivatives> {
     if skel.joints_world_m.len() != skel.t_s.len() {
         return None;
     }
     let rate = grid_rate_hz(&skel.t_s)?;
-    let (mut vel, mut acc) = differentiate_runs_both(&skel.t_s, &joint_positions(skel, joint));
+    let (mut vel, mut acc) = differentiate_runs_both(&skel.t_s, positions);
     lowpass_vector_pairs(&mut vel, &mut acc, &cfg.butterworth(rate), cfg.zero_phase);
     Some((vel, acc))
 }
@@ -411,8 +412,25 @@ pub fn segment_orientation_magnitude(
 /// The segment carrying a sensor at `site` ([`carrying_segment`]) per sample of a window, from
 /// its parent joint to its child (`NaN` where either is missing).
 pub(crate) fn segment_bones(skel: &SkeletonWindow, site: Joint) -> Vec<Vector3<f64>> {
+    segment_bones_with(skel, site, &joint_positions(skel, site))
+}
+
+/// [`segment_bones`] with the positions of `site` itself read beforehand ([`joint_positions`]
+/// of the same window), which the segment ends at unless `site` has no parent.
+pub(crate) fn segment_bones_with(
+    skel: &SkeletonWindow,
+    site: Joint,
+    site_positions: &[Vector3<f64>],
+) -> Vec<Vector3<f64>> {
     let (from, to) = carrying_segment(site);
-    joint_positions(skel, to)
+    let read;
+    let to_positions = if to == site {
+        site_positions
+    } else {
+        read = joint_positions(skel, to);
+        &read
+    };
+    to_positions
         .iter()
         .zip(joint_positions(skel, from))
         .map(|(b, a)| b - a)
