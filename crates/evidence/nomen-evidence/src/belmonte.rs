@@ -169,6 +169,21 @@ pub fn mse(x: &[f64], y: &[f64], min_samples: usize) -> Option<f64> {
     (n >= min_samples.max(1)).then(|| sum / n as f64)
 }
 
+/// [`mse`] of `x` and of `x` negated against `y`, in one pass: the same sums in the same order
+/// as each alone (`−a − b` is what `mse` computes for the negated `a`).
+fn mse_and_negated(x: &[f64], y: &[f64], min_samples: usize) -> (Option<f64>, Option<f64>) {
+    let (mut n, mut sum, mut sum_negated) = (0usize, 0.0, 0.0);
+    for (a, b) in x.iter().zip(y) {
+        if a.is_finite() && b.is_finite() {
+            n += 1;
+            sum += (a - b).powi(2);
+            sum_negated += (-a - b).powi(2);
+        }
+    }
+    let mean = |s: f64| (n >= min_samples.max(1)).then(|| s / n as f64);
+    (mean(sum), mean(sum_negated))
+}
+
 /// Belmonte-Hernández's pitch and yaw-rate costs of the band `imu` worn on the `side` wrist
 /// against the candidate skeleton `skel` (see the module docs). Never panics on bad data: a
 /// cost is `None` when its signals are missing, inconsistent or too short.
@@ -193,13 +208,21 @@ pub fn belmonte_costs(
 /// skeletons: the pitch of each candidate sensor axis and the yaw rate.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct BandSignals {
-    /// Pitch per candidate forearm axis (`BelmonteConfig::forearm_axis`, or all six), rad.
-    pub axis_pitch_rad: Vec<(SensorAxis, Vec<f64>)>,
+    /// Pitch per candidate forearm axis (`BelmonteConfig::forearm_axis`, or all six), rad; a
+    /// negative axis's the exact negation of its positive axis's (private, so that it stays
+    /// so: [`belmonte_costs_from`] prices both from one pass).
+    axis_pitch_rad: Vec<(SensorAxis, Vec<f64>)>,
     /// Yaw rate ([`band_yaw_rate_radps`]).
     pub yaw_rate_radps: Vec<f64>,
 }
 
 impl BandSignals {
+    /// Pitch per candidate forearm axis (`BelmonteConfig::forearm_axis`, or all six, in
+    /// [`SensorAxis::ALL`]'s order), rad.
+    pub fn axis_pitch_rad(&self) -> &[(SensorAxis, Vec<f64>)] {
+        &self.axis_pitch_rad
+    }
+
     /// The band's signals over its window.
     pub fn new(imu: &ImuWindow, cfg: &BelmonteConfig) -> Self {
         let pitches: Vec<[f64; 3]> = imu.world_from_sensor.iter().map(axis_pitches_rad).collect();
@@ -316,13 +339,27 @@ pub fn belmonte_costs_from(
         .iter()
         .filter(|(w, _)| side.wrists().contains(w))
     {
-        // The lowest pitch MSE over the candidate sensor axes, for this wrist.
+        // The lowest pitch MSE over the candidate sensor axes, for this wrist, in the axes'
+        // order. A negative axis right after its positive one is priced in the same pass: its
+        // pitch is the other's negated, exactly (see `BandSignals::axis_pitch_rad`).
         let mut wrist_best: Option<(f64, SensorAxis)> = None;
-        for (axis, pitch) in &band.axis_pitch_rad {
-            if let Some(cost) = mse(pitch, skel_pitch, cfg.min_samples)
+        let mut consider = |cost: Option<f64>, axis: SensorAxis| {
+            if let Some(cost) = cost
                 && wrist_best.is_none_or(|(b, _)| cost < b)
             {
-                wrist_best = Some((cost, *axis));
+                wrist_best = Some((cost, axis));
+            }
+        };
+        let mut axes = band.axis_pitch_rad.iter().peekable();
+        while let Some((axis, pitch)) = axes.next() {
+            let (k, is_positive) = axis.index_and_sign();
+            match axes.next_if(|(next, _)| is_positive && next.index_and_sign() == (k, false)) {
+                Some((negative, _)) => {
+                    let (own, negated) = mse_and_negated(pitch, skel_pitch, cfg.min_samples);
+                    consider(own, *axis);
+                    consider(negated, *negative);
+                }
+                None => consider(mse(pitch, skel_pitch, cfg.min_samples), *axis),
             }
         }
         if let Some((cost, axis)) = wrist_best

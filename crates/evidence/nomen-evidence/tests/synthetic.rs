@@ -4,14 +4,14 @@
 
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
 use nomen_core::skeleton::{Joint, Joints};
-use nomen_evidence::belmonte::{band_axis_pitch_rad, skeleton_yaw_rate_unsmoothed_radps};
+use nomen_evidence::belmonte::{band_axis_pitch_rad, mse, skeleton_yaw_rate_unsmoothed_radps};
 use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
     BandSignals, BelmonteConfig, ForearmSignals, GeometricConfig, ImuWindow, KinematicConfig,
-    SensorAxis, Side, SkeletonWindow, belmonte_costs, best_lag, body_turn_rate_from,
-    body_turn_rate_signal, geometric_scores, imu_accel_magnitude, imu_orientation_magnitude,
-    imu_velocity_magnitude, joint_accel_magnitude, joint_velocity_magnitude,
-    segment_orientation_magnitude,
+    SensorAxis, Side, SkeletonWindow, belmonte_costs, belmonte_costs_from, best_lag,
+    body_turn_rate_from, body_turn_rate_signal, geometric_scores, imu_accel_magnitude,
+    imu_orientation_magnitude, imu_velocity_magnitude, joint_accel_magnitude,
+    joint_velocity_magnitude, segment_orientation_magnitude,
 };
 use std::f64::consts::{FRAC_PI_2, TAU};
 
@@ -300,8 +300,8 @@ fn a_bands_six_axis_pitches_from_three_per_sample_equal_each_axis_computed_alone
     };
     for (cfg, num_axes) in [(all, SensorAxis::ALL.len()), (one, 1)] {
         let band = BandSignals::new(&imu, &cfg);
-        assert_eq!(band.axis_pitch_rad.len(), num_axes);
-        for (axis, pitch) in &band.axis_pitch_rad {
+        assert_eq!(band.axis_pitch_rad().len(), num_axes);
+        for (axis, pitch) in band.axis_pitch_rad() {
             // Exactly what the axis gives computed on its own (a zero may come out with the
             // other sign, which compares equal).
             let alone = band_axis_pitch_rad(&imu, *axis, &cfg);
@@ -311,6 +311,45 @@ fn a_bands_six_axis_pitches_from_three_per_sample_equal_each_axis_computed_alone
             }
             assert!(pitch.iter().any(|v| v.is_nan()));
             assert!(pitch.iter().any(|v| v.is_finite() && *v != 0.0));
+        }
+    }
+}
+
+#[test]
+fn a_bands_pitch_costs_priced_in_pairs_equal_each_axis_priced_alone() {
+    let t_s = grid(200);
+    let imu = imu_window(&ALICE, &t_s, 0.0);
+    for skel in [skeleton_window(&ALICE, &t_s), skeleton_window(&BOB, &t_s)] {
+        for cfg in [
+            BelmonteConfig::default(),
+            BelmonteConfig {
+                forearm_axis: Some(SensorAxis::NegZ),
+                ..BelmonteConfig::default()
+            },
+        ] {
+            let band = BandSignals::new(&imu, &cfg);
+            for side in [Side::Left, Side::Right, Side::Unknown] {
+                let arm = ForearmSignals::new(&skel, side, &cfg);
+                let costs = belmonte_costs_from(&band, &arm, side, &cfg);
+                // Every (wrist, axis) priced on its own, the lowest kept in order.
+                let mut best: Option<(f64, Joint, SensorAxis)> = None;
+                for (wrist, skel_pitch) in &arm.wrist_pitch_rad {
+                    for (axis, pitch) in band.axis_pitch_rad() {
+                        if let Some(c) = mse(pitch, skel_pitch, cfg.min_samples)
+                            && best.is_none_or(|(b, _, _)| c < b)
+                        {
+                            best = Some((c, *wrist, *axis));
+                        }
+                    }
+                }
+                assert_eq!(
+                    costs.pitch_mse.map(f64::to_bits),
+                    best.map(|b| b.0.to_bits())
+                );
+                assert_eq!(costs.wrist, best.map(|b| b.1));
+                assert_eq!(costs.forearm_axis, best.map(|b| b.2));
+                assert!(costs.pitch_mse.is_some());
+            }
         }
     }
 }
