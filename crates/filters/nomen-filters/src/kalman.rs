@@ -233,6 +233,19 @@ impl Estimate {
     }
 }
 
+/// Updates each axis with its coordinate of `z` and its variance on `r`'s diagonal; on a
+/// numerical failure the axes stay as they were.
+fn update_axes(axes: &mut [Axis; 3], z: &Point3<f64>, r: &Matrix3<f64>) -> Result<()> {
+    let mut next = *axes;
+    for (i, a) in next.iter_mut().enumerate() {
+        if !a.update(z[i], r[(i, i)]) {
+            return Err(FilterError::Numerical("joint kalman update"));
+        }
+    }
+    *axes = next;
+    Ok(())
+}
+
 /// True when the off-diagonal entries of `r` are exactly zero.
 fn is_diagonal(r: &Matrix3<f64>) -> bool {
     (0..3).all(|i| (0..3).all(|j| i == j || r[(i, j)] == 0.0))
@@ -357,13 +370,7 @@ impl JointKalman {
             return Ok(UpdateOutcome::Initialized);
         };
         if is_separable && let Estimate::Axes(axes) = prior {
-            let mut next = *axes;
-            for (i, a) in next.iter_mut().enumerate() {
-                if !a.update(z[i], r[(i, i)]) {
-                    return Err(FilterError::Numerical("joint kalman update"));
-                }
-            }
-            *axes = next;
+            update_axes(axes, z, r)?;
             return Ok(UpdateOutcome::Applied);
         }
         let h = position_observation();
@@ -444,13 +451,9 @@ impl JointKalman {
             (None, _) => None,
             (Some(_), None) => Some(UpdateOutcome::RejectedAsMissing),
             (Some(_), Some((z, r))) => {
-                let mut next = prior;
-                for (i, a) in next.iter_mut().enumerate() {
-                    if !a.update(z[i], r[(i, i)]) {
-                        return Some(Err(FilterError::Numerical("joint kalman update")));
-                    }
+                if let Err(e) = update_axes(axes, z, r) {
+                    return Some(Err(e));
                 }
-                *axes = next;
                 Some(UpdateOutcome::Applied)
             }
         };
