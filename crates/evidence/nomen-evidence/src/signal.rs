@@ -603,14 +603,10 @@ pub(crate) fn lowpass_vectors(
         return;
     };
     let runs = finite_runs(x.len(), |i| is_finite3(&x[i]));
-    let mut covered = vec![false; x.len()];
-    for run in runs {
-        if let Some(seg) = x.get_mut(run.clone())
-            && filter.filter_vectors(seg).is_ok()
-        {
-            covered[run].iter_mut().for_each(|c| *c = true);
-        }
-    }
+    let covered = covered_by(x.len(), runs, |run| {
+        x.get_mut(run)
+            .is_some_and(|seg| filter.filter_vectors(seg).is_ok())
+    });
     for (v, c) in x.iter_mut().zip(covered) {
         if !c {
             *v = nan3();
@@ -685,6 +681,22 @@ pub(crate) fn differentiate_runs_both(
     (vel, acc)
 }
 
+/// Which of `len` samples lie in one of `runs` that `filter_run` filtered (it answers whether
+/// it could): the zero-phase low-pass leaves the others missing.
+fn covered_by(
+    len: usize,
+    runs: Vec<std::ops::Range<usize>>,
+    mut filter_run: impl FnMut(std::ops::Range<usize>) -> bool,
+) -> Vec<bool> {
+    let mut covered = vec![false; len];
+    for run in runs {
+        if filter_run(run.clone()) {
+            covered[run].iter_mut().for_each(|c| *c = true);
+        }
+    }
+    covered
+}
+
 /// [`lowpass_vectors`] of two series at once: the zero-phase filter runs over both side by
 /// side where their runs of present samples are the same (as a velocity's and an acceleration's
 /// from one joint are), which gives each the same result as its own call.
@@ -704,14 +716,12 @@ pub(crate) fn lowpass_vector_pairs(
         a.iter_mut().chain(b.iter_mut()).for_each(|v| *v = nan3());
         return;
     };
-    let mut covered = vec![false; a.len()];
-    for run in runs {
-        if let (Some(sa), Some(sb)) = (a.get_mut(run.clone()), b.get_mut(run.clone()))
-            && filter.filter_vector_pairs(sa, sb).is_ok()
-        {
-            covered[run].iter_mut().for_each(|c| *c = true);
+    let covered = covered_by(a.len(), runs, |run| {
+        match (a.get_mut(run.clone()), b.get_mut(run)) {
+            (Some(sa), Some(sb)) => filter.filter_vector_pairs(sa, sb).is_ok(),
+            _ => false,
         }
-    }
+    });
     for ((a, b), c) in a.iter_mut().zip(b.iter_mut()).zip(covered) {
         if !c {
             *a = nan3();
