@@ -64,6 +64,7 @@ impl ImuFeatures {
             imu,
             &imu_linear_accel_world(imu, geo),
             &elevations,
+            None,
             geo,
             kin,
         )
@@ -79,21 +80,12 @@ impl ImuFeatures {
     /// A sliced acceleration is filtered from before the window's start, where the skeleton's
     /// is not (its low-pass starts with the track): compare it with a skeleton whose run
     /// edges are dropped ([`SegmentFeatures::drop_run_edges`]).
+    ///
+    /// `shared_swing`, if given, is the [`RawSwing`] of a longer window that this one ends and
+    /// the index of this window's first sample in it: the swing angles are taken from it where
+    /// it holds them at the lag this window's swing uses (the same values, each computed once
+    /// for all the suffixes of a grid).
     pub fn from_parts(
-        imu: &ImuWindow,
-        lin_world_mps2: &[Vector3<f64>],
-        elevations: &[[f64; 3]],
-        geo: &GeometricConfig,
-        kin: &KinematicConfig,
-    ) -> Self {
-        Self::from_parts_sharing(imu, lin_world_mps2, elevations, None, geo, kin)
-    }
-
-    /// [`ImuFeatures::from_parts`] taking the window's swing angles from `shared_swing`, the
-    /// [`RawSwing`] of a longer window that this one ends (and the index of this window's first
-    /// sample in it), where that holds them at the lag this window's swing uses: the same
-    /// values, each computed once for all the suffixes of a grid.
-    pub fn from_parts_sharing(
         imu: &ImuWindow,
         lin_world_mps2: &[Vector3<f64>],
         elevations: &[[f64; 3]],
@@ -148,26 +140,13 @@ impl ImuFeatures {
         imu: &ImuWindow,
         lin_world_mps2: &[Vector3<f64>],
         elevations: &[[f64; 3]],
-        geo: &GeometricConfig,
-        kin: &KinematicConfig,
-        anchor: usize,
-    ) -> Self {
-        Self::from_parts_anchored_sharing(imu, lin_world_mps2, elevations, None, geo, kin, anchor)
-    }
-
-    /// [`ImuFeatures::from_parts_anchored`] with the swing angles shared as in
-    /// [`ImuFeatures::from_parts_sharing`].
-    pub fn from_parts_anchored_sharing(
-        imu: &ImuWindow,
-        lin_world_mps2: &[Vector3<f64>],
-        elevations: &[[f64; 3]],
         shared_swing: Option<(&RawSwing, usize)>,
         geo: &GeometricConfig,
         kin: &KinematicConfig,
         anchor: usize,
     ) -> Self {
         let mut features =
-            Self::from_parts_sharing(imu, lin_world_mps2, elevations, shared_swing, geo, kin);
+            Self::from_parts(imu, lin_world_mps2, elevations, shared_swing, geo, kin);
         if anchor == 0 {
             return features;
         }
@@ -225,7 +204,7 @@ impl ImuFeatures {
 
 /// A window's swing angles before smoothing (the angle each orientation turned from the one
 /// `lag` samples before; `NaN` where either is missing or out of the window), kept so that the
-/// window's suffixes take theirs from it ([`ImuFeatures::from_parts_sharing`]): a suffix's
+/// window's suffixes take theirs from it ([`ImuFeatures::from_parts`]): a suffix's
 /// angle at a sample whose earlier sample is in the suffix too is the same number.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RawSwing {
@@ -961,15 +940,9 @@ mod tests {
         for from in [0, 1, 3, 45, 52, 100] {
             let tail = imu.tail(from);
             let (lin, elevations) = (&lin[from..], &elevations[from..]);
-            let own = ImuFeatures::from_parts(&tail, lin, elevations, &geo, &kin);
-            let shared = ImuFeatures::from_parts_sharing(
-                &tail,
-                lin,
-                elevations,
-                Some((&raw, from)),
-                &geo,
-                &kin,
-            );
+            let own = ImuFeatures::from_parts(&tail, lin, elevations, None, &geo, &kin);
+            let shared =
+                ImuFeatures::from_parts(&tail, lin, elevations, Some((&raw, from)), &geo, &kin);
             assert_eq!(bits(&own), bits(&shared), "from {from}");
             assert_eq!(
                 format!("{own:?}"),
@@ -983,9 +956,9 @@ mod tests {
             swing_lag_s: kin.swing_lag_s * 2.0,
             ..kin
         };
-        let own = ImuFeatures::from_parts(&imu, &lin, &elevations, &geo, &other);
+        let own = ImuFeatures::from_parts(&imu, &lin, &elevations, None, &geo, &other);
         let shared =
-            ImuFeatures::from_parts_sharing(&imu, &lin, &elevations, Some((&raw, 0)), &geo, &other);
+            ImuFeatures::from_parts(&imu, &lin, &elevations, Some((&raw, 0)), &geo, &other);
         assert_eq!(bits(&own), bits(&shared));
         assert_eq!(raw.suffix(110, raw.lag, 20), None, "past the end");
     }
@@ -1098,6 +1071,7 @@ mod tests {
             &imu,
             &imu_linear_accel_world(&imu, &geo),
             &elevations,
+            None,
             &geo,
             &kin,
         );
@@ -1110,7 +1084,8 @@ mod tests {
         // differs from the tail filtered on its own near the tail's start only.
         let tail = imu.tail(60);
         let sliced_lin = &imu_linear_accel_world(&imu, &geo)[60..];
-        let sliced = ImuFeatures::from_parts(&tail, sliced_lin, &elevations[60..], &geo, &kin);
+        let sliced =
+            ImuFeatures::from_parts(&tail, sliced_lin, &elevations[60..], None, &geo, &kin);
         let alone = ImuFeatures::new(&tail, &geo, &kin);
         let ma = geo.moving_average_len;
         assert_eq!(
@@ -1125,7 +1100,7 @@ mod tests {
         );
         assert!(gap(45) < 0.1 * gap(ma), "{} vs {}", gap(45), gap(ma));
         // An acceleration of another length counts as missing.
-        let short = ImuFeatures::from_parts(&imu, &sliced_lin[..10], &elevations, &geo, &kin);
+        let short = ImuFeatures::from_parts(&imu, &sliced_lin[..10], &elevations, None, &geo, &kin);
         assert!(short.accel_magnitude.iter().all(|v| v.is_nan()));
         assert_eq!(short.orientation_magnitude, own.orientation_magnitude);
     }
@@ -1138,19 +1113,27 @@ mod tests {
         let elevations = axis_elevations_of(&imu);
         let lin = imu_linear_accel_world(&imu, &geo);
         let anchor = 40;
-        let whole = ImuFeatures::from_parts(&imu, &lin, &elevations, &geo, &kin);
+        let whole = ImuFeatures::from_parts(&imu, &lin, &elevations, None, &geo, &kin);
         // Bit for bit (`NaN`s included).
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(
             format!(
                 "{:?}",
-                ImuFeatures::from_parts_anchored(&imu, &lin, &elevations, &geo, &kin, 0)
+                ImuFeatures::from_parts_anchored(&imu, &lin, &elevations, None, &geo, &kin, 0)
             ),
             format!("{whole:?}")
         );
-        let padded = ImuFeatures::from_parts_anchored(&imu, &lin, &elevations, &geo, &kin, anchor);
+        let padded =
+            ImuFeatures::from_parts_anchored(&imu, &lin, &elevations, None, &geo, &kin, anchor);
         let tail = imu.tail(anchor);
-        let own = ImuFeatures::from_parts(&tail, &lin[anchor..], &elevations[anchor..], &geo, &kin);
+        let own = ImuFeatures::from_parts(
+            &tail,
+            &lin[anchor..],
+            &elevations[anchor..],
+            None,
+            &geo,
+            &kin,
+        );
         assert_eq!(padded.len(), imu.t_s.len() - anchor);
         // Filtered and smoothed over the pad: the whole grid's values, sliced.
         assert_eq!(

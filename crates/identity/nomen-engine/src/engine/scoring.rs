@@ -317,6 +317,7 @@ impl Engine {
             // and heading line.
             let mut unsmoothed_yaw: Option<Vec<f64>> = None;
             let heading_line = BelmonteConfig::default();
+            let yaw_of_padded = || skeleton_yaw_rate_unsmoothed_radps(&padded, &heading_line);
             let shares_yaw =
                 anchor == 0 && belmonte.min_heading_line_m == heading_line.min_heading_line_m;
             // The skeleton side of Belmonte's costs, per band side.
@@ -369,7 +370,7 @@ impl Engine {
                             .map(|v| v.unwrap_or([f64::NAN; 3]))
                             .collect()
                     };
-                    let features = ImuFeatures::from_parts_anchored_sharing(
+                    let features = ImuFeatures::from_parts_anchored(
                         &win,
                         base.lin_world_mps2.get(grid_from..).unwrap_or(&[]),
                         &terms(&imu.axis_elevation_rad),
@@ -418,9 +419,7 @@ impl Engine {
                         None => {
                             let turn = turn_rate
                                 .get_or_insert_with(|| {
-                                    let yaw = unsmoothed_yaw.get_or_insert_with(|| {
-                                        skeleton_yaw_rate_unsmoothed_radps(&padded, &heading_line)
-                                    });
+                                    let yaw = unsmoothed_yaw.get_or_insert_with(yaw_of_padded);
                                     body_turn_rate_from(
                                         &padded,
                                         yaw.clone(),
@@ -581,9 +580,7 @@ impl Engine {
                             let arm = match arms.first() {
                                 Some((_, first)) => first.for_side(skel, side, &belmonte),
                                 None if shares_yaw => {
-                                    let yaw = unsmoothed_yaw.get_or_insert_with(|| {
-                                        skeleton_yaw_rate_unsmoothed_radps(&padded, &heading_line)
-                                    });
+                                    let yaw = unsmoothed_yaw.get_or_insert_with(yaw_of_padded);
                                     ForearmSignals::with_unsmoothed_yaw_rate(
                                         skel,
                                         side,
