@@ -39,7 +39,7 @@ use crate::signal::{
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
 use nalgebra::{UnitQuaternion, Vector3};
 use nomen_core::skeleton::Joint;
-use nomen_filters::gravity::{STANDARD_GRAVITY_MPS2, remove_gravity};
+use nomen_filters::gravity::{STANDARD_GRAVITY_MPS2, remove_gravity_world};
 use nomen_filters::lowpass::ButterworthConfig;
 use serde::{Deserialize, Serialize};
 
@@ -153,7 +153,7 @@ pub fn imu_linear_accel_world(imu: &ImuWindow, cfg: &GeometricConfig) -> Vec<Vec
         .world_from_sensor
         .iter()
         .zip(&imu.accel_mps2)
-        .map(|(q, f)| remove_gravity(q, f, cfg.gravity_mps2).map_or_else(nan3, |l| l.world_mps2))
+        .map(|(q, f)| remove_gravity_world(q, f, cfg.gravity_mps2).unwrap_or_else(nan3))
         .collect();
     lowpass_vectors(&mut lin, &cfg.butterworth(rate), cfg.zero_phase);
     lin

@@ -41,6 +41,23 @@ pub fn remove_gravity(
     accel_in_sensor_mps2: &Vector3<f64>,
     g0_mps2: f64,
 ) -> Option<LinearAcceleration> {
+    let world_mps2 = remove_gravity_world(world_from_sensor, accel_in_sensor_mps2, g0_mps2)?;
+    let up_g = Vector3::new(0.0, 0.0, g0_mps2);
+    let sensor_mps2 = accel_in_sensor_mps2 - world_from_sensor.inverse_transform_vector(&up_g);
+    Some(LinearAcceleration {
+        world_mps2,
+        sensor_mps2,
+    })
+}
+
+/// The world-frame part of [`remove_gravity`] alone (the same numbers), for a caller that has
+/// no use for the sensor frame's: `None` if anything is non-finite.
+#[inline]
+pub fn remove_gravity_world(
+    world_from_sensor: &UnitQuaternion<f64>,
+    accel_in_sensor_mps2: &Vector3<f64>,
+    g0_mps2: f64,
+) -> Option<Vector3<f64>> {
     let is_finite = accel_in_sensor_mps2.iter().all(|v| v.is_finite())
         && world_from_sensor.coords.iter().all(|v| v.is_finite())
         && g0_mps2.is_finite();
@@ -48,12 +65,7 @@ pub fn remove_gravity(
         return None;
     }
     let up_g = Vector3::new(0.0, 0.0, g0_mps2);
-    let world_mps2 = world_from_sensor * accel_in_sensor_mps2 - up_g;
-    let sensor_mps2 = accel_in_sensor_mps2 - world_from_sensor.inverse_transform_vector(&up_g);
-    Some(LinearAcceleration {
-        world_mps2,
-        sensor_mps2,
-    })
+    Some(world_from_sensor * accel_in_sensor_mps2 - up_g)
 }
 
 /// [`remove_gravity`] on an [`ImuSample`] that carries its own orientation
@@ -166,6 +178,21 @@ mod tests {
         assert!((lin.world_mps2 - a_world).norm() < 1e-12);
         assert!((lin.sensor_mps2 - Vector3::new(1.0, 0.0, 0.0)).norm() < 1e-12);
         assert!(remove_gravity(&q, &Vector3::new(f64::NAN, 0.0, 0.0), 9.81).is_none());
+        assert!(remove_gravity_world(&q, &Vector3::new(f64::NAN, 0.0, 0.0), 9.81).is_none());
+    }
+
+    #[test]
+    fn world_part_alone_is_the_same_numbers() {
+        let q = UnitQuaternion::from_euler_angles(0.7, -0.2, 2.9);
+        for f in [Vector3::new(0.3, -9.6, 1.7), Vector3::new(-2.5, 0.1, 8.8)] {
+            let both = remove_gravity(&q, &f, 9.81).unwrap();
+            let world = remove_gravity_world(&q, &f, 9.81).unwrap();
+            assert_eq!(world.map(f64::to_bits), both.world_mps2.map(f64::to_bits));
+        }
+        let bad_q =
+            UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(f64::NAN, 0.0, 0.0, 0.0));
+        assert!(remove_gravity_world(&bad_q, &Vector3::x(), 9.81).is_none());
+        assert!(remove_gravity_world(&q, &Vector3::x(), f64::INFINITY).is_none());
     }
 
     #[test]
