@@ -32,6 +32,7 @@ use nomen_rssi::{
     background_log_likelihood, log_likelihood, pair_score,
 };
 use scoring::key_joint_near;
+use std::cell::Cell;
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 
 /// Step of the clock-offset search, ns (one IMU sample at 100 Hz).
@@ -316,6 +317,41 @@ fn scaled_count(n: usize, scale: f64) -> usize {
     ((n as f64 * scale).round() as usize).max(1)
 }
 
+/// Three numbers per settled IMU sample computed from its orientation alone, the first time a
+/// window's grid reads them and kept for the windows after: a 30-Hz camera's grid takes one in
+/// three of a 100-Hz IMU's orientations, so most are never read.
+struct OrientationTerms {
+    /// Per settled sample (aligned with [`ImuState::t`]), its terms once read.
+    values: VecDeque<Cell<Option<[f64; 3]>>>,
+    of: fn(&UnitQuaternion<f64>) -> [f64; 3],
+}
+
+impl OrientationTerms {
+    fn new(of: fn(&UnitQuaternion<f64>) -> [f64; 3]) -> Self {
+        Self {
+            values: VecDeque::new(),
+            of,
+        }
+    }
+
+    /// A newly settled sample, its terms not computed yet.
+    fn push(&mut self) {
+        self.values.push_back(Cell::new(None));
+    }
+
+    /// The terms of settled sample `k`, whose orientation is `world_from_sensor[k]`: computed
+    /// at the first read. `None` past the samples.
+    fn get(&self, k: usize, world_from_sensor: &[UnitQuaternion<f64>]) -> Option<[f64; 3]> {
+        let cell = self.values.get(k)?;
+        if let Some(terms) = cell.get() {
+            return Some(terms);
+        }
+        let terms = (self.of)(world_from_sensor.get(k)?);
+        cell.set(Some(terms));
+        Some(terms)
+    }
+}
+
 struct ImuState {
     device: DeviceId,
     subject: usize,
@@ -340,13 +376,13 @@ struct ImuState {
     /// Per sample, the elevation of the sensor's axes
     /// ([`nomen_evidence::features::axis_elevations_rad`] of `world_from_sensor`), which every
     /// window grid that takes the sample's orientation reads.
-    axis_elevation_rad: VecDeque<[f64; 3]>,
+    axis_elevation_rad: OrientationTerms,
     /// Whether windows build Belmonte-Hernández's band signals for this IMU (a forearm site,
     /// and [`EngineConfig::wants_belmonte`]).
     wants_band_pitch: bool,
     /// Per sample when `wants_band_pitch` (empty otherwise), the band pitches of the sensor's
     /// +axes ([`nomen_evidence::belmonte::axis_pitches_rad`]).
-    axis_pitch_rad: VecDeque<[f64; 3]>,
+    axis_pitch_rad: OrientationTerms,
     /// Settled samples forgotten so far: the stream index of `t[0]`.
     num_forgotten: usize,
     /// The lag search's signals kept from one window to the next.
@@ -463,8 +499,8 @@ impl ImuState {
         contiguous(&mut self.accel);
         contiguous(&mut self.gyro);
         contiguous(&mut self.world_from_sensor);
-        contiguous(&mut self.axis_elevation_rad);
-        contiguous(&mut self.axis_pitch_rad);
+        contiguous(&mut self.axis_elevation_rad.values);
+        contiguous(&mut self.axis_pitch_rad.values);
     }
 
     fn pop_front(&mut self) {
@@ -474,8 +510,8 @@ impl ImuState {
         self.accel.pop_front();
         self.gyro.pop_front();
         self.world_from_sensor.pop_front();
-        self.axis_elevation_rad.pop_front();
-        self.axis_pitch_rad.pop_front();
+        self.axis_elevation_rad.values.pop_front();
+        self.axis_pitch_rad.values.pop_front();
     }
 
     fn newest_session(&self) -> Option<i64> {
@@ -704,10 +740,10 @@ impl Engine {
                     accel: VecDeque::new(),
                     gyro: VecDeque::new(),
                     world_from_sensor: VecDeque::new(),
-                    axis_elevation_rad: VecDeque::new(),
+                    axis_elevation_rad: OrientationTerms::new(axis_elevations_rad),
                     wants_band_pitch: config.wants_belmonte()
                         && scoring::band_side(w.site).is_some(),
-                    axis_pitch_rad: VecDeque::new(),
+                    axis_pitch_rad: OrientationTerms::new(axis_pitches_rad),
                     num_forgotten: 0,
                     lag_memo: ImuLagMemo::default(),
                     lag_step: None,
@@ -1818,9 +1854,9 @@ fn settle_imu(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats
         imu.accel.push_back(accel);
         imu.gyro.push_back(gyro);
         imu.world_from_sensor.push_back(q);
-        imu.axis_elevation_rad.push_back(axis_elevations_rad(&q));
+        imu.axis_elevation_rad.push();
         if imu.wants_band_pitch {
-            imu.axis_pitch_rad.push_back(axis_pitches_rad(&q));
+            imu.axis_pitch_rad.push();
         }
     }
 }

@@ -2,8 +2,9 @@
 //! location-tag and RSSI scores, accumulated per track (see the crate docs, step 2).
 
 use super::{
-    Engine, MAX_IMU_GAP_NS, SIDE_MIN_MEAN_VOTE, SIDE_MIN_VOTES, SILENT_WEARER_SLACK_NS, TrackKey,
-    TrackState, WINDOW_MIN_TRACK_SAMPLES, accumulate, covered_span, sample_range, scaled_count,
+    Engine, MAX_IMU_GAP_NS, OrientationTerms, SIDE_MIN_MEAN_VOTE, SIDE_MIN_VOTES,
+    SILENT_WEARER_SLACK_NS, TrackKey, TrackState, WINDOW_MIN_TRACK_SAMPLES, accumulate,
+    covered_span, sample_range, scaled_count,
 };
 use crate::config::MotionScore;
 use crate::signal::imu_window_on_grid;
@@ -19,7 +20,7 @@ use nomen_evidence::{
     ScoreTensor, SegmentFeatures, SegmentUnits, Side, SkeletonWindow, belmonte_costs_from,
     body_turn_rate_from, compare_prepared, fuse, horizontal_cross_prepared, imu_linear_accel_world,
 };
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::BTreeMap;
 use std::rc::Rc;
 
 impl Engine {
@@ -361,12 +362,12 @@ impl Engine {
                         Rc::new(base.window.tail(grid_from))
                     };
                     let orientation_from = base.orientation_from.get(grid_from..).unwrap_or(&[]);
-                    // The orientation's per-sample terms, computed when the samples settled.
-                    let terms = |of: &VecDeque<[f64; 3]>| -> Vec<[f64; 3]> {
-                        let of = of.as_slices().0;
+                    // The orientation's per-sample terms, computed at their first read.
+                    let orientations = imu.world_from_sensor.as_slices().0;
+                    let terms = |of: &OrientationTerms| -> Vec<[f64; 3]> {
                         orientation_from
                             .iter()
-                            .map(|k| k.and_then(|k| of.get(k)).copied())
+                            .map(|k| k.and_then(|k| of.get(k, orientations)))
                             .map(|v| v.unwrap_or([f64::NAN; 3]))
                             .collect()
                     };
