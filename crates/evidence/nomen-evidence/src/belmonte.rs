@@ -226,13 +226,20 @@ impl BandSignals {
     /// The band's signals over its window.
     pub fn new(imu: &ImuWindow, cfg: &BelmonteConfig) -> Self {
         let pitches: Vec<[f64; 3]> = imu.world_from_sensor.iter().map(axis_pitches_rad).collect();
-        Self::with_axis_pitches(imu, &pitches, cfg)
+        Self::from_parts(imu, &pitches, vertical_rate_unsmoothed_radps(imu), cfg)
     }
 
-    /// [`BandSignals::new`] with each grid sample's [`axis_pitches_rad`] given (one per
-    /// orientation of `imu`, in order): a caller resampling the same IMU samples onto many grids
-    /// computes them once per sample.
-    pub fn with_axis_pitches(imu: &ImuWindow, pitches: &[[f64; 3]], cfg: &BelmonteConfig) -> Self {
+    /// [`BandSignals::new`] from parts built beforehand by a caller that resamples the same IMU
+    /// samples onto many grids: each grid sample's [`axis_pitches_rad`] (one per orientation of
+    /// `imu`, in order), computed once per sample, and the window's
+    /// [`vertical_rate_unsmoothed_radps`], which the grid's suffixes share (one of another length
+    /// counts as missing).
+    pub fn from_parts(
+        imu: &ImuWindow,
+        pitches: &[[f64; 3]],
+        unsmoothed_yaw_rate_radps: Vec<f64>,
+        cfg: &BelmonteConfig,
+    ) -> Self {
         let axes: &[SensorAxis] = match &cfg.forearm_axis {
             Some(axis) => std::slice::from_ref(axis),
             None => &SensorAxis::ALL,
@@ -261,7 +268,7 @@ impl BandSignals {
             .collect();
         BandSignals {
             axis_pitch_rad,
-            yaw_rate_radps: band_yaw_rate_radps(imu, cfg),
+            yaw_rate_radps: smoothed_rate(imu, unsmoothed_yaw_rate_radps, cfg.moving_average_len),
         }
     }
 }
@@ -424,21 +431,36 @@ fn elevation_rad(d: &Vector3<f64>) -> f64 {
 
 /// The band's world-frame vertical angular rate `(world_from_sensor · ω)_z`, rad/s, smoothed.
 pub fn band_yaw_rate_radps(imu: &ImuWindow, cfg: &BelmonteConfig) -> Vec<f64> {
-    let n = imu.t_s.len();
-    let mut out: Vec<f64> = imu
-        .world_from_sensor
+    smoothed_rate(
+        imu,
+        vertical_rate_unsmoothed_radps(imu),
+        cfg.moving_average_len,
+    )
+}
+
+/// The sensor's world-frame vertical angular rate `(world_from_sensor · ω)_z` at each sample of
+/// its window, rad/s, before any smoothing (`NaN` where not finite). Each value depends on its
+/// own sample alone, so the suffixes of a window share it.
+pub fn vertical_rate_unsmoothed_radps(imu: &ImuWindow) -> Vec<f64> {
+    imu.world_from_sensor
         .iter()
         .zip(&imu.gyro_radps)
         .map(|(q, w): (&UnitQuaternion<f64>, _)| {
             let z = (q * w).z;
             if z.is_finite() { z } else { f64::NAN }
         })
-        .collect();
-    if out.len() != n {
-        out = vec![f64::NAN; n];
+        .collect()
+}
+
+/// `unsmoothed` (a rate per sample of `imu`'s window; all missing if its length is another)
+/// averaged over `len` samples.
+pub(crate) fn smoothed_rate(imu: &ImuWindow, mut unsmoothed: Vec<f64>, len: usize) -> Vec<f64> {
+    let n = imu.t_s.len();
+    if unsmoothed.len() != n {
+        unsmoothed = vec![f64::NAN; n];
     }
-    moving_average(&mut out, cfg.moving_average_len);
-    out
+    moving_average(&mut unsmoothed, len);
+    unsmoothed
 }
 
 /// The skeleton's heading from its shoulder line (hip line where the shoulders are missing),

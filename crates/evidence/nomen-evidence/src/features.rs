@@ -11,6 +11,7 @@
 //! model. [`crate::geometric_scores`] and [`crate::kinematic_scores`] are this same path
 //! for one pair.
 
+use crate::belmonte::vertical_rate_unsmoothed_radps;
 use crate::geometric::{
     GeometricConfig, bone_directions, filtered_derivatives_of, filtered_joint_derivative,
     imu_linear_accel_world, imu_orientation_magnitude, imu_orientation_magnitude_every,
@@ -20,8 +21,8 @@ use crate::geometric::{
 };
 use crate::kinematic::{
     KinematicConfig, KinematicScores, body_turn_rate_signal, elevation_rad, imu_swing,
-    imu_swing_every, imu_turn_rate_signal, imu_vertical_velocity, joint_vertical_velocity,
-    lag_samples, segment_swing_from,
+    imu_swing_every, imu_turn_rate_from, imu_turn_rate_signal, imu_vertical_velocity,
+    joint_vertical_velocity, lag_samples, segment_swing_from,
 };
 use crate::signal::{Derivative, UnitSignal, moving_average, pearson_prepared};
 use crate::window::{ImuWindow, ModelScores, SkeletonWindow};
@@ -81,15 +82,15 @@ impl ImuFeatures {
     /// is not (its low-pass starts with the track): compare it with a skeleton whose run
     /// edges are dropped ([`SegmentFeatures::drop_run_edges`]).
     ///
-    /// `shared_swing`, if given, is the [`RawSwing`] of a longer window that this one ends and
+    /// `shared_raw`, if given, is the [`RawSignals`] of a longer window that this one ends and
     /// the index of this window's first sample in it: the swing angles are taken from it where
-    /// it holds them at the lag this window's swing uses (the same values, each computed once
-    /// for all the suffixes of a grid).
+    /// it holds them at the lag this window's swing uses, and the vertical rates before
+    /// smoothing (the same values, each computed once for all the suffixes of a grid).
     pub fn from_parts(
         imu: &ImuWindow,
         lin_world_mps2: &[Vector3<f64>],
         elevations: &[[f64; 3]],
-        shared_swing: Option<(&RawSwing, usize)>,
+        shared_raw: Option<(&RawSignals, usize)>,
         geo: &GeometricConfig,
         kin: &KinematicConfig,
     ) -> Self {
@@ -116,14 +117,20 @@ impl ImuFeatures {
             orientation_magnitude: imu_orientation_magnitude(imu, geo),
             swing: smooth({
                 let lag = lag_samples(&imu.t_s, kin);
-                shared_swing
-                    .and_then(|(raw, from)| raw.suffix(from, lag, n))
+                shared_raw
+                    .and_then(|(raw, from)| raw.swing_suffix(from, lag, n))
                     .unwrap_or_else(|| imu_swing(imu, lag))
             }),
             vertical_accel: smooth(lin.iter().map(|a| a.z).collect()),
             vertical_velocity: smooth(imu_vertical_velocity(imu, lin, geo)),
             axis_elevation: [smooth(ex), smooth(ey), smooth(ez)],
-            turn_rate: imu_turn_rate_signal(imu, kin),
+            turn_rate: imu_turn_rate_from(
+                imu,
+                shared_raw
+                    .and_then(|(raw, from)| raw.vertical_rate_suffix(from, n))
+                    .map_or_else(|| vertical_rate_unsmoothed_radps(imu), <[f64]>::to_vec),
+                kin,
+            ),
             horizontal_accel: [
                 smooth(lin.iter().map(|a| a.x).collect()),
                 smooth(lin.iter().map(|a| a.y).collect()),
@@ -140,13 +147,12 @@ impl ImuFeatures {
         imu: &ImuWindow,
         lin_world_mps2: &[Vector3<f64>],
         elevations: &[[f64; 3]],
-        shared_swing: Option<(&RawSwing, usize)>,
+        shared_raw: Option<(&RawSignals, usize)>,
         geo: &GeometricConfig,
         kin: &KinematicConfig,
         anchor: usize,
     ) -> Self {
-        let mut features =
-            Self::from_parts(imu, lin_world_mps2, elevations, shared_swing, geo, kin);
+        let mut features = Self::from_parts(imu, lin_world_mps2, elevations, shared_raw, geo, kin);
         if anchor == 0 {
             return features;
         }
@@ -202,36 +208,48 @@ impl ImuFeatures {
     }
 }
 
-/// A window's swing angles before smoothing (the angle each orientation turned from the one
-/// `lag` samples before; `NaN` where either is missing or out of the window), kept so that the
-/// window's suffixes take theirs from it ([`ImuFeatures::from_parts`]): a suffix's
-/// angle at a sample whose earlier sample is in the suffix too is the same number.
+/// A window's IMU signals before smoothing, kept so that the window's suffixes take theirs
+/// from it ([`ImuFeatures::from_parts`]): the swing angles (the angle each orientation turned
+/// from the one `lag` samples before; `NaN` where either is missing or out of the window), and
+/// the vertical angular rate ([`vertical_rate_unsmoothed_radps`]). A suffix's swing angle at a
+/// sample whose earlier sample is in the suffix too is the same number, and so is every
+/// sample's vertical rate, which depends on that sample alone.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct RawSwing {
+pub struct RawSignals {
     lag: usize,
-    values: Vec<f64>,
+    swing: Vec<f64>,
+    vertical_rate_radps: Vec<f64>,
 }
 
-impl RawSwing {
-    /// The swing angles of `imu` at the lag [`ImuFeatures::from_parts`] uses for it.
+impl RawSignals {
+    /// The swing angles of `imu` at the lag [`ImuFeatures::from_parts`] uses for it, and its
+    /// vertical rate.
     pub fn new(imu: &ImuWindow, kin: &KinematicConfig) -> Self {
         let lag = lag_samples(&imu.t_s, kin);
         Self {
             lag,
-            values: imu_swing(imu, lag),
+            swing: imu_swing(imu, lag),
+            vertical_rate_radps: vertical_rate_unsmoothed_radps(imu),
         }
     }
 
-    /// The angles of the `n` samples from `from` on at `lag`, as a window starting there has
-    /// them (its first `lag` samples have no sample that far back); `None` at another lag or
-    /// past the end.
-    fn suffix(&self, from: usize, lag: usize, n: usize) -> Option<Vec<f64>> {
+    /// The swing angles of the `n` samples from `from` on at `lag`, as a window starting there
+    /// has them (its first `lag` samples have no sample that far back); `None` at another lag
+    /// or past the end.
+    fn swing_suffix(&self, from: usize, lag: usize, n: usize) -> Option<Vec<f64>> {
         if lag != self.lag {
             return None;
         }
-        let mut out = self.values.get(from..from.checked_add(n)?)?.to_vec();
+        let mut out = self.swing.get(from..from.checked_add(n)?)?.to_vec();
         out.iter_mut().take(lag).for_each(|v| *v = f64::NAN);
         Some(out)
+    }
+
+    /// The vertical rates before smoothing of the `n` samples from `from` on, as
+    /// [`vertical_rate_unsmoothed_radps`] gives them for a window starting there; `None` past
+    /// the end.
+    pub fn vertical_rate_suffix(&self, from: usize, n: usize) -> Option<&[f64]> {
+        self.vertical_rate_radps.get(from..from.checked_add(n)?)
     }
 }
 
@@ -925,7 +943,7 @@ mod tests {
     }
 
     #[test]
-    fn a_suffix_sharing_its_grids_swing_angles_gets_its_own_features_bit_for_bit() {
+    fn a_suffix_sharing_its_grids_raw_signals_gets_its_own_features_bit_for_bit() {
         let (mut imu, _) = windows();
         // A missing orientation, so that the shared angles carry gaps too.
         if let Some(q) = imu.world_from_sensor.get_mut(50) {
@@ -935,7 +953,7 @@ mod tests {
         let kin = KinematicConfig::default();
         let elevations = axis_elevations_of(&imu);
         let lin = crate::imu_linear_accel_world(&imu, &geo);
-        let raw = RawSwing::new(&imu, &kin);
+        let raw = RawSignals::new(&imu, &kin);
         let bits = |f: &ImuFeatures| -> Vec<u64> { f.swing.iter().map(|v| v.to_bits()).collect() };
         for from in [0, 1, 3, 45, 52, 100] {
             let tail = imu.tail(from);
@@ -950,6 +968,21 @@ mod tests {
                 "every other signal too"
             );
             assert!(own.swing.iter().any(|v| v.is_finite()));
+            let turn_bits =
+                |f: &ImuFeatures| -> Vec<u64> { f.turn_rate.iter().map(|v| v.to_bits()).collect() };
+            assert_eq!(turn_bits(&own), turn_bits(&shared), "from {from}");
+            // A band's yaw rate takes the same shared rates.
+            let belmonte = crate::BelmonteConfig::default();
+            let pitches: Vec<[f64; 3]> = tail
+                .world_from_sensor
+                .iter()
+                .map(crate::axis_pitches_rad)
+                .collect();
+            let rates = raw.vertical_rate_suffix(from, tail.t_s.len()).unwrap();
+            let band = crate::BandSignals::from_parts(&tail, &pitches, rates.to_vec(), &belmonte);
+            let alone = crate::BandSignals::new(&tail, &belmonte);
+            assert_eq!(format!("{band:?}"), format!("{alone:?}"), "from {from}");
+            assert!(band.yaw_rate_radps.iter().any(|v| v.is_finite()));
         }
         // A suffix at another lag (another rate) computes its own.
         let other = KinematicConfig {
@@ -960,7 +993,8 @@ mod tests {
         let shared =
             ImuFeatures::from_parts(&imu, &lin, &elevations, Some((&raw, 0)), &geo, &other);
         assert_eq!(bits(&own), bits(&shared));
-        assert_eq!(raw.suffix(110, raw.lag, 20), None, "past the end");
+        assert_eq!(raw.swing_suffix(110, raw.lag, 20), None, "past the end");
+        assert_eq!(raw.vertical_rate_suffix(110, 20), None, "past the end");
     }
 
     #[test]

@@ -37,7 +37,9 @@
 //! too short), so the fusions treat these models like De Marchi's.
 
 use crate::angle::{angle_between_rad, rotation_angle_rad};
-use crate::belmonte::{BelmonteConfig, band_yaw_rate_radps, skeleton_yaw_rate_radps};
+use crate::belmonte::{
+    BelmonteConfig, skeleton_yaw_rate_radps, smoothed_rate, vertical_rate_unsmoothed_radps,
+};
 use crate::features::{ImuFeatures, SegmentFeatures, compare_features};
 use crate::geometric::{
     GeometricConfig, LeakSteps, bone_directions, filtered_joint_derivative, imu_linear_accel_world,
@@ -293,11 +295,22 @@ pub fn segment_swing_signal(
 /// over `cfg.turn_smoothing_s`, rad/s. The rate of a rigid segment is the same wherever and
 /// however the sensor sits on it, and its vertical component needs only the AHRS tilt.
 pub fn imu_turn_rate_signal(imu: &ImuWindow, cfg: &KinematicConfig) -> Vec<f64> {
-    let belmonte = BelmonteConfig {
-        moving_average_len: smoothing_samples(&imu.t_s, cfg),
-        ..BelmonteConfig::default()
-    };
-    band_yaw_rate_radps(imu, &belmonte)
+    imu_turn_rate_from(imu, vertical_rate_unsmoothed_radps(imu), cfg)
+}
+
+/// [`imu_turn_rate_signal`] from the sensor's vertical rate before smoothing
+/// ([`crate::belmonte::vertical_rate_unsmoothed_radps`] of `imu`; one of another length counts
+/// as missing), for a caller that shares it between windows or with the band's yaw rate.
+pub fn imu_turn_rate_from(
+    imu: &ImuWindow,
+    unsmoothed_vertical_rate_radps: Vec<f64>,
+    cfg: &KinematicConfig,
+) -> Vec<f64> {
+    smoothed_rate(
+        imu,
+        unsmoothed_vertical_rate_radps,
+        smoothing_samples(&imu.t_s, cfg),
+    )
 }
 
 /// The body's turn rate: the derivative of its heading (shoulder line, hip line where the

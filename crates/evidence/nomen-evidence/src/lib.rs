@@ -33,10 +33,10 @@ pub mod window;
 
 pub use belmonte::{
     BandSignals, BelmonteConfig, BelmonteCosts, ForearmSignals, SensorAxis, Side, axis_pitches_rad,
-    belmonte_costs, belmonte_costs_from,
+    belmonte_costs, belmonte_costs_from, vertical_rate_unsmoothed_radps,
 };
 pub use features::{
-    HorizontalCross, ImuFeatures, ImuUnits, RawSwing, SegmentFeatures, SegmentUnits,
+    HorizontalCross, ImuFeatures, ImuUnits, RawSignals, SegmentFeatures, SegmentUnits,
     axis_elevations_rad, compare_features, compare_prepared, horizontal_cross,
     horizontal_cross_prepared, imu_lag_models, segment_lag_models, segment_site_lag_models,
 };
@@ -48,8 +48,8 @@ pub use geometric::{
 };
 pub use kinematic::{
     KinematicConfig, KinematicScores, body_turn_rate_from, body_turn_rate_signal, imu_swing_signal,
-    imu_turn_rate_signal, imu_vertical_accel, joint_vertical_accel, kinematic_scores,
-    segment_swing_signal,
+    imu_turn_rate_from, imu_turn_rate_signal, imu_vertical_accel, joint_vertical_accel,
+    kinematic_scores, segment_swing_signal,
 };
 pub use scorer::PairScorer;
 pub use signal::{

@@ -13,10 +13,12 @@ use crate::tags::{MAX_PAIR_DT_NS, TagState, fix_similarity};
 use nalgebra::{Point3, Vector3};
 use nomen_core::skeleton::Joints;
 use nomen_core::{Joint, TrackId};
-use nomen_evidence::belmonte::skeleton_yaw_rate_unsmoothed_radps;
+use nomen_evidence::belmonte::{
+    skeleton_yaw_rate_unsmoothed_radps, vertical_rate_unsmoothed_radps,
+};
 use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
-    BandSignals, BelmonteConfig, ForearmSignals, ImuFeatures, ImuUnits, ImuWindow, RawSwing,
+    BandSignals, BelmonteConfig, ForearmSignals, ImuFeatures, ImuUnits, ImuWindow, RawSignals,
     ScoreTensor, SegmentFeatures, SegmentUnits, Side, SkeletonWindow, belmonte_costs_from,
     body_turn_rate_from, compare_prepared, fuse, horizontal_cross_prepared, imu_linear_accel_world,
 };
@@ -347,12 +349,12 @@ impl Engine {
                             );
                             window.device = Some(imu.device.clone());
                             let lin_world_mps2 = imu_linear_accel_world(&window, &geometric);
-                            let swing = RawSwing::new(&window, &self.config.kinematic);
+                            let raw = RawSignals::new(&window, &self.config.kinematic);
                             ImuBase {
                                 window: Rc::new(window),
                                 orientation_from,
                                 lin_world_mps2,
-                                swing,
+                                raw,
                             }
                         });
                     // The camera's whole grid shares the base's window; a suffix copies its part.
@@ -375,7 +377,7 @@ impl Engine {
                         &win,
                         base.lin_world_mps2.get(grid_from..).unwrap_or(&[]),
                         &terms(&imu.axis_elevation_rad),
-                        Some((&base.swing, grid_from)),
+                        Some((&base.raw, grid_from)),
                         &geometric,
                         &self.config.kinematic,
                         anchor,
@@ -387,9 +389,14 @@ impl Engine {
                     };
                     let band = imu.wants_band_pitch.then(|| {
                         let pitches = terms(&imu.axis_pitch_rad);
-                        BandSignals::with_axis_pitches(
+                        let yaw_rate = base
+                            .raw
+                            .vertical_rate_suffix(grid_from + anchor, win.t_s.len())
+                            .map_or_else(|| vertical_rate_unsmoothed_radps(&win), <[f64]>::to_vec);
+                        BandSignals::from_parts(
                             &win,
                             pitches.get(anchor..).unwrap_or(&[]),
+                            yaw_rate,
                             &belmonte,
                         )
                     });
@@ -726,8 +733,8 @@ struct ImuBase {
     /// Per grid point, the IMU sample whose orientation it took.
     orientation_from: Vec<Option<usize>>,
     lin_world_mps2: Vec<Vector3<f64>>,
-    /// The swing angles on the whole grid, which its suffixes share.
-    swing: RawSwing,
+    /// The swing angles and vertical rates on the whole grid, which its suffixes share.
+    raw: RawSignals,
 }
 
 /// How much of a skeleton run's low-passed signals is dropped next to its edges inside the
