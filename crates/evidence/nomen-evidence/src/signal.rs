@@ -11,6 +11,7 @@ use nomen_filters::lowpass::{
     ButterworthConfig, Lowpass, ZeroPhaseLowpass, butterworth_lowpass_sections,
 };
 use serde::{Deserialize, Serialize};
+use std::cell::RefCell;
 
 /// Smallest number of paired finite samples [`pearson`] accepts by default.
 pub const MIN_PEARSON_SAMPLES: usize = 3;
@@ -598,20 +599,49 @@ pub(crate) fn lowpass_vectors(
         }
         return;
     }
-    let Ok(mut filter) = ZeroPhaseLowpass::new(butter) else {
-        x.iter_mut().for_each(|v| *v = nan3());
-        return;
-    };
-    let runs = finite_runs(x.len(), |i| is_finite3(&x[i]));
-    let covered = covered_by(x.len(), runs, |run| {
-        x.get_mut(run)
-            .is_some_and(|seg| filter.filter_vectors(seg).is_ok())
-    });
-    for (v, c) in x.iter_mut().zip(covered) {
-        if !c {
-            *v = nan3();
+    with_zero_phase(butter, |filter| {
+        let Some(filter) = filter else {
+            x.iter_mut().for_each(|v| *v = nan3());
+            return;
+        };
+        let runs = finite_runs(x.len(), |i| is_finite3(&x[i]));
+        let covered = covered_by(x.len(), runs, |run| {
+            x.get_mut(run)
+                .is_some_and(|seg| filter.filter_vectors(seg).is_ok())
+        });
+        for (v, c) in x.iter_mut().zip(covered) {
+            if !c {
+                *v = nan3();
+            }
         }
-    }
+    });
+}
+
+thread_local! {
+    /// The zero-phase low-pass last designed on this thread, with its design: the windows'
+    /// series share a few sample rates, and designing the filter (and growing its scratch
+    /// buffers) for each of them cost more than filtering some.
+    static ZERO_PHASE: RefCell<Option<(ButterworthConfig, ZeroPhaseLowpass)>> =
+        const { RefCell::new(None) };
+}
+
+/// Runs `f` with the zero-phase low-pass `butter` designs (`None` if it designs none): the one
+/// this thread designed last if the design is the same (a filter keeps no state from one series
+/// to the next, only its scratch buffers), else a new one kept for the next call.
+fn with_zero_phase<R>(
+    butter: &ButterworthConfig,
+    f: impl FnOnce(Option<&mut ZeroPhaseLowpass>) -> R,
+) -> R {
+    ZERO_PHASE.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut kept) => {
+            if kept.as_ref().is_none_or(|(design, _)| design != butter) {
+                *kept = ZeroPhaseLowpass::new(butter).ok().map(|z| (*butter, z));
+            }
+            f(kept.as_mut().map(|(_, z)| z))
+        }
+        // Only if `f` itself filtered (none does): a filter of its own.
+        Err(_) => f(ZeroPhaseLowpass::new(butter).ok().as_mut()),
+    })
 }
 
 /// Which derivative [`differentiate_runs`] takes.
@@ -712,22 +742,24 @@ pub(crate) fn lowpass_vector_pairs(
         lowpass_vectors(b, butter, zero_phase);
         return;
     }
-    let Ok(mut filter) = ZeroPhaseLowpass::new(butter) else {
-        a.iter_mut().chain(b.iter_mut()).for_each(|v| *v = nan3());
-        return;
-    };
-    let covered = covered_by(a.len(), runs, |run| {
-        match (a.get_mut(run.clone()), b.get_mut(run)) {
-            (Some(sa), Some(sb)) => filter.filter_vector_pairs(sa, sb).is_ok(),
-            _ => false,
+    with_zero_phase(butter, |filter| {
+        let Some(filter) = filter else {
+            a.iter_mut().chain(b.iter_mut()).for_each(|v| *v = nan3());
+            return;
+        };
+        let covered = covered_by(a.len(), runs, |run| {
+            match (a.get_mut(run.clone()), b.get_mut(run)) {
+                (Some(sa), Some(sb)) => filter.filter_vector_pairs(sa, sb).is_ok(),
+                _ => false,
+            }
+        });
+        for ((a, b), c) in a.iter_mut().zip(b.iter_mut()).zip(covered) {
+            if !c {
+                *a = nan3();
+                *b = nan3();
+            }
         }
     });
-    for ((a, b), c) in a.iter_mut().zip(b.iter_mut()).zip(covered) {
-        if !c {
-            *a = nan3();
-            *b = nan3();
-        }
-    }
 }
 
 /// Causal moving average of `len` samples over a series with gaps, in place; a `NaN` stays `NaN`
@@ -747,6 +779,56 @@ pub(crate) fn is_finite3(v: &Vector3<f64>) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_kept_zero_phase_filter_gives_what_a_new_one_gives_whatever_came_before() {
+        let x: Vec<Vector3<f64>> = (0..80)
+            .map(|k| {
+                let t = k as f64 * 0.03;
+                Vector3::new((6.0 * t).sin(), t * t, (2.0 * t).cos())
+            })
+            .collect();
+        let fresh = |butter: &ButterworthConfig, x: &[Vector3<f64>]| {
+            let mut out = x.to_vec();
+            ZeroPhaseLowpass::new(butter)
+                .unwrap()
+                .filter_vectors(&mut out)
+                .unwrap();
+            out
+        };
+        let bits = |v: &[Vector3<f64>]| -> Vec<[u64; 3]> {
+            v.iter()
+                .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
+                .collect()
+        };
+        // Designs alternating, series of other lengths in between, one pair filtered too.
+        for rate in [30.0, 100.0, 30.0, 30.0, 15.0, 100.0] {
+            let butter = ButterworthConfig::de_marchi_accelerometer(rate);
+            for len in [80, 40, 61] {
+                let mut ours = x[..len].to_vec();
+                lowpass_vectors(&mut ours, &butter, true);
+                assert_eq!(
+                    bits(&ours),
+                    bits(&fresh(&butter, &x[..len])),
+                    "{rate} Hz, {len}"
+                );
+            }
+            let (mut a, mut b) = (x.clone(), x.iter().map(|v| v * 2.0).collect::<Vec<_>>());
+            lowpass_vector_pairs(&mut a, &mut b, &butter, true);
+            assert_eq!(bits(&a), bits(&fresh(&butter, &x)));
+            let doubled: Vec<Vector3<f64>> = x.iter().map(|v| v * 2.0).collect();
+            assert_eq!(bits(&b), bits(&fresh(&butter, &doubled)));
+        }
+        // A design that fails leaves every sample missing, and the next good one filters.
+        let bad = ButterworthConfig::de_marchi_accelerometer(f64::NAN);
+        let mut ours = x.clone();
+        lowpass_vectors(&mut ours, &bad, true);
+        assert!(ours.iter().all(|v| v.iter().all(|c| c.is_nan())));
+        let good = ButterworthConfig::de_marchi_accelerometer(30.0);
+        let mut ours = x.clone();
+        lowpass_vectors(&mut ours, &good, true);
+        assert_eq!(bits(&ours), bits(&fresh(&good, &x)));
+    }
 
     #[test]
     fn a_causal_lowpass_is_the_streaming_filter_run_over_each_run_and_lags_the_zero_phase_one() {
