@@ -518,26 +518,39 @@ pub fn imu_lag_models(
     step: usize,
 ) -> [Vec<f64>; 5] {
     let step = step.max(1);
+    let orientation = if geo.moving_average_len <= 1 {
+        imu_orientation_magnitude_every(imu, step)
+    } else {
+        every_nth(imu_orientation_magnitude(imu, geo), step)
+    };
+    let [acc, vertical, swing, turn] = imu_unanchored_lag_models(imu, geo, kin, step);
+    [acc, orientation, vertical, swing, turn]
+}
+
+/// [`imu_lag_models`] but the orientation change: the four models that do not measure from the
+/// window's first sample (acceleration magnitude, vertical acceleration, swing, turn rate), the
+/// same values, for a caller that keeps them from one buffer to the next and finishes the
+/// orientation change per buffer itself.
+pub fn imu_unanchored_lag_models(
+    imu: &ImuWindow,
+    geo: &GeometricConfig,
+    kin: &KinematicConfig,
+    step: usize,
+) -> [Vec<f64>; 4] {
+    let step = step.max(1);
     let lin = imu_linear_accel_world(imu, geo);
     let mut vertical: Vec<f64> = lin.iter().map(|a| a.z).collect();
     moving_average(&mut vertical, geo.moving_average_len);
     let lag = lag_samples(&imu.t_s, kin);
-    let (orientation, swing) = if geo.moving_average_len <= 1 {
-        (
-            imu_orientation_magnitude_every(imu, step),
-            imu_swing_every(imu, lag, step),
-        )
+    let swing = if geo.moving_average_len <= 1 {
+        imu_swing_every(imu, lag, step)
     } else {
         let mut swing = imu_swing(imu, lag);
         moving_average(&mut swing, geo.moving_average_len);
-        (
-            every_nth(imu_orientation_magnitude(imu, geo), step),
-            every_nth(swing, step),
-        )
+        every_nth(swing, step)
     };
     [
         every_nth(smoothed_norms(&lin, geo), step),
-        orientation,
         every_nth(vertical, step),
         swing,
         every_nth(imu_turn_rate_signal(imu, kin), step),
@@ -1344,6 +1357,14 @@ mod tests {
         assert!(same(&vertical, &crate::imu_vertical_accel(&imu, &geo)));
         assert!(same(&swing, &crate::imu_swing_signal(&imu, &geo, &kin)));
         assert!(same(&turn, &imu_turn_rate_signal(&imu, &kin)));
+        // Without the orientation change, at the full rate and thinned, the same four.
+        for step in [1, 3] {
+            let all = imu_lag_models(&imu, &geo, &kin, step);
+            let [acc, vertical, swing, turn] = imu_unanchored_lag_models(&imu, &geo, &kin, step);
+            for (m, mine) in [(0, acc), (2, vertical), (3, swing), (4, turn)] {
+                assert!(same(&mine, &all[m]), "step {step}, model {m}");
+            }
+        }
         let [acc, ori, vertical, swing, turn] = segment_lag_models(&skel, site, &geo, &kin, 1);
         assert!(acc.iter().any(|v| v.is_finite()));
         assert!(same(&acc, &joint_accel_magnitude(&skel, site, &geo)));

@@ -38,7 +38,8 @@ pub use belmonte::{
 pub use features::{
     HorizontalCross, ImuFeatures, ImuUnits, RawSignals, SegmentFeatures, SegmentUnits,
     axis_elevations_rad, compare_features, compare_prepared, horizontal_cross,
-    horizontal_cross_prepared, imu_lag_models, segment_lag_models, segment_site_lag_models,
+    horizontal_cross_prepared, imu_lag_models, imu_unanchored_lag_models, segment_lag_models,
+    segment_site_lag_models,
 };
 pub use fusion::{Fusion, FusionConfig, MAX_TENSOR_ENTRIES, Model, ScoreMatrix, ScoreTensor, fuse};
 pub use geometric::{

@@ -27,7 +27,7 @@
 use crate::signal::{ImuSeries, LagSignals};
 use nalgebra::UnitQuaternion;
 use nomen_evidence::angle::rotation_angle_rad;
-use nomen_evidence::{GeometricConfig, ImuWindow, KinematicConfig, imu_lag_models};
+use nomen_evidence::{GeometricConfig, ImuWindow, KinematicConfig, imu_unanchored_lag_models};
 use std::collections::VecDeque;
 
 /// Samples before the part computed afresh, ns: the low-pass's start-up and the turn rate's
@@ -193,7 +193,7 @@ pub(crate) fn imu_lag_signals(
             gyro_radps: gyro.to_vec(),
             world_from_sensor: q.to_vec(),
         };
-        let [acc, _, vertical, swing, turn] = imu_lag_models(&window, geo, kin, step);
+        let [acc, vertical, swing, turn] = imu_unanchored_lag_models(&window, geo, kin, step);
         q.iter()
             .step_by(step)
             .zip(acc.iter().zip(&vertical).zip(swing.iter().zip(&turn)))
@@ -375,7 +375,7 @@ mod tests {
                 gyro_radps: gyro[a..b].to_vec(),
                 world_from_sensor: q[a..b].to_vec(),
             };
-            let at_once = imu_lag_models(&window_at_once, &geo, &kin, 3);
+            let at_once = nomen_evidence::imu_lag_models(&window_at_once, &geo, &kin, 3);
             assert_eq!(
                 got.t_ns,
                 t[a..b].iter().step_by(3).copied().collect::<Vec<_>>()
