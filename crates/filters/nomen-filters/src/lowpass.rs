@@ -583,15 +583,19 @@ fn moving_average_while_finite(x: &mut [f64], ring: &mut [f64]) -> (usize, Boxca
     let len = ring.len();
     let warm = len.min(x.len());
     let (filling, steady) = x.split_at_mut(warm);
+    // Stopped after `done` samples, in the state `step` would be in after them.
+    let stop = |done: usize, head: usize, num_filled: usize, sum: f64| {
+        let state = BoxcarState {
+            head,
+            num_filled,
+            sum,
+        };
+        (done, state)
+    };
     let mut sum = 0.0;
     for (k, (v, slot)) in filling.iter_mut().zip(ring.iter_mut()).enumerate() {
         if !v.is_finite() {
-            let state = BoxcarState {
-                head: k,
-                num_filled: k,
-                sum,
-            };
-            return (k, state);
+            return stop(k, k, k, sum);
         }
         *slot = *v;
         sum += *v;
@@ -599,12 +603,7 @@ fn moving_average_while_finite(x: &mut [f64], ring: &mut [f64]) -> (usize, Boxca
     }
     if warm < len {
         // The series ended before the ring filled.
-        let state = BoxcarState {
-            head: warm,
-            num_filled: warm,
-            sum,
-        };
-        return (warm, state);
+        return stop(warm, warm, warm, sum);
     }
     let len_f = len as f64;
     // The ring full: its first re-sum, which the last filling sample's average takes.
@@ -615,12 +614,7 @@ fn moving_average_while_finite(x: &mut [f64], ring: &mut [f64]) -> (usize, Boxca
     for (lap_index, lap) in steady.chunks_mut(len).enumerate() {
         for (j, (v, slot)) in lap.iter_mut().zip(ring.iter_mut()).enumerate() {
             if !v.is_finite() {
-                let state = BoxcarState {
-                    head: j,
-                    num_filled: len,
-                    sum,
-                };
-                return (warm + lap_index * len + j, state);
+                return stop(warm + lap_index * len + j, j, len, sum);
             }
             sum -= *slot;
             *slot = *v;
@@ -634,12 +628,7 @@ fn moving_average_while_finite(x: &mut [f64], ring: &mut [f64]) -> (usize, Boxca
             }
         }
     }
-    let state = BoxcarState {
-        head: steady.len() % len,
-        num_filled: len,
-        sum,
-    };
-    (warm + steady.len(), state)
+    stop(warm + steady.len(), steady.len() % len, len, sum)
 }
 
 /// The re-sum of a full ring, as [`BoxcarState::step`] does it once per lap.

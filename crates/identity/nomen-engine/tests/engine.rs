@@ -110,6 +110,35 @@ fn two_people_with_wrist_imus_are_named_after_the_first_windows() {
 }
 
 #[test]
+fn an_engine_moved_to_another_thread_midway_gives_the_same_output() {
+    // The engine is `Send` (not `Sync`: it caches per-sample terms in cells), and what the
+    // evidence crate keeps per thread (the last low-pass design) must not change any output.
+    let people = two_people();
+    let msgs = recording(&people, 12.0);
+    let (whole, _) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    let mut engine = Engine::new(registry(&people), EngineConfig::default()).unwrap();
+    let (first, second) = msgs.split_at(msgs.len() / 2);
+    let mut out = Vec::new();
+    for m in first {
+        engine.push(m).unwrap();
+        engine.poll(&mut out);
+    }
+    let second = second.to_vec();
+    let out = std::thread::spawn(move || {
+        for m in &second {
+            engine.push(m).unwrap();
+            engine.poll(&mut out);
+        }
+        engine.finish(&mut out);
+        out
+    })
+    .join()
+    .unwrap();
+    assert!(out.len() > 100);
+    assert_eq!(format!("{out:?}"), format!("{whole:?}"));
+}
+
+#[test]
 fn a_history_pad_and_a_causal_lowpass_change_the_scores_and_still_name_both_people() {
     let people = two_people();
     let msgs = recording(&people, 20.0);
