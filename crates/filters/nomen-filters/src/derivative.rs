@@ -181,6 +181,7 @@ pub fn velocity_and_acceleration<T: Differentiable>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_bits::vector_bits;
 
     #[test]
     fn both_derivatives_at_once_equal_each_alone_bit_for_bit() {
@@ -200,13 +201,8 @@ mod tests {
         acceleration(&t, &x, &mut a1).unwrap();
         let (mut v2, mut a2) = (vec![zero; 25], vec![zero; 25]);
         velocity_and_acceleration(&t, &x, &mut v2, &mut a2).unwrap();
-        let bits = |v: &[Vector3<f64>]| -> Vec<u64> {
-            v.iter()
-                .flat_map(|p| p.iter().map(|c| c.to_bits()))
-                .collect()
-        };
-        assert_eq!(bits(&v1), bits(&v2));
-        assert_eq!(bits(&a1), bits(&a2));
+        assert_eq!(vector_bits(&v1), vector_bits(&v2));
+        assert_eq!(vector_bits(&a1), vector_bits(&a2));
         // Errors leave both outputs as they were.
         let mut back = t.clone();
         back.swap(3, 4);

@@ -11,4 +11,6 @@ pub mod lowpass;
 mod robust;
 pub use robust::median;
 pub mod sync;
+#[cfg(test)]
+mod test_bits;
 pub mod tobit;

@@ -639,6 +639,7 @@ fn ring_sum(ring: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_bits::{same_or_both_nan, vector_bits};
 
     fn design(order: usize, cutoff_hz: f64, fs: f64) -> Vec<[f64; 6]> {
         butterworth_lowpass_sections(&ButterworthConfig {
@@ -774,13 +775,8 @@ mod tests {
             let (mut a1, mut b1) = (x.clone(), y.clone());
             f.filter_vectors(&mut a1).unwrap();
             f.filter_vectors(&mut b1).unwrap();
-            let bits = |v: &[Vector3<f64>]| -> Vec<u64> {
-                v.iter()
-                    .flat_map(|p| p.iter().map(|c| c.to_bits()))
-                    .collect()
-            };
-            assert_eq!(bits(&a), bits(&a1));
-            assert_eq!(bits(&b), bits(&b1));
+            assert_eq!(vector_bits(&a), vector_bits(&a1));
+            assert_eq!(vector_bits(&b), vector_bits(&b1));
             // Errors leave both series as they were.
             let (mut a2, mut b2) = (x.clone(), y.clone());
             b2[9].z = f64::INFINITY;
@@ -788,7 +784,7 @@ mod tests {
                 f.filter_vector_pairs(&mut a2, &mut b2),
                 Err(FilterError::NonFinite { index: 9, .. })
             ));
-            assert_eq!(bits(&a2), bits(&x));
+            assert_eq!(vector_bits(&a2), vector_bits(&x));
             let mut short = y[..59].to_vec();
             assert!(matches!(
                 f.filter_vector_pairs(&mut a2, &mut short),
@@ -872,7 +868,7 @@ mod tests {
             assert_eq!(ours.len(), theirs.len());
             for (k, (a, b)) in ours.iter().zip(&theirs).enumerate() {
                 assert!(
-                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                    same_or_both_nan(*a, *b),
                     "len {len}, sample {k}: {a} against {b}"
                 );
             }
@@ -901,7 +897,7 @@ mod tests {
                 for (k, (a, x)) in ours.iter().zip(&series).enumerate() {
                     let b = avg.process(*x).unwrap_or(f64::NAN);
                     assert!(
-                        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                        same_or_both_nan(*a, b),
                         "len {len}, first gap {first_gap}, sample {k}: {a} against {b}"
                     );
                 }
