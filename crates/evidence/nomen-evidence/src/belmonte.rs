@@ -19,7 +19,8 @@
 //! **Side.** [`Side::Unknown`] evaluates both wrists and keeps the one with the lower pitch MSE
 //! (the yaw cost does not depend on the side).
 
-use crate::signal::{Derivative, differentiate_runs, is_finite3, moving_average};
+use crate::kinematic::elevation_rad;
+use crate::signal::{Derivative, differentiate_runs, moving_average};
 use crate::window::{ImuWindow, SkeletonWindow};
 use nalgebra::{UnitQuaternion, Vector3};
 use nomen_core::skeleton::Joint;
@@ -417,16 +418,6 @@ pub fn band_axis_pitch_rad(imu: &ImuWindow, axis: SensorAxis, cfg: &BelmonteConf
     out.resize(imu.t_s.len(), f64::NAN);
     moving_average(&mut out, cfg.moving_average_len);
     out
-}
-
-/// Elevation angle of a vector above the horizontal plane, rad (`NaN` if not finite or zero).
-fn elevation_rad(d: &Vector3<f64>) -> f64 {
-    let horizontal = d.x.hypot(d.y);
-    if is_finite3(d) && (horizontal > 0.0 || d.z != 0.0) {
-        crate::angle::atan2(d.z, horizontal)
-    } else {
-        f64::NAN
-    }
 }
 
 /// The band's world-frame vertical angular rate `(world_from_sensor · ω)_z`, rad/s, smoothed.

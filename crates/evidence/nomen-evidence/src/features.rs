@@ -809,15 +809,22 @@ pub fn horizontal_cross(
     seg: &SegmentFeatures,
     min_samples: usize,
 ) -> Option<HorizontalCross> {
-    let [ax, ay] = &imu.horizontal_accel;
-    let [sx, sy] = &seg.horizontal_accel;
-    if ax.len() != sx.len() || ay.len() != ax.len() || sy.len() != sx.len() {
+    if !horizontal_lengths_match(imu, seg) {
         return None;
     }
+    let [ax, ay] = &imu.horizontal_accel;
+    let [sx, sy] = &seg.horizontal_accel;
     let both = (0..ax.len()).filter(|&k| {
         ax[k].is_finite() && ay[k].is_finite() && sx[k].is_finite() && sy[k].is_finite()
     });
     cross_over(imu, seg, both, min_samples)
+}
+
+/// Whether the IMU's and the segment's horizontal accelerations, both axes, have one length.
+fn horizontal_lengths_match(imu: &ImuFeatures, seg: &SegmentFeatures) -> bool {
+    let [ax, ay] = &imu.horizontal_accel;
+    let [sx, sy] = &seg.horizontal_accel;
+    ax.len() == sx.len() && ay.len() == ax.len() && sy.len() == sx.len()
 }
 
 /// [`horizontal_cross`] with each side's units ([`ImuFeatures::units`],
@@ -830,11 +837,8 @@ pub fn horizontal_cross_prepared(
     seg_units: &SegmentUnits,
     min_samples: usize,
 ) -> Option<HorizontalCross> {
-    let [ax, ay] = &imu.horizontal_accel;
-    let [sx, sy] = &seg.horizontal_accel;
-    let lengths_match = ax.len() == sx.len() && ay.len() == ax.len() && sy.len() == sx.len();
     match &seg_units.horizontal_present {
-        Some(present) if imu_units.is_horizontal_complete && lengths_match => {
+        Some(present) if imu_units.is_horizontal_complete && horizontal_lengths_match(imu, seg) => {
             cross_over(imu, seg, present.iter().copied(), min_samples)
         }
         _ => horizontal_cross(imu, seg, min_samples),

@@ -659,17 +659,10 @@ pub(crate) fn differentiate_runs(
     which: Derivative,
 ) -> Vec<Vector3<f64>> {
     let mut out = vec![nan3(); x.len()];
-    if t_s.len() != x.len() {
-        return out;
-    }
-    let t: Option<Vec<SessionTime>> = t_s.iter().map(|&s| SessionTime::from_secs_f64(s)).collect();
-    let Some(t) = t else {
+    let Some((t, runs)) = differentiable_runs(t_s, x) else {
         return out;
     };
-    for run in finite_runs(x.len(), |i| is_finite3(&x[i])) {
-        if run.len() < 3 {
-            continue;
-        }
+    for run in runs {
         let (tr, xr, or) = (&t[run.clone()], &x[run.clone()], &mut out[run]);
         let result = match which {
             Derivative::Velocity => derivative::velocity(tr, xr, or),
@@ -682,6 +675,28 @@ pub(crate) fn differentiate_runs(
     out
 }
 
+/// The grid `t_s` as session times and the runs of finite samples of `x` long enough to
+/// differentiate (3 or more); `None` if the lengths differ or a time is not representable.
+fn differentiable_runs(
+    t_s: &[f64],
+    x: &[Vector3<f64>],
+) -> Option<(
+    Vec<SessionTime>,
+    impl Iterator<Item = std::ops::Range<usize>>,
+)> {
+    if t_s.len() != x.len() {
+        return None;
+    }
+    let t: Vec<SessionTime> = t_s
+        .iter()
+        .map(|&s| SessionTime::from_secs_f64(s))
+        .collect::<Option<_>>()?;
+    let runs = finite_runs(x.len(), |i| is_finite3(&x[i]))
+        .into_iter()
+        .filter(|run| run.len() >= 3);
+    Some((t, runs))
+}
+
 /// [`differentiate_runs`] of `x` for both derivatives, `(velocity, acceleration)`: each the
 /// same as its own call, with the times converted and the runs found once.
 pub(crate) fn differentiate_runs_both(
@@ -690,17 +705,10 @@ pub(crate) fn differentiate_runs_both(
 ) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
     let mut vel = vec![nan3(); x.len()];
     let mut acc = vel.clone();
-    if t_s.len() != x.len() {
-        return (vel, acc);
-    }
-    let t: Option<Vec<SessionTime>> = t_s.iter().map(|&s| SessionTime::from_secs_f64(s)).collect();
-    let Some(t) = t else {
+    let Some((t, runs)) = differentiable_runs(t_s, x) else {
         return (vel, acc);
     };
-    for run in finite_runs(x.len(), |i| is_finite3(&x[i])) {
-        if run.len() < 3 {
-            continue;
-        }
+    for run in runs {
         let (tr, xr) = (&t[run.clone()], &x[run.clone()]);
         let (v, a) = (&mut vel[run.clone()], &mut acc[run]);
         // Both fail alike (the same checks), and then both are missing.
