@@ -1012,6 +1012,20 @@ mod tests {
         assert_eq!(bits(&own), bits(&shared));
         assert_eq!(raw.swing_suffix(110, raw.lag, 20), None, "past the end");
         assert_eq!(raw.vertical_rate_suffix(110, 20), None, "past the end");
+        // Rates of another length than the window count as missing, without a panic.
+        let belmonte = crate::BelmonteConfig::default();
+        let pitches: Vec<[f64; 3]> = imu
+            .world_from_sensor
+            .iter()
+            .map(crate::axis_pitches_rad)
+            .collect();
+        let short = vec![0.1; imu.t_s.len() - 1];
+        let band = crate::BandSignals::from_parts(&imu, &pitches, short.clone(), &belmonte);
+        assert_eq!(band.yaw_rate_radps.len(), imu.t_s.len());
+        assert!(band.yaw_rate_radps.iter().all(|v| v.is_nan()));
+        let turn = imu_turn_rate_from(&imu, short, &kin);
+        assert_eq!(turn.len(), imu.t_s.len());
+        assert!(turn.iter().all(|v| v.is_nan()));
     }
 
     #[test]
