@@ -972,6 +972,13 @@ mod tests {
         let lin = crate::imu_linear_accel_world(&imu, &geo);
         let raw = RawSignals::new(&imu, &kin);
         let bits = |f: &ImuFeatures| -> Vec<u64> { f.swing.iter().map(|v| v.to_bits()).collect() };
+        let belmonte = crate::BelmonteConfig::default();
+        let pitches_of = |w: &ImuWindow| -> Vec<[f64; 3]> {
+            w.world_from_sensor
+                .iter()
+                .map(crate::axis_pitches_rad)
+                .collect()
+        };
         for from in [0, 1, 3, 45, 52, 100] {
             let tail = imu.tail(from);
             let (lin, elevations) = (&lin[from..], &elevations[from..]);
@@ -989,14 +996,13 @@ mod tests {
                 |f: &ImuFeatures| -> Vec<u64> { f.turn_rate.iter().map(|v| v.to_bits()).collect() };
             assert_eq!(turn_bits(&own), turn_bits(&shared), "from {from}");
             // A band's yaw rate takes the same shared rates.
-            let belmonte = crate::BelmonteConfig::default();
-            let pitches: Vec<[f64; 3]> = tail
-                .world_from_sensor
-                .iter()
-                .map(crate::axis_pitches_rad)
-                .collect();
             let rates = raw.vertical_rate_suffix(from, tail.t_s.len()).unwrap();
-            let band = crate::BandSignals::from_parts(&tail, &pitches, rates.to_vec(), &belmonte);
+            let band = crate::BandSignals::from_parts(
+                &tail,
+                &pitches_of(&tail),
+                rates.to_vec(),
+                &belmonte,
+            );
             let alone = crate::BandSignals::new(&tail, &belmonte);
             assert_eq!(format!("{band:?}"), format!("{alone:?}"), "from {from}");
             assert!(band.yaw_rate_radps.iter().any(|v| v.is_finite()));
@@ -1013,14 +1019,9 @@ mod tests {
         assert_eq!(raw.swing_suffix(110, raw.lag, 20), None, "past the end");
         assert_eq!(raw.vertical_rate_suffix(110, 20), None, "past the end");
         // Rates of another length than the window count as missing, without a panic.
-        let belmonte = crate::BelmonteConfig::default();
-        let pitches: Vec<[f64; 3]> = imu
-            .world_from_sensor
-            .iter()
-            .map(crate::axis_pitches_rad)
-            .collect();
         let short = vec![0.1; imu.t_s.len() - 1];
-        let band = crate::BandSignals::from_parts(&imu, &pitches, short.clone(), &belmonte);
+        let band =
+            crate::BandSignals::from_parts(&imu, &pitches_of(&imu), short.clone(), &belmonte);
         assert_eq!(band.yaw_rate_radps.len(), imu.t_s.len());
         assert!(band.yaw_rate_radps.iter().all(|v| v.is_nan()));
         let turn = imu_turn_rate_from(&imu, short, &kin);
