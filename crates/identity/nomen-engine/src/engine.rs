@@ -1937,15 +1937,28 @@ fn start_ahrs(imu: &mut ImuState, config: &EngineConfig, stats: &mut EngineStats
     imu.ahrs.is_some()
 }
 
-/// Settles a track's pending observations below `frontier` through the joint filters.
-fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise_std_m: f64) {
+/// Settles a track's pending observations below `frontier` through the joint filters, and
+/// returns how many it left out because the track's history already reached their time (see
+/// [`EngineStats::num_frames_behind_history`](crate::EngineStats::num_frames_behind_history)):
+/// the history stays in time order.
+fn settle_track(
+    tr: &mut TrackState,
+    frontier: i64,
+    config: &EngineConfig,
+    noise_std_m: f64,
+) -> u64 {
     let r = Matrix3::identity() * noise_std_m * noise_std_m;
     let r_inferred = r * config.inferred_joint_noise_factor.powi(2);
+    let mut num_behind = 0;
     while let Some(entry) = tr.pending.first_entry() {
         if *entry.key() >= frontier {
             break;
         }
         let (t, frame) = entry.remove_entry();
+        if tr.samples.back().is_some_and(|newest| newest.t >= t) {
+            num_behind += 1;
+            continue;
+        }
         let joints = frame.joints_world_m;
         let mut sample = TrackSample {
             t,
@@ -1991,6 +2004,7 @@ fn settle_track(tr: &mut TrackState, frontier: i64, config: &EngineConfig, noise
         tr.samples.push_back(sample);
         tr.is_smoothing_due = config.joint_smoother_lag_s > 0.0;
     }
+    num_behind
 }
 
 /// Revises a track's recent samples with its joint smoothers, once per settle (see

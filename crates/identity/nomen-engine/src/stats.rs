@@ -103,6 +103,11 @@ pub struct EngineStats {
     /// Camera id swaps undone: a track's observation jumped onto where another track of its
     /// camera just was, so the two tracks' people (history, filters, evidence) were exchanged.
     pub num_swaps: u64,
+    /// Skeleton observations left out of their track's history because that history already
+    /// reached their time. Undoing an id swap keeps each track's history in time order, so
+    /// this stays 0; it counts what a history in disorder would otherwise have broken (the
+    /// windows read a track's frames in time order).
+    pub num_frames_behind_history: u64,
     /// Accepted clock offsets moved: to a clearly better peak of the lag curves summed against
     /// the wearer's labelled tracks or of the best-track sum, or to a clear peak on a track
     /// nobody else explains.

@@ -1236,6 +1236,33 @@ fn an_id_swap_hidden_in_two_returns_from_occlusion_is_undone() {
 }
 
 #[test]
+fn an_id_swap_found_frames_after_the_first_return_moves_every_frame_since_that_return() {
+    // As above, but track 1 comes back first (12.0 s, showing Ben) and track 2 two frames
+    // later (12.067 s, showing Ana). By then track 1 has three observations since its return,
+    // the newest at the very time of track 2's return: all three show Ben and go with him,
+    // and the history that comes to track 2 ends before them.
+    let mut people = two_people();
+    people[1].y_m = 0.8;
+    people[0].track_change = Some((12.0, 2));
+    people[1].track_change = Some((12.0, 1));
+    let hidden = |track: u64, t: f64| match track {
+        1 => (11.5..12.0).contains(&t),
+        2 => (11.8..12.05).contains(&t),
+        _ => false,
+    };
+    let msgs: Vec<Message> = recording(&people, 24.0)
+        .into_iter()
+        .filter(|m| match m {
+            Message::Skeleton(s) => !hidden(s.track.0, s.t.as_secs_f64()),
+            _ => true,
+        })
+        .collect();
+    let (_, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    assert_eq!(stats.num_frames_behind_history, 0);
+    assert_swap_at_12_s_is_undone(&people, &msgs);
+}
+
+#[test]
 fn a_track_that_jumps_where_nobody_was_keeps_its_person() {
     // A tracking glitch moves Ana's observations 1.5 m away from everyone: no swap.
     let mut people = two_people();

@@ -726,6 +726,12 @@ pub fn run_file(
             "; the warm-up's first decisions were sent {release_s:.1} s after the first skeleton"
         ));
     }
+    let num_behind = engine.stats().num_frames_behind_history;
+    if num_behind > 0 {
+        summary.push_str(&format!(
+            "; left {num_behind} skeleton observations out of track histories that had passed their time"
+        ));
+    }
     if let Some(r) = &refinement {
         summary.push_str(&format!("; estimated {} occluded joints", r.num_estimated));
     }

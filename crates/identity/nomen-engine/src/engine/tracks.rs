@@ -341,15 +341,22 @@ impl Engine {
             {
                 if let Some(theirs) = self.tracks.get_mut(&other) {
                     exchange_people(&mut mine, theirs);
-                    // The other track came back from a gap with this track's person: that one
-                    // observation goes with the person, and each track's newest settled
-                    // observation is its person's.
+                    // The other track came back from a gap with this track's person: its
+                    // observations since (up to this very time, when it settled first) go
+                    // with the person, and each track's newest settled observation is its
+                    // person's. The person's history ended before that return, so both stay in
+                    // time order.
                     let mut swapped_at = t;
                     if let Some((ret_t, before, before_t)) = returned {
-                        if mine.samples.back().is_some_and(|s| s.t == ret_t)
-                            && let Some(sample) = mine.samples.pop_back()
-                        {
-                            theirs.samples.push_back(sample);
+                        let since_return = mine.samples.partition_point(|s| s.t < ret_t);
+                        for sample in mine.samples.drain(since_return..) {
+                            if theirs
+                                .samples
+                                .back()
+                                .is_none_or(|newest| newest.t < sample.t)
+                            {
+                                theirs.samples.push_back(sample);
+                            }
                         }
                         theirs.settled_t = mine.settled_t;
                         theirs.settled_anchor_world_m = mine.settled_anchor_world_m;
@@ -400,7 +407,8 @@ impl Engine {
                     tr.superseded_by = None;
                     self.stats.num_stitches_undone += 1;
                 }
-                settle_track(tr, t + 1, &self.config, noise);
+                self.stats.num_frames_behind_history +=
+                    settle_track(tr, t + 1, &self.config, noise);
                 if let Some(x) = anchor {
                     tr.return_from_gap = match tr.settled_anchor_world_m {
                         Some(before) if t - tr.settled_t >= SWAP_RETURN_GAP_NS => {
