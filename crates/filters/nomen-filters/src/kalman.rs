@@ -22,7 +22,10 @@
 //! block-diagonal covariance stays block-diagonal. The filter then runs three 2-state filters
 //! with the same Joseph-form update written out for a scalar measurement, about a tenth of the
 //! 6-state work; the first full `R` switches it to [`adskalman`] for good. Both paths agree to
-//! rounding (a test runs them side by side).
+//! rounding (a test runs them side by side). While `R` is moreover isotropic, as a pose SDK's
+//! one confidence per joint gives, the three axes' covariances stay equal bit for bit, and one
+//! axis's covariance arithmetic (prediction, gain, the smoother's gain) serves all three; the
+//! states still step per axis, with the same numbers as three separate axes.
 
 use crate::error::{FilterError, Result, check_non_negative, check_positive};
 use adskalman::{
@@ -169,20 +172,85 @@ impl Axis {
     /// Joseph-form update with a position measurement `z` of variance `r`:
     /// `P ← (I − KH) P (I − KH)ᵀ + K r Kᵀ`, `H = [1 0]`.
     fn update(&mut self, z: f64, r: f64) -> bool {
+        let Some(gain) = self.update_gain(r) else {
+            return false;
+        };
+        self.apply(z, &gain);
+        true
+    }
+
+    /// The covariance half of [`Axis::update`]: the gain `K` and the posterior covariance,
+    /// which depend on the prior covariance and `r` alone; `None` where the innovation's
+    /// variance is not positive.
+    fn update_gain(&self, r: f64) -> Option<AxisGain> {
         let s = self.pp + r;
         if !(s.is_finite() && s > 0.0) {
-            return false;
+            return None;
         }
         let (k0, k1) = (self.pp / s, self.pv / s);
-        let innovation = z - self.p;
-        self.p += k0 * innovation;
-        self.v += k1 * innovation;
         let a = 1.0 - k0;
         let (pp, pv, vv) = (self.pp, self.pv, self.vv);
-        self.pp = a * a * pp + k0 * k0 * r;
-        self.pv = a * (pv - k1 * pp) + k0 * k1 * r;
-        self.vv = k1 * k1 * pp - 2.0 * k1 * pv + vv + k1 * k1 * r;
-        true
+        Some(AxisGain {
+            k0,
+            k1,
+            pp: a * a * pp + k0 * k0 * r,
+            pv: a * (pv - k1 * pp) + k0 * k1 * r,
+            vv: k1 * k1 * pp - 2.0 * k1 * pv + vv + k1 * k1 * r,
+        })
+    }
+
+    /// The state half of [`Axis::update`], with `gain` from [`Axis::update_gain`].
+    fn apply(&mut self, z: f64, gain: &AxisGain) {
+        let innovation = z - self.p;
+        self.p += gain.k0 * innovation;
+        self.v += gain.k1 * innovation;
+        self.pp = gain.pp;
+        self.pv = gain.pv;
+        self.vv = gain.vv;
+    }
+
+    /// Whether `other` has the same covariance, bit for bit (then every covariance step from
+    /// here gives both the same).
+    fn has_covariance_of(&self, other: &Axis) -> bool {
+        self.pp.to_bits() == other.pp.to_bits()
+            && self.pv.to_bits() == other.pv.to_bits()
+            && self.vv.to_bits() == other.vv.to_bits()
+    }
+}
+
+/// A scalar update's gain `K = [k0 k1]ᵀ` and the posterior covariance it leaves.
+#[derive(Debug, Clone, Copy)]
+struct AxisGain {
+    k0: f64,
+    k1: f64,
+    pp: f64,
+    pv: f64,
+    vv: f64,
+}
+
+/// Whether the three axes' covariances are the same bit for bit: the usual case, every
+/// measurement covariance isotropic since the filter started. The covariance arithmetic of one
+/// axis then serves all three.
+fn share_covariance(axes: &[Axis; 3]) -> bool {
+    let [x, y, z] = axes;
+    x.has_covariance_of(y) && x.has_covariance_of(z)
+}
+
+/// [`Axis::predict`] on each axis; with [`share_covariance`], the covariance is predicted once.
+fn predict_axes(axes: &mut [Axis; 3], dt: f64, q: f64) {
+    if !share_covariance(axes) {
+        for a in axes.iter_mut() {
+            a.predict(dt, q);
+        }
+        return;
+    }
+    let [x, y, z] = axes;
+    x.predict(dt, q);
+    for a in [y, z] {
+        a.p += dt * a.v;
+        a.pp = x.pp;
+        a.pv = x.pv;
+        a.vv = x.vv;
     }
 }
 
@@ -236,10 +304,23 @@ impl Estimate {
 /// Updates each axis with its coordinate of `z` and its variance on `r`'s diagonal; on a
 /// numerical failure the axes stay as they were.
 fn update_axes(axes: &mut [Axis; 3], z: &Point3<f64>, r: &Matrix3<f64>) -> Result<()> {
+    let failed = || FilterError::Numerical("joint kalman update");
+    // Isotropic noise on a shared covariance: one gain for the three axes.
+    let r_xx = r[(0, 0)];
+    if share_covariance(axes)
+        && r[(1, 1)].to_bits() == r_xx.to_bits()
+        && r[(2, 2)].to_bits() == r_xx.to_bits()
+    {
+        let gain = axes[0].update_gain(r_xx).ok_or_else(failed)?;
+        for (i, a) in axes.iter_mut().enumerate() {
+            a.apply(z[i], &gain);
+        }
+        return Ok(());
+    }
     let mut next = *axes;
     for (i, a) in next.iter_mut().enumerate() {
         if !a.update(z[i], r[(i, i)]) {
-            return Err(FilterError::Numerical("joint kalman update"));
+            return Err(failed());
         }
     }
     *axes = next;
@@ -322,11 +403,7 @@ impl JointKalman {
     pub fn predict(&mut self, dt_s: f64) -> Result<()> {
         check_non_negative("dt_s", dt_s)?;
         match &mut self.estimate {
-            Some(Estimate::Axes(axes)) => {
-                for a in axes {
-                    a.predict(dt_s, self.config.accel_psd_m2ps3);
-                }
-            }
+            Some(Estimate::Axes(axes)) => predict_axes(axes, dt_s, self.config.accel_psd_m2ps3),
             Some(Estimate::Full(estimate)) => {
                 let (f, q) = constant_velocity_model(dt_s, self.config.accel_psd_m2ps3);
                 let model = Transition {
@@ -442,9 +519,7 @@ impl JointKalman {
         if let Err(e) = check_non_negative("dt_s", dt_s) {
             return Some(Err(e));
         }
-        for a in axes.iter_mut() {
-            a.predict(dt_s, self.config.accel_psd_m2ps3);
-        }
+        predict_axes(axes, dt_s, self.config.accel_psd_m2ps3);
         let prior = *axes;
         self.last_t = Some(t);
         let outcome = match (measurement, usable) {
@@ -551,9 +626,7 @@ impl JointSmoother {
                 // gives it.
                 let prior = match self.filter.axes() {
                     Some(mut axes) if self.filter.last_time().is_some_and(|last| t > last) => {
-                        for a in &mut axes {
-                            a.predict(dt_s, self.filter.config.accel_psd_m2ps3);
-                        }
+                        predict_axes(&mut axes, dt_s, self.filter.config.accel_psd_m2ps3);
                         Some(axes)
                     }
                     _ => None,
@@ -564,7 +637,11 @@ impl JointSmoother {
         match (prior, self.filter.axes()) {
             (Some(prior), Some(posterior)) => {
                 if let (Some(last), Some(cur)) = (self.history.back_mut(), &self.newest_posterior) {
-                    last.gain = std::array::from_fn(|i| rts_gain(&cur[i], &prior[i], dt_s));
+                    last.gain = if share_covariance(cur) && share_covariance(&prior) {
+                        [rts_gain(&cur[0], &prior[0], dt_s); 3]
+                    } else {
+                        std::array::from_fn(|i| rts_gain(&cur[i], &prior[i], dt_s))
+                    };
                 }
                 self.history.push_back(SmootherStep {
                     prior,
@@ -739,6 +816,78 @@ mod tests {
                 (true, Some(Estimate::Full(_))) | (false, Some(Estimate::Axes(_)))
             ));
         }
+    }
+
+    #[test]
+    fn axes_sharing_a_covariance_step_as_each_axis_alone_bit_for_bit() {
+        // Isotropic noise (shared covariance, one gain for three axes), missing frames, a
+        // larger isotropic R now and then; from step 120 one axis's R differs, which splits
+        // the covariances for good. Each axis must match a lone axis stepped with the plain
+        // predict and update, bit for bit, as must the smoother's gains.
+        let config = ConstantVelocityConfig::default();
+        let mut kf = JointSmoother::new(config, 0.3).unwrap();
+        let mut lone: Option<[Axis; 3]> = None;
+        let mut t_ns = 0i64;
+        let mut num_shared = 0;
+        for k in 0..200 {
+            let dt_ns = 33_333_333 + (k % 3 == 2) as i64;
+            t_ns += dt_ns;
+            let s = k as f64 * 0.07;
+            let z = Point3::new(s.sin(), 0.5 * s.cos(), 1.0 + 0.1 * s);
+            let var = if k % 9 == 4 { 9e-4 } else { 1e-4 };
+            let mut r = Matrix3::identity() * var;
+            if k >= 120 {
+                r[(1, 1)] = 2.0 * var;
+            }
+            let m = (k % 13 != 6).then_some((&z, &r));
+            if let Some(axes) = kf.filter().axes() {
+                num_shared += share_covariance(&axes) as usize;
+            }
+            kf.step(SessionTime::from_ns(t_ns), m).unwrap();
+            // The reference: each axis on its own.
+            let dt = dt_ns as f64 * 1e-9;
+            let prior = lone.map(|mut axes| {
+                for a in &mut axes {
+                    a.predict(dt, config.accel_psd_m2ps3);
+                }
+                axes
+            });
+            let mut posterior = prior;
+            match (&mut posterior, m) {
+                (Some(axes), Some((z, r))) => {
+                    for (i, a) in axes.iter_mut().enumerate() {
+                        assert!(a.update(z[i], r[(i, i)]));
+                    }
+                }
+                (None, Some((z, r))) => {
+                    posterior = Some(std::array::from_fn(|i| Axis {
+                        p: z[i],
+                        v: 0.0,
+                        pp: r[(i, i)],
+                        pv: 0.0,
+                        vv: config.initial_velocity_std_mps.powi(2),
+                    }));
+                }
+                _ => {}
+            }
+            let got = kf.filter().axes().unwrap();
+            // Debug formatting tells every two bit patterns apart but `NaN`s (none here).
+            let want = posterior.unwrap();
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "step {k}");
+            if let (Some(before), Some(prior)) = (lone, prior) {
+                let want: [Option<[f64; 4]>; 3] =
+                    std::array::from_fn(|i| rts_gain(&before[i], &prior[i], dt));
+                let n = kf.history.len();
+                let gain = kf.history.get(n - 2).map(|step| step.gain).unwrap();
+                assert_eq!(format!("{gain:?}"), format!("{want:?}"), "gain at step {k}");
+            }
+            lone = posterior;
+        }
+        // The shortcut ran (before the split) and the general path too (after it).
+        assert!(
+            (100..190).contains(&num_shared),
+            "{num_shared} steps shared"
+        );
     }
 
     #[test]
