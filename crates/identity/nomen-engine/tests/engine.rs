@@ -13,7 +13,9 @@ use nomen_core::{
 use nomen_engine::{
     Engine, EngineConfig, EngineError, EngineStats, GeometricConfig, ModelWeights, run_batch,
 };
+use nomen_evidence::{ImuWindow, PairScorer, SkeletonWindow};
 use nomen_filters::kalman::ConstantVelocityConfig;
+use std::sync::{Arc, Mutex};
 
 /// How far an estimated clock offset may lie from the truth, s. The joints' causal Kalman filter
 /// alone delayed the skeleton's signals by 25–31 ms on these pendulums, and the offsets absorbed
@@ -1210,19 +1212,19 @@ fn an_id_swap_between_two_tracks_is_undone_at_once() {
     assert_swap_at_12_s_is_undone(&people, &msgs);
 }
 
-#[test]
-fn an_id_swap_hidden_in_two_returns_from_occlusion_is_undone() {
-    // Ana and Ben stand 0.8 m apart. Ben's track (2) is unseen from 11.5 s and Ana's (1) from
-    // 11.8 s; at 12.0 s track 2 comes back showing Ana, and at 12.03 s track 1 showing Ben.
-    // Track 2's jump is within what half a second allows, so only the pair of returns tells
-    // the swap.
+/// Ana and Ben 0.8 m apart exchange ids at 12 s, each id unseen over its range (s) just
+/// before: the people and the recording.
+fn swap_in_two_returns(
+    hidden_1: std::ops::Range<f64>,
+    hidden_2: std::ops::Range<f64>,
+) -> (Vec<Person>, Vec<Message>) {
     let mut people = two_people();
     people[1].y_m = 0.8;
     people[0].track_change = Some((12.0, 2));
     people[1].track_change = Some((12.0, 1));
     let hidden = |track: u64, t: f64| match track {
-        2 => (11.5..12.0).contains(&t),
-        1 => (11.8..12.02).contains(&t),
+        1 => hidden_1.contains(&t),
+        2 => hidden_2.contains(&t),
         _ => false,
     };
     let msgs: Vec<Message> = recording(&people, 24.0)
@@ -1232,7 +1234,38 @@ fn an_id_swap_hidden_in_two_returns_from_occlusion_is_undone() {
             _ => true,
         })
         .collect();
+    (people, msgs)
+}
+
+#[test]
+fn an_id_swap_hidden_in_two_returns_from_occlusion_is_undone() {
+    // Ben's track (2) is unseen from 11.5 s and Ana's (1) from 11.8 s; at 12.0 s track 2 comes
+    // back showing Ana, and at 12.03 s track 1 showing Ben. Track 2's jump is within what half
+    // a second allows, so only the pair of returns tells the swap.
+    let (people, msgs) = swap_in_two_returns(11.8..12.02, 11.5..12.0);
     assert_swap_at_12_s_is_undone(&people, &msgs);
+}
+
+/// The skeleton windows the engine scores, as a learned scorer sees them: per window the track,
+/// its grid times (s) and at each the mean world y of the joints present (m). Scores nothing.
+#[derive(Clone, Default)]
+struct WindowSpy(Arc<Mutex<Vec<(TrackId, Vec<f64>, Vec<Option<f64>>)>>>);
+
+impl PairScorer for WindowSpy {
+    fn score(&self, _: &ImuWindow, skeleton: &SkeletonWindow, _: Joint) -> Option<f64> {
+        let mean_y = skeleton
+            .joints_world_m
+            .iter()
+            .map(|joints| {
+                let ys: Vec<f64> = joints.iter().map(|(_, p)| p.y).collect();
+                (!ys.is_empty()).then(|| ys.iter().sum::<f64>() / ys.len() as f64)
+            })
+            .collect();
+        if let (Some(track), Ok(mut seen)) = (skeleton.track, self.0.lock()) {
+            seen.push((track, skeleton.t_s.clone(), mean_y));
+        }
+        None
+    }
 }
 
 #[test]
@@ -1241,25 +1274,42 @@ fn an_id_swap_found_frames_after_the_first_return_moves_every_frame_since_that_r
     // later (12.067 s, showing Ana). By then track 1 has three observations since its return,
     // the newest at the very time of track 2's return: all three show Ben and go with him,
     // and the history that comes to track 2 ends before them.
-    let mut people = two_people();
-    people[1].y_m = 0.8;
-    people[0].track_change = Some((12.0, 2));
-    people[1].track_change = Some((12.0, 1));
-    let hidden = |track: u64, t: f64| match track {
-        1 => (11.5..12.0).contains(&t),
-        2 => (11.8..12.05).contains(&t),
-        _ => false,
-    };
-    let msgs: Vec<Message> = recording(&people, 24.0)
-        .into_iter()
-        .filter(|m| match m {
-            Message::Skeleton(s) => !hidden(s.track.0, s.t.as_secs_f64()),
-            _ => true,
-        })
-        .collect();
-    let (_, stats) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
-    assert_eq!(stats.num_frames_behind_history, 0);
+    let (people, msgs) = swap_in_two_returns(11.5..12.0, 11.8..12.05);
     assert_swap_at_12_s_is_undone(&people, &msgs);
+    let spy = WindowSpy::default();
+    let mut engine = Engine::new(registry(&people), EngineConfig::default())
+        .unwrap()
+        .with_pair_scorer(Box::new(spy.clone()));
+    let mut out = Vec::new();
+    for m in &msgs {
+        engine.push(m).unwrap();
+        engine.poll(&mut out);
+    }
+    engine.finish(&mut out);
+    assert_eq!(engine.stats().num_swaps, 1);
+    assert_eq!(engine.stats().num_frames_behind_history, 0);
+    // Every window read after the swap: from the first return on, track 1's frames show Ben
+    // (y 0.8 m) and track 2's Ana (y 0).
+    let seen = spy.0.lock().unwrap();
+    let mut num_read = [0; 2];
+    for (track, t_s, mean_y) in seen.iter() {
+        for (t, y) in t_s.iter().zip(mean_y) {
+            let (Some(y), true) = (y, (12.0..12.1).contains(t)) else {
+                continue;
+            };
+            let want = if track.0 == 1 { 0.8 } else { 0.0 };
+            assert!(
+                (y - want).abs() < 0.3,
+                "track {} at {t:.3} s: y {y:.2} m",
+                track.0
+            );
+            if let Some(n) = num_read.get_mut(track.0 as usize - 1) {
+                *n += 1;
+            }
+        }
+    }
+    // Track 1's three frames since its return were read, each in several windows.
+    assert!(num_read[0] >= 3, "{num_read:?}");
 }
 
 #[test]
