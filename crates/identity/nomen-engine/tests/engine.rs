@@ -1246,10 +1246,13 @@ fn an_id_swap_hidden_in_two_returns_from_occlusion_is_undone() {
     assert_swap_at_12_s_is_undone(&people, &msgs);
 }
 
-/// The skeleton windows the engine scores, as a learned scorer sees them: per window the track,
-/// its grid times (s) and at each the mean world y of the joints present (m). Scores nothing.
+/// One skeleton window as [`WindowSpy`] keeps it: the track, its grid times (s) and at each
+/// the mean world y of the joints present (m).
+type SeenWindow = (TrackId, Vec<f64>, Vec<Option<f64>>);
+
+/// The skeleton windows the engine scores, as a learned scorer sees them. Scores nothing.
 #[derive(Clone, Default)]
-struct WindowSpy(Arc<Mutex<Vec<(TrackId, Vec<f64>, Vec<Option<f64>>)>>>);
+struct WindowSpy(Arc<Mutex<Vec<SeenWindow>>>);
 
 impl PairScorer for WindowSpy {
     fn score(&self, _: &ImuWindow, skeleton: &SkeletonWindow, _: Joint) -> Option<f64> {
