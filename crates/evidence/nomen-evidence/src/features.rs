@@ -124,13 +124,7 @@ impl ImuFeatures {
             vertical_accel: smooth(lin.iter().map(|a| a.z).collect()),
             vertical_velocity: smooth(imu_vertical_velocity(imu, lin, geo)),
             axis_elevation: [smooth(ex), smooth(ey), smooth(ez)],
-            turn_rate: imu_turn_rate_from(
-                imu,
-                shared_raw
-                    .and_then(|(raw, from)| raw.vertical_rate_suffix(from, n))
-                    .map_or_else(|| vertical_rate_unsmoothed_radps(imu), <[f64]>::to_vec),
-                kin,
-            ),
+            turn_rate: imu_turn_rate_from(imu, RawSignals::vertical_rate_of(shared_raw, imu), kin),
             horizontal_accel: [
                 smooth(lin.iter().map(|a| a.x).collect()),
                 smooth(lin.iter().map(|a| a.y).collect()),
@@ -250,6 +244,16 @@ impl RawSignals {
     /// the end.
     pub fn vertical_rate_suffix(&self, from: usize, n: usize) -> Option<&[f64]> {
         self.vertical_rate_radps.get(from..from.checked_add(n)?)
+    }
+
+    /// The vertical rates before smoothing of `imu`: from `shared`, the [`RawSignals`] of a
+    /// longer window that `imu` ends and the index of its first sample there, where that holds
+    /// them ([`RawSignals::vertical_rate_suffix`]), else [`vertical_rate_unsmoothed_radps`] of
+    /// `imu` itself (the same values).
+    pub fn vertical_rate_of(shared: Option<(&RawSignals, usize)>, imu: &ImuWindow) -> Vec<f64> {
+        shared
+            .and_then(|(raw, from)| raw.vertical_rate_suffix(from, imu.t_s.len()))
+            .map_or_else(|| vertical_rate_unsmoothed_radps(imu), <[f64]>::to_vec)
     }
 }
 

@@ -13,9 +13,7 @@ use crate::tags::{MAX_PAIR_DT_NS, TagState, fix_similarity};
 use nalgebra::{Point3, Vector3};
 use nomen_core::skeleton::Joints;
 use nomen_core::{Joint, TrackId};
-use nomen_evidence::belmonte::{
-    skeleton_yaw_rate_unsmoothed_radps, vertical_rate_unsmoothed_radps,
-};
+use nomen_evidence::belmonte::skeleton_yaw_rate_unsmoothed_radps;
 use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
     BandSignals, BelmonteConfig, ForearmSignals, ImuFeatures, ImuUnits, ImuWindow, RawSignals,
@@ -389,10 +387,10 @@ impl Engine {
                     };
                     let band = imu.wants_band_pitch.then(|| {
                         let pitches = terms(&imu.axis_pitch_rad);
-                        let yaw_rate = base
-                            .raw
-                            .vertical_rate_suffix(grid_from + anchor, win.t_s.len())
-                            .map_or_else(|| vertical_rate_unsmoothed_radps(&win), <[f64]>::to_vec);
+                        let yaw_rate = RawSignals::vertical_rate_of(
+                            Some((&base.raw, grid_from + anchor)),
+                            &win,
+                        );
                         BandSignals::from_parts(
                             &win,
                             pitches.get(anchor..).unwrap_or(&[]),
