@@ -159,7 +159,9 @@
 //!    show the same person (torso within [`EngineConfig::camera_pair_distance_m`] on average
 //!    over the last two windows, each the other's unambiguous match) pool their evidence, each
 //!    accumulator weighted by its weight: a track too new to be scored is named from another
-//!    camera's view at once, and a wrong stitch is outweighed. One subject never goes to two
+//!    camera's view at once, and a wrong stitch is outweighed. Such views named alike take
+//!    turns being scored, one camera resting per hop
+//!    ([`EngineConfig::alternate_paired_views`]). One subject never goes to two
 //!    tracks of one camera seen at the same time; after the assignment, a track whose best
 //!    subject went to a track of its camera that it never coexisted with (the same person
 //!    under an earlier or later id, both still with frames to label) takes that subject too, if

@@ -15,6 +15,7 @@ use nomen_engine::{
 };
 use nomen_evidence::{ImuWindow, PairScorer, SkeletonWindow};
 use nomen_filters::kalman::ConstantVelocityConfig;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::{Arc, Mutex};
 
 /// How far an estimated clock offset may lie from the truth, s. The joints' causal Kalman filter
@@ -1316,6 +1317,133 @@ fn an_id_swap_found_frames_after_the_first_return_moves_every_frame_since_that_r
 }
 
 #[test]
+fn paired_views_take_turns_and_everyone_is_still_named_at_every_window() {
+    // Both cameras follow each person as one track all along (Ana: 1 and 101, Ben: 2 and 102).
+    let people = two_people();
+    let (registry, msgs) =
+        with_second_camera_tracks(&people, &recording(&people, 20.0), |_, _, track| {
+            TrackId(100 + track.0)
+        });
+    // The tracks each window scores (from 8 s, once both views are named and paired, to 19 s),
+    // by the window's newest grid time, and every decision.
+    let run = |alternate: bool| {
+        let config = EngineConfig {
+            alternate_paired_views: alternate,
+            ..EngineConfig::default()
+        };
+        let spy = WindowSpy::default();
+        let mut engine = Engine::new(registry.clone(), config)
+            .unwrap()
+            .with_pair_scorer(Box::new(spy.clone()));
+        let mut out = Vec::new();
+        for m in &msgs {
+            engine.push(m).unwrap();
+            engine.poll(&mut out);
+        }
+        engine.finish(&mut out);
+        let mut scored: BTreeMap<i64, BTreeSet<u64>> = BTreeMap::new();
+        for (track, t_s, _) in spy.0.lock().unwrap().iter() {
+            if let Some(&last) = t_s.last()
+                && (8.0..19.0).contains(&last)
+            {
+                // Windows end on the hop (0.5 s) grid; the newest frame is just before. (The
+                // windows after the recording's end have the same newest frame.)
+                let end = (last / 0.5).ceil() as i64;
+                scored.entry(end).or_default().insert(track.0);
+            }
+        }
+        (out, scored)
+    };
+    for alternate in [false, true] {
+        let (out, scored) = run(alternate);
+        // Every frame of either camera after 8 s is named right.
+        let named: Vec<bool> = out
+            .iter()
+            .filter_map(|m| match m {
+                Message::Identified(id) if id.t.as_secs_f64() > 8.0 => {
+                    let want = if id.track.0 % 100 == 1 { "ana" } else { "ben" };
+                    Some(id.identity.subject().map(|s| s.as_str()) == Some(want))
+                }
+                _ => None,
+            })
+            .collect();
+        let right = named.iter().filter(|&&r| r).count() as f64 / named.len().max(1) as f64;
+        assert!(right > 0.98, "alternate {alternate}: {right}");
+        assert!(scored.len() >= 20, "{} windows", scored.len());
+        for (end, tracks) in &scored {
+            // Each person is scored at every window, on one view or on both.
+            for person in [1, 2] {
+                assert!(
+                    tracks.contains(&person) || tracks.contains(&(100 + person)),
+                    "alternate {alternate}: window ending at {} s scored {tracks:?}",
+                    *end as f64 * 0.5
+                );
+            }
+            if alternate {
+                // One camera rests per window, the two in turn.
+                let rested: BTreeSet<u64> = if end % 2 == 0 {
+                    [1, 2].into()
+                } else {
+                    [101, 102].into()
+                };
+                assert!(
+                    tracks.is_disjoint(&rested),
+                    "window ending at {} s scored {tracks:?}",
+                    *end as f64 * 0.5
+                );
+            } else {
+                assert_eq!(tracks.len(), 4, "window ending at {} s", *end as f64 * 0.5);
+            }
+        }
+    }
+}
+
+#[test]
+fn a_track_whose_view_ends_is_scored_at_every_window_again() {
+    // As above, but the second camera loses Ana (track 101) at 12 s: from then on her first
+    // camera's track has no view to rest on.
+    let people = two_people();
+    let (registry, msgs) =
+        with_second_camera_tracks(&people, &recording(&people, 20.0), |_, _, track| {
+            TrackId(100 + track.0)
+        });
+    let msgs: Vec<Message> = msgs
+        .into_iter()
+        .filter(|m| match m {
+            Message::Skeleton(s) => s.track != TrackId(101) || s.t.as_secs_f64() < 12.0,
+            _ => true,
+        })
+        .collect();
+    let spy = WindowSpy::default();
+    let mut engine = Engine::new(registry, EngineConfig::default())
+        .unwrap()
+        .with_pair_scorer(Box::new(spy.clone()));
+    let mut out = Vec::new();
+    for m in &msgs {
+        engine.push(m).unwrap();
+        engine.poll(&mut out);
+    }
+    engine.finish(&mut out);
+    let mut ana: BTreeMap<i64, bool> = BTreeMap::new();
+    for (track, t_s, _) in spy.0.lock().unwrap().iter() {
+        if let Some(&last) = t_s.last() {
+            let end = (last / 0.5).ceil() as i64;
+            *ana.entry(end).or_default() |= track.0 == 1;
+        }
+    }
+    // Before, track 1 rests every other window; from a window after the loss on, never.
+    let rested = |from_s: f64, to_s: f64| {
+        ana.range((2.0 * from_s) as i64..(2.0 * to_s) as i64)
+            .filter(|(_, scored)| !**scored)
+            .count()
+    };
+    assert!(rested(8.0, 11.5) >= 3, "{ana:?}");
+    assert_eq!(rested(12.5, 19.0), 0, "{ana:?}");
+    assert!(ana.range(25..38).count() >= 12, "{ana:?}");
+    assert!(accuracy(&people, &out, 8.0) > 0.98);
+}
+
+#[test]
 fn a_track_that_jumps_where_nobody_was_keeps_its_person() {
     // A tracking glitch moves Ana's observations 1.5 m away from everyone: no swap.
     let mut people = two_people();
@@ -1697,6 +1825,19 @@ fn a_negative_model_weight_is_refused_by_name() {
 /// Ana only in fragments of 0.9 s under a new id each (1000, 1001, …), too short for a window
 /// to score on their own.
 fn with_second_camera(people: &[Person], msgs: &[Message]) -> (Registry, Vec<Message>) {
+    with_second_camera_tracks(people, msgs, |person, t, track| match person.subject {
+        Some("ana") => TrackId(1000 + (t / 0.9) as u64),
+        _ => TrackId(100 + track.0),
+    })
+}
+
+/// `people` seen by a second camera `cam2` (another pose) as well, a person's observation at
+/// time `t` (s) on the first camera's track `track` under the id `track_of(person, t, track)`.
+fn with_second_camera_tracks(
+    people: &[Person],
+    msgs: &[Message],
+    track_of: impl Fn(&Person, f64, TrackId) -> TrackId,
+) -> (Registry, Vec<Message>) {
     let cam2_pose = Isometry3::from_parts(
         Translation3::new(4.0, 3.0, 1.6),
         UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 2.5),
@@ -1721,10 +1862,7 @@ fn with_second_camera(people: &[Person], msgs: &[Message]) -> (Registry, Vec<Mes
         for (j, obs) in s.joints.iter() {
             joints.insert(j, JointObservation::tracked(cam2_from_cam * obs.position_m));
         }
-        let track = match person.subject {
-            Some("ana") => TrackId(1000 + (s.t.as_secs_f64() / 0.9) as u64),
-            _ => TrackId(100 + s.track.0),
-        };
+        let track = track_of(person, s.t.as_secs_f64(), s.track);
         out.push(Message::Skeleton(Box::new(SkeletonObservation {
             t: s.t,
             camera: CameraId::new("cam2"),

@@ -20,7 +20,7 @@ use nomen_evidence::{
     ScoreTensor, SegmentFeatures, SegmentUnits, Side, SkeletonWindow, belmonte_costs_from,
     body_turn_rate_from, compare_prepared, fuse, horizontal_cross_prepared, imu_linear_accel_world,
 };
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::rc::Rc;
 
 impl Engine {
@@ -70,6 +70,7 @@ impl Engine {
                 }
             })
             .collect();
+        let resting = self.resting_views(start, end, min_span);
         let mut window = WindowScoring {
             start,
             end,
@@ -117,7 +118,7 @@ impl Engine {
                 tensor,
                 device_scores,
                 nomen_sums,
-            } = self.score_camera_pairs(c, &mut window, &keys, &frame_times);
+            } = self.score_camera_pairs(c, &mut window, &keys, &frame_times, &resting);
             let tag_decay = self.tag_decay_per_hop;
             let rssi_decay = self.rssi_decay_per_hop;
             let matrix = match self.config.motion_score {
@@ -180,6 +181,24 @@ impl Engine {
                     }
                 }
             }
+            // A resting view's motion evidence ages by the hop, as over a window that
+            // scored it with no weight: when next scored, it counts as old as it is.
+            for key in keys.iter().filter(|k| resting.contains(k)) {
+                let Some(tr) = self.tracks.get_mut(key) else {
+                    continue;
+                };
+                for (b, acc) in &mut tr.evidence {
+                    acc.weight *= decay.get(*b).copied().unwrap_or(self.decay_per_hop);
+                }
+                for (i, acc) in &mut tr.device_evidence {
+                    acc.weight *= self
+                        .imus
+                        .get(*i)
+                        .and_then(|imu| decay.get(imu.subject))
+                        .copied()
+                        .unwrap_or(self.decay_per_hop);
+                }
+            }
             for (key, i, v) in device_scores {
                 let decay = self
                     .imus
@@ -196,6 +215,42 @@ impl Engine {
             self.update_headings(window.heading_updates);
         }
         self.update_sides(window.side_updates);
+    }
+
+    /// The tracks that rest in the window `[start, end)`
+    /// ([`EngineConfig::alternate_paired_views`](crate::EngineConfig::alternate_paired_views)):
+    /// those of this window's resting camera (the cameras take turns, one per hop) that were
+    /// seen before the window and are named after the subject a view of theirs in another
+    /// camera is named after, when that view was seen before the window too and has enough of
+    /// it to be scored.
+    fn resting_views(&self, start: i64, end: i64, min_span: i64) -> BTreeSet<TrackKey> {
+        let num_cameras = self.cameras.len();
+        if !self.config.alternate_paired_views || num_cameras < 2 || self.hop_ns <= 0 {
+            return BTreeSet::new();
+        }
+        let turn = end.div_euclid(self.hop_ns).rem_euclid(num_cameras as i64);
+        let Ok(c) = usize::try_from(turn) else {
+            return BTreeSet::new();
+        };
+        let seen_before = |tr: &TrackState| tr.superseded_by.is_none() && tr.first_t <= start;
+        self.tracks
+            .range((c, TrackId(0))..)
+            .take_while(|(k, _)| k.0 == c)
+            .filter(|(_, tr)| seen_before(tr) && tr.label.is_some())
+            .filter(|(_, tr)| {
+                tr.views.iter().any(|v| {
+                    v.0 != c
+                        && self.tracks.get(v).is_some_and(|view| {
+                            let min_samples =
+                                scaled_count(WINDOW_MIN_TRACK_SAMPLES, self.camera_scale(v.0));
+                            seen_before(view)
+                                && view.label == tr.label
+                                && is_scored(view, start, end, min_samples, min_span)
+                        })
+                })
+            })
+            .map(|(k, _)| *k)
+            .collect()
     }
 
     /// Adds this window's votes on the sides of `either_side` IMUs, and reports for each with
@@ -232,6 +287,7 @@ impl Engine {
         window: &mut WindowScoring,
         keys: &[TrackKey],
         frame_times: &[i64],
+        resting: &BTreeSet<TrackKey>,
     ) -> CameraScores {
         // The models' sample counts at this camera's rate.
         let geometric = self.camera_geometric(c);
@@ -257,10 +313,10 @@ impl Engine {
             let Some(tr) = self.tracks.get(key) else {
                 continue;
             };
-            let (a, b) = sample_range(tr, start, end);
-            if b < a + min_track_samples || covered_span(tr, start, end) < min_span {
+            if resting.contains(key) || !is_scored(tr, start, end, min_track_samples, min_span) {
                 continue;
             }
+            let (_, b) = sample_range(tr, start, end);
             // The camera's frame times from the track's first sample in the window (or in
             // the history pad before it) on; a frame the track missed is a gap (no joints).
             // Tracks seen since before the window share one grid, so an IMU's window and
@@ -753,6 +809,13 @@ struct CameraScores {
     device_scores: Vec<(TrackKey, usize, f64)>,
     /// (row, subject) → (sum, count) of every correlation ([`MotionScore::Nomen`]).
     nomen_sums: BTreeMap<(usize, usize), (f64, f64)>,
+}
+
+/// Whether a track has enough of the window `[start, end)` for its motion to be scored: at
+/// least `min_samples` settled samples there, spanning at least `min_span` ns.
+fn is_scored(tr: &TrackState, start: i64, end: i64, min_samples: usize, min_span: i64) -> bool {
+    let (a, b) = sample_range(tr, start, end);
+    b >= a + min_samples && covered_span(tr, start, end) >= min_span
 }
 
 /// Per subject, the mean over their tags of the tag-versus-track window score (see
