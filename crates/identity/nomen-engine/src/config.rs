@@ -250,20 +250,21 @@ pub struct EngineConfig {
     /// Fraction of the window a track must cover (first to last sample) to be scored. Default 0.5.
     pub min_window_coverage: f64,
     /// Paired views take turns: a track that another camera's track shows the same person as
-    /// (its view, [`EngineConfig::camera_pair_distance_m`]), both seen before the window and
-    /// both named after the same subject, gets no motion scores in every other window (with
-    /// more cameras, in all but one window in as many as there are cameras), while the view
-    /// is scored; its motion evidence ages by the hop as if scored with no weight. The
-    /// decisions pool the views' evidence, so the person is still scored at every window.
-    /// Location-tag and RSSI evidence are scored on every view at every window.
+    /// (its view, [`EngineConfig::camera_pair_distance_m`]) gets no motion scores at the hops
+    /// when its camera rests (the cameras take turns, one per hop), if that view was seen
+    /// before the window, is named, will be scored in it, and the track is unnamed (new, most
+    /// often) or named alike. Its motion evidence then ages by the hop as if scored with no
+    /// weight. The decisions pool the views' evidence, so the person is still scored at every
+    /// window. Location-tag and RSSI evidence are scored on every view at every window.
     ///
     /// Default true: on the 8-person scene of the bench (two cameras that both see everyone,
-    /// seed 1) it cuts the engine's instructions by 9.4 % with every offset known and by 2.9 %
-    /// with offsets searched (callgrind: 4.51 → 4.09 and 8.09 → 7.85 billion). Over the 259-run
-    /// sweep of the engine README, +0.001 points per run (26 runs better, 13 worse, all with two
-    /// cameras; 8 people full network 99.32 → 99.34 %, one wrist 98.61 → 98.61 %), and over the
-    /// 86 runs of the second sweep −0.001 (the four 180-s 8-person runs changed, by −0.26 to
-    /// +0.10). Scenes with one camera are unchanged.
+    /// seed 1), with the refinement's one view per person (engine README, stop 62), the
+    /// engine's instructions fall by 16 % with every offset known and by 6.5 % with offsets
+    /// searched (callgrind: 4.51 → 3.78 and 8.09 → 7.56 billion). Over the 259-run sweep of
+    /// the engine README, +0.001 points per run (25 runs better, 18 worse, all with two
+    /// cameras; 8 people full network 99.32 → 99.32 %, one wrist 98.61 → 98.62 %); over the 86
+    /// runs of the second sweep −0.001 (two of the four 180-s 8-person runs better, two worse).
+    /// Scenes with one camera are unchanged.
     pub alternate_paired_views: bool,
     /// Seconds of history before each window that the low-passed and smoothed signals of both
     /// sides are computed over before the window's part is scored, s (≥ 0); the

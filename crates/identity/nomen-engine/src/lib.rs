@@ -115,7 +115,8 @@
 //!    [`EngineConfig::offset_unexplained_passes`] passes move the offset there (it undoes an
 //!    offset taken from a look-alike's track).
 //!    Accepted offsets are refined every [`EngineConfig::offset_refine_interval_s`] against the tracks
-//!    labelled with the wearer (their fine lag curves averaged, weighted by coverage; the
+//!    labelled with the wearer (their fine lag curves averaged, weighted by coverage, one
+//!    view per person where two cameras' tracks show the same person; the
 //!    interval doubles while refinements leave the offset where it was, up to
 //!    [`EngineConfig::offset_refine_max_interval_s`]; with trusted offsets this is the only
 //!    path that moves them);
@@ -159,8 +160,8 @@
 //!    show the same person (torso within [`EngineConfig::camera_pair_distance_m`] on average
 //!    over the last two windows, each the other's unambiguous match) pool their evidence, each
 //!    accumulator weighted by its weight: a track too new to be scored is named from another
-//!    camera's view at once, and a wrong stitch is outweighed. Such views named alike take
-//!    turns being scored, one camera resting per hop
+//!    camera's view at once, and a wrong stitch is outweighed. While a track's view is named,
+//!    the two take turns being scored, one camera resting per hop
 //!    ([`EngineConfig::alternate_paired_views`]). One subject never goes to two
 //!    tracks of one camera seen at the same time; after the assignment, a track whose best
 //!    subject went to a track of its camera that it never coexisted with (the same person

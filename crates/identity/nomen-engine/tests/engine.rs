@@ -1399,6 +1399,78 @@ fn paired_views_take_turns_and_everyone_is_still_named_at_every_window() {
 }
 
 #[test]
+fn a_new_track_whose_person_another_camera_names_is_scored_in_turns_and_named() {
+    // The first camera gives Ana a new id (11) at 12 s; the second follows her as one track
+    // (101) all along, named from the first seconds.
+    let mut people = two_people();
+    people[0].track_change = Some((12.0, 11));
+    let (registry, msgs) =
+        with_second_camera_tracks(&people, &recording(&people, 20.0), |p, _, _| {
+            TrackId(if p.subject == Some("ana") { 101 } else { 102 })
+        });
+    let spy = WindowSpy::default();
+    let mut engine = Engine::new(registry, EngineConfig::default())
+        .unwrap()
+        .with_pair_scorer(Box::new(spy.clone()));
+    let mut out = Vec::new();
+    for m in &msgs {
+        engine.push(m).unwrap();
+        engine.poll(&mut out);
+    }
+    engine.finish(&mut out);
+    // Per window from the new id's first on (by its newest grid time): whether track 11 was
+    // scored, and whether one of Ana's other tracks (1 until 12 s, 101) was.
+    let mut scored: BTreeMap<i64, (bool, bool)> = BTreeMap::new();
+    for (track, t_s, _) in spy.0.lock().unwrap().iter() {
+        if let Some(&last) = t_s.last()
+            && (12.0..19.0).contains(&last)
+        {
+            let e = scored.entry((last / 0.5).ceil() as i64).or_default();
+            e.0 |= track.0 == 11;
+            e.1 |= track.0 == 1 || track.0 == 101;
+        }
+    }
+    assert!(scored.len() >= 12, "{scored:?}");
+    // Ana is scored at every window.
+    assert!(
+        scored.values().all(|(new, other)| *new || *other),
+        "{scored:?}"
+    );
+    // From its first window with a second of frames (ending at 13 s), the new track rests
+    // whenever the first camera does (windows ending on whole seconds), unnamed or named.
+    for (&end, &(new, _)) in scored.range(26..) {
+        assert_eq!(
+            new,
+            end % 2 == 1,
+            "window ending at {} s: {scored:?}",
+            end as f64 * 0.5
+        );
+    }
+    // The new track is named Ana within a second and a half, and never anyone else.
+    let labels: Vec<(f64, Option<&str>)> = out
+        .iter()
+        .filter_map(|m| match m {
+            Message::Identified(id) if id.track == TrackId(11) => Some((
+                id.t.as_secs_f64(),
+                id.identity.subject().map(|s| s.as_str()),
+            )),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        labels.iter().all(|(_, l)| l.is_none_or(|s| s == "ana")),
+        "{labels:?}"
+    );
+    assert!(
+        labels
+            .iter()
+            .filter(|(t, _)| *t >= 13.5)
+            .all(|(_, l)| *l == Some("ana")),
+        "{labels:?}"
+    );
+}
+
+#[test]
 fn a_track_whose_view_ends_is_scored_at_every_window_again() {
     // As above, but the second camera loses Ana (track 101) at 12 s: from then on her first
     // camera's track has no view to rest on.

@@ -20,6 +20,7 @@ use nomen_core::{DeviceId, Joint, TrackId};
 use nomen_evidence::{
     GeometricConfig, SkeletonWindow, body_turn_rate_signal, segment_site_lag_models,
 };
+use std::cmp::Reverse;
 use std::collections::BTreeMap;
 
 impl Engine {
@@ -1127,13 +1128,31 @@ impl Engine {
             }
             // The tracks labelled with the wearer that cover enough of the buffer, weighted by
             // how much each covers: a long track's peak is sharper than a short one's.
-            let tracks: Vec<(TrackKey, f64)> = self
+            let labelled: Vec<(TrackKey, f64)> = self
                 .tracks
                 .iter()
                 .filter(|(_, tr)| tr.label == Some(imu.subject))
                 .map(|(key, tr)| (*key, covered_span(tr, lo, hi)))
                 .filter(|(_, covered)| *covered >= min_track)
                 .map(|(key, covered)| (key, covered as f64 * 1e-9))
+                .collect();
+            // One view per person: of two cameras' labelled tracks that show the same person
+            // (views, as the decisions pair them), only the one covering more of the buffer
+            // (on a tie, the lower key) is read; both saw the same motion.
+            let tracks: Vec<(TrackKey, f64)> = labelled
+                .iter()
+                .filter(|&&(key, covered)| {
+                    self.tracks.get(&key).is_none_or(|tr| {
+                        !tr.views.iter().any(|v| {
+                            v.0 != key.0
+                                && labelled.iter().any(|&(other, theirs)| {
+                                    other == *v
+                                        && (theirs, Reverse(other)) > (covered, Reverse(key))
+                                })
+                        })
+                    })
+                })
+                .copied()
                 .collect();
             if tracks.is_empty() {
                 // Nothing to refine against (the wearer unseen or unnamed): not a refinement.

@@ -219,10 +219,9 @@ impl Engine {
 
     /// The tracks that rest in the window `[start, end)`
     /// ([`EngineConfig::alternate_paired_views`](crate::EngineConfig::alternate_paired_views)):
-    /// those of this window's resting camera (the cameras take turns, one per hop) that were
-    /// seen before the window and are named after the subject a view of theirs in another
-    /// camera is named after, when that view was seen before the window too and has enough of
-    /// it to be scored.
+    /// those of this window's resting camera (the cameras take turns, one per hop) with a view
+    /// in another camera that was seen before the window, is named, and has enough of the
+    /// window to be scored, when the track is unnamed (new, most often) or named alike.
     fn resting_views(&self, start: i64, end: i64, min_span: i64) -> BTreeSet<TrackKey> {
         let num_cameras = self.cameras.len();
         if !self.config.alternate_paired_views || num_cameras < 2 || self.hop_ns <= 0 {
@@ -232,19 +231,20 @@ impl Engine {
         let Ok(c) = usize::try_from(turn) else {
             return BTreeSet::new();
         };
-        let seen_before = |tr: &TrackState| tr.superseded_by.is_none() && tr.first_t <= start;
         self.tracks
             .range((c, TrackId(0))..)
             .take_while(|(k, _)| k.0 == c)
-            .filter(|(_, tr)| seen_before(tr) && tr.label.is_some())
+            .filter(|(_, tr)| tr.superseded_by.is_none())
             .filter(|(_, tr)| {
                 tr.views.iter().any(|v| {
                     v.0 != c
                         && self.tracks.get(v).is_some_and(|view| {
                             let min_samples =
                                 scaled_count(WINDOW_MIN_TRACK_SAMPLES, self.camera_scale(v.0));
-                            seen_before(view)
-                                && view.label == tr.label
+                            view.superseded_by.is_none()
+                                && view.first_t <= start
+                                && view.label.is_some()
+                                && (tr.label.is_none() || tr.label == view.label)
                                 && is_scored(view, start, end, min_samples, min_span)
                         })
                 })
