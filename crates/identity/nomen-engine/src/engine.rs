@@ -399,7 +399,7 @@ struct ImuState {
     is_offset_known: bool,
     last_refine_end: i64,
     /// The offset the last refinement left, and how many refinements in a row left it within
-    /// a lag step of where it was (see [`EngineConfig::offset_refine_max_interval_s`]).
+    /// 30 ms of where it was (see [`EngineConfig::offset_refine_max_interval_s`]).
     refined: Option<(i64, u32)>,
     /// The registry's offset: the prior, restored when an accepted offset is withdrawn.
     registry_offset_ns: i64,
