@@ -1272,6 +1272,33 @@ impl PairScorer for WindowSpy {
     }
 }
 
+/// Runs `msgs` through an engine with a [`WindowSpy`] as its learned scorer, message by
+/// message: the output, the engine's stats and every skeleton window it scored.
+fn run_spied(
+    registry: Registry,
+    config: EngineConfig,
+    msgs: &[Message],
+) -> (Vec<Message>, EngineStats, Vec<SeenWindow>) {
+    let spy = WindowSpy::default();
+    let mut engine = Engine::new(registry, config)
+        .unwrap()
+        .with_pair_scorer(Box::new(spy.clone()));
+    let mut out = Vec::new();
+    for m in msgs {
+        engine.push(m).unwrap();
+        engine.poll(&mut out);
+    }
+    engine.finish(&mut out);
+    let seen = std::mem::take(&mut *spy.0.lock().unwrap());
+    (out, engine.stats().clone(), seen)
+}
+
+/// The window a scored skeleton window belongs to, as the number of hops (0.5 s) to its end:
+/// windows end on the hop grid, and the newest frame of one lies within the hop before its end.
+fn window_of(t_s: &[f64]) -> Option<i64> {
+    t_s.last().map(|&last| (last / 0.5).ceil() as i64)
+}
+
 #[test]
 fn an_id_swap_found_frames_after_the_first_return_moves_every_frame_since_that_return() {
     // As above, but track 1 comes back first (12.0 s, showing Ben) and track 2 two frames
@@ -1280,21 +1307,11 @@ fn an_id_swap_found_frames_after_the_first_return_moves_every_frame_since_that_r
     // and the history that comes to track 2 ends before them.
     let (people, msgs) = swap_in_two_returns(11.5..12.0, 11.8..12.05);
     assert_swap_at_12_s_is_undone(&people, &msgs);
-    let spy = WindowSpy::default();
-    let mut engine = Engine::new(registry(&people), EngineConfig::default())
-        .unwrap()
-        .with_pair_scorer(Box::new(spy.clone()));
-    let mut out = Vec::new();
-    for m in &msgs {
-        engine.push(m).unwrap();
-        engine.poll(&mut out);
-    }
-    engine.finish(&mut out);
-    assert_eq!(engine.stats().num_swaps, 1);
-    assert_eq!(engine.stats().num_frames_behind_history, 0);
+    let (_, stats, seen) = run_spied(registry(&people), EngineConfig::default(), &msgs);
+    assert_eq!(stats.num_swaps, 1);
+    assert_eq!(stats.num_frames_behind_history, 0);
     // Every window read after the swap: from the first return on, track 1's frames show Ben
     // (y 0.8 m) and track 2's Ana (y 0).
-    let seen = spy.0.lock().unwrap();
     let mut num_read = [0; 2];
     for (track, t_s, mean_y) in seen.iter() {
         for (t, y) in t_s.iter().zip(mean_y) {
@@ -1316,39 +1333,33 @@ fn an_id_swap_found_frames_after_the_first_return_moves_every_frame_since_that_r
     assert!(num_read[0] >= 3, "{num_read:?}");
 }
 
+/// `people` for `duration_s`, each followed by both cameras as one track all along (the first
+/// camera's track `k`, the second's `100 + k`).
+fn followed_by_two_cameras(people: &[Person], duration_s: f64) -> (Registry, Vec<Message>) {
+    with_second_camera_tracks(people, &recording(people, duration_s), |_, _, track| {
+        TrackId(100 + track.0)
+    })
+}
+
 #[test]
 fn paired_views_take_turns_and_everyone_is_still_named_at_every_window() {
     // Both cameras follow each person as one track all along (Ana: 1 and 101, Ben: 2 and 102).
     let people = two_people();
-    let (registry, msgs) =
-        with_second_camera_tracks(&people, &recording(&people, 20.0), |_, _, track| {
-            TrackId(100 + track.0)
-        });
+    let (registry, msgs) = followed_by_two_cameras(&people, 20.0);
     // The tracks each window scores (from 8 s, once both views are named and paired, to 19 s),
-    // by the window's newest grid time, and every decision.
+    // and every decision.
     let run = |alternate: bool| {
         let config = EngineConfig {
             alternate_paired_views: alternate,
             ..EngineConfig::default()
         };
-        let spy = WindowSpy::default();
-        let mut engine = Engine::new(registry.clone(), config)
-            .unwrap()
-            .with_pair_scorer(Box::new(spy.clone()));
-        let mut out = Vec::new();
-        for m in &msgs {
-            engine.push(m).unwrap();
-            engine.poll(&mut out);
-        }
-        engine.finish(&mut out);
+        let (out, _, seen) = run_spied(registry.clone(), config, &msgs);
         let mut scored: BTreeMap<i64, BTreeSet<u64>> = BTreeMap::new();
-        for (track, t_s, _) in spy.0.lock().unwrap().iter() {
-            if let Some(&last) = t_s.last()
-                && (8.0..19.0).contains(&last)
+        for (track, t_s, _) in &seen {
+            // (The windows after the recording's end have the same newest frame.)
+            if let Some(end) = window_of(t_s)
+                && (16..=38).contains(&end)
             {
-                // Windows end on the hop (0.5 s) grid; the newest frame is just before. (The
-                // windows after the recording's end have the same newest frame.)
-                let end = (last / 0.5).ceil() as i64;
                 scored.entry(end).or_default().insert(track.0);
             }
         }
@@ -1408,24 +1419,15 @@ fn a_new_track_whose_person_another_camera_names_is_scored_in_turns_and_named() 
         with_second_camera_tracks(&people, &recording(&people, 20.0), |p, _, _| {
             TrackId(if p.subject == Some("ana") { 101 } else { 102 })
         });
-    let spy = WindowSpy::default();
-    let mut engine = Engine::new(registry, EngineConfig::default())
-        .unwrap()
-        .with_pair_scorer(Box::new(spy.clone()));
-    let mut out = Vec::new();
-    for m in &msgs {
-        engine.push(m).unwrap();
-        engine.poll(&mut out);
-    }
-    engine.finish(&mut out);
-    // Per window from the new id's first on (by its newest grid time): whether track 11 was
-    // scored, and whether one of Ana's other tracks (1 until 12 s, 101) was.
+    let (out, _, seen) = run_spied(registry, EngineConfig::default(), &msgs);
+    // Per window from the new id's first on: whether track 11 was scored, and whether one of
+    // Ana's other tracks (1 until 12 s, 101) was.
     let mut scored: BTreeMap<i64, (bool, bool)> = BTreeMap::new();
-    for (track, t_s, _) in spy.0.lock().unwrap().iter() {
-        if let Some(&last) = t_s.last()
-            && (12.0..19.0).contains(&last)
+    for (track, t_s, _) in &seen {
+        if let Some(end) = window_of(t_s)
+            && (24..=38).contains(&end)
         {
-            let e = scored.entry((last / 0.5).ceil() as i64).or_default();
+            let e = scored.entry(end).or_default();
             e.0 |= track.0 == 11;
             e.1 |= track.0 == 1 || track.0 == 101;
         }
@@ -1475,10 +1477,7 @@ fn a_track_whose_view_ends_is_scored_at_every_window_again() {
     // As above, but the second camera loses Ana (track 101) at 12 s: from then on her first
     // camera's track has no view to rest on.
     let people = two_people();
-    let (registry, msgs) =
-        with_second_camera_tracks(&people, &recording(&people, 20.0), |_, _, track| {
-            TrackId(100 + track.0)
-        });
+    let (registry, msgs) = followed_by_two_cameras(&people, 20.0);
     let msgs: Vec<Message> = msgs
         .into_iter()
         .filter(|m| match m {
@@ -1486,20 +1485,10 @@ fn a_track_whose_view_ends_is_scored_at_every_window_again() {
             _ => true,
         })
         .collect();
-    let spy = WindowSpy::default();
-    let mut engine = Engine::new(registry, EngineConfig::default())
-        .unwrap()
-        .with_pair_scorer(Box::new(spy.clone()));
-    let mut out = Vec::new();
-    for m in &msgs {
-        engine.push(m).unwrap();
-        engine.poll(&mut out);
-    }
-    engine.finish(&mut out);
+    let (out, _, seen) = run_spied(registry, EngineConfig::default(), &msgs);
     let mut ana: BTreeMap<i64, bool> = BTreeMap::new();
-    for (track, t_s, _) in spy.0.lock().unwrap().iter() {
-        if let Some(&last) = t_s.last() {
-            let end = (last / 0.5).ceil() as i64;
+    for (track, t_s, _) in &seen {
+        if let Some(end) = window_of(t_s) {
             *ana.entry(end).or_default() |= track.0 == 1;
         }
     }
