@@ -1356,7 +1356,8 @@ fn paired_views_take_turns_and_everyone_is_still_named_at_every_window() {
         let (out, _, seen) = run_spied(registry.clone(), config, &msgs);
         let mut scored: BTreeMap<i64, BTreeSet<u64>> = BTreeMap::new();
         for (track, t_s, _) in &seen {
-            // (The windows after the recording's end have the same newest frame.)
+            // Up to the window ending at 19 s: those after the recording's end (20 s) have
+            // the same newest frame as the last one before it.
             if let Some(end) = window_of(t_s)
                 && (16..=38).contains(&end)
             {
