@@ -70,6 +70,17 @@ impl Engine {
                 }
             })
             .collect();
+        // Each IMU's evidence decays at its wearer's rate.
+        let imu_decay: Vec<f64> = self
+            .imus
+            .iter()
+            .map(|imu| {
+                decay
+                    .get(imu.subject)
+                    .copied()
+                    .unwrap_or(self.decay_per_hop)
+            })
+            .collect();
         let resting = self.resting_views(start, end, min_span);
         let mut window = WindowScoring {
             start,
@@ -191,21 +202,11 @@ impl Engine {
                     acc.weight *= decay.get(*b).copied().unwrap_or(self.decay_per_hop);
                 }
                 for (i, acc) in &mut tr.device_evidence {
-                    acc.weight *= self
-                        .imus
-                        .get(*i)
-                        .and_then(|imu| decay.get(imu.subject))
-                        .copied()
-                        .unwrap_or(self.decay_per_hop);
+                    acc.weight *= imu_decay.get(*i).copied().unwrap_or(self.decay_per_hop);
                 }
             }
             for (key, i, v) in device_scores {
-                let decay = self
-                    .imus
-                    .get(i)
-                    .and_then(|imu| decay.get(imu.subject))
-                    .copied()
-                    .unwrap_or(self.decay_per_hop);
+                let decay = imu_decay.get(i).copied().unwrap_or(self.decay_per_hop);
                 if let Some(tr) = self.tracks.get_mut(&key) {
                     accumulate(tr.device_evidence.entry(i).or_default(), v, decay);
                 }
