@@ -560,6 +560,24 @@ fn calibrate_confidence_fits_a_map_that_a_run_takes_and_eval_scores() {
         "{}",
         text(&o.stderr)
     );
+    // So is an option of the wrong type, with its key and what it should be.
+    std::fs::write(&bad, "alternate_paired_views = \"no\"\n").unwrap();
+    let o = nomen(&[
+        "run",
+        scene.join("recording.jsonl").to_str().unwrap(),
+        "--config",
+        bad.to_str().unwrap(),
+        "--out",
+        tmp.path().join("bad.jsonl").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("bad.toml")
+            && err.contains("alternate_paired_views")
+            && err.contains("boolean"),
+        "{err}"
+    );
 }
 
 #[test]
