@@ -543,35 +543,26 @@ fn calibrate_confidence_fits_a_map_that_a_run_takes_and_eval_scores() {
     ]);
     assert!(!o.status.success());
     assert!(text(&o.stderr).contains("no_model"), "{}", text(&o.stderr));
-    // A map that is not monotone is refused with its place named.
+    // An engine configuration `config` that a run must refuse: its error message.
     let bad = tmp.path().join("bad.toml");
-    std::fs::write(&bad, "[confidence_map]\nnamed = [[0.5, 0.9], [0.6, 0.8]]\n").unwrap();
-    let o = nomen(&[
-        "run",
-        scene.join("recording.jsonl").to_str().unwrap(),
-        "--config",
-        bad.to_str().unwrap(),
-        "--out",
-        tmp.path().join("bad.jsonl").to_str().unwrap(),
-    ]);
-    assert!(!o.status.success());
-    assert!(
-        text(&o.stderr).contains("confidence_map.named[1]"),
-        "{}",
+    let refused = |config: &str| {
+        std::fs::write(&bad, config).unwrap();
+        let o = nomen(&[
+            "run",
+            scene.join("recording.jsonl").to_str().unwrap(),
+            "--config",
+            bad.to_str().unwrap(),
+            "--out",
+            tmp.path().join("bad.jsonl").to_str().unwrap(),
+        ]);
+        assert!(!o.status.success());
         text(&o.stderr)
-    );
+    };
+    // A map that is not monotone is refused with its place named.
+    let err = refused("[confidence_map]\nnamed = [[0.5, 0.9], [0.6, 0.8]]\n");
+    assert!(err.contains("confidence_map.named[1]"), "{err}");
     // So is an option of the wrong type, with its key and what it should be.
-    std::fs::write(&bad, "alternate_paired_views = \"no\"\n").unwrap();
-    let o = nomen(&[
-        "run",
-        scene.join("recording.jsonl").to_str().unwrap(),
-        "--config",
-        bad.to_str().unwrap(),
-        "--out",
-        tmp.path().join("bad.jsonl").to_str().unwrap(),
-    ]);
-    assert!(!o.status.success());
-    let err = text(&o.stderr);
+    let err = refused("alternate_paired_views = \"no\"\n");
     assert!(
         err.contains("bad.toml")
             && err.contains("alternate_paired_views")
