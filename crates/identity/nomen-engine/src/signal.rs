@@ -105,7 +105,7 @@ pub(crate) fn interpolate(
     out: &mut Vec<f64>,
 ) {
     let mut weights = Vec::new();
-    interpolation_weights(t_ns, shift_ns, t_query, max_gap_ns, &mut weights);
+    interpolation_weights(t_ns, shift_ns, t_query, 1, max_gap_ns, &mut weights);
     out.clear();
     out.resize(t_query.len(), f64::NAN);
     for w in &weights {
@@ -166,9 +166,14 @@ impl LagSignals {
 /// whose wrist the camera lost had only the body's turn rate left, and one turn on a 3.6 s track
 /// correlated 0.87 with another person's band at a lag 0.8 s from that band's clock offset,
 /// which the best-track sum then accepted.
+///
+/// Only every `track_stride`-th of the track's times (from its first) is paired: a stride of
+/// 2 gives the curve of a track with half its samples, bit for bit, without copying them.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn lag_curve(
     imu: &LagSignals,
     track: &LagSignals,
+    track_stride: usize,
     offsets_ns: &[i64],
     max_gap_ns: i64,
     min_samples: usize,
@@ -199,7 +204,14 @@ pub(crate) fn lag_curve(
     for &offset in offsets_ns {
         // Where each track time falls among the IMU's samples at this offset, once for every
         // model; track times outside the IMU's samples or in a gap pair with nothing.
-        interpolation_weights(&imu.t_ns, offset, &track.t_ns, max_gap_ns, weights);
+        interpolation_weights(
+            &imu.t_ns,
+            offset,
+            &track.t_ns,
+            track_stride,
+            max_gap_ns,
+            weights,
+        );
         let (mut sum, mut num) = (0.0, 0usize);
         for (m, (((a, b), (sa, sb)), &is_complete)) in imu
             .models
@@ -235,14 +247,16 @@ pub(crate) fn lag_curve(
     }
 }
 
-/// For each query time (increasing) that falls among the IMU's samples at `t_query −
-/// shift_ns`, the sample at or before it and the fraction of the way to the next one (an exact
-/// hit uses that sample alone); nothing for a query outside the samples or across a gap longer
-/// than `max_gap_ns`.
+/// For each query time (increasing; every `stride`-th of `t_query` from its first) that falls
+/// among the IMU's samples at `t_query − shift_ns`, the sample at or before it and the
+/// fraction of the way to the next one (an exact hit uses that sample alone); nothing for a
+/// query outside the samples or across a gap longer than `max_gap_ns`. A weight's query index
+/// is into `t_query` itself.
 fn interpolation_weights(
     t_ns: &[i64],
     shift_ns: i64,
     t_query: &[i64],
+    stride: usize,
     max_gap_ns: i64,
     out: &mut Vec<LagWeight>,
 ) {
@@ -252,7 +266,9 @@ fn interpolation_weights(
     let mut k = t_query
         .first()
         .map_or(0, |&q| t_ns.partition_point(|&t| t < q - shift_ns));
-    for (query, &q) in t_query.iter().enumerate() {
+    let stride = stride.max(1);
+    let mut query = 0;
+    while let Some(&q) = t_query.get(query) {
         let d = q - shift_ns;
         while k < n && t_ns[k] < d {
             k += 1;
@@ -272,6 +288,7 @@ fn interpolation_weights(
                 frac,
             });
         }
+        query = query.saturating_add(stride);
     }
 }
 
@@ -581,16 +598,109 @@ mod tests {
             sample_scale: 1.0,
         };
         let (mut weights, mut out) = (Vec::new(), Vec::new());
-        lag_curve(&imu, &blind, &[-20, 0, 20], 50, 16, &mut weights, &mut out);
+        lag_curve(
+            &imu,
+            &blind,
+            1,
+            &[-20, 0, 20],
+            50,
+            16,
+            &mut weights,
+            &mut out,
+        );
         assert!(out.iter().all(|v| v.is_nan()), "{out:?}");
         let seen = LagSignals {
             t_ns: t,
             models: vec![wave.clone(), wave],
             sample_scale: 1.0,
         };
-        lag_curve(&imu, &seen, &[-20, 0, 20], 50, 16, &mut weights, &mut out);
+        lag_curve(
+            &imu,
+            &seen,
+            1,
+            &[-20, 0, 20],
+            50,
+            16,
+            &mut weights,
+            &mut out,
+        );
         assert!((out[1] - 1.0).abs() < 1e-9, "{out:?}");
         assert!(out[0] < out[1] && out[2] < out[1], "{out:?}");
+    }
+
+    #[test]
+    fn a_track_stride_pairs_every_other_sample_as_a_thinned_track_would() {
+        // An IMU at 30 ms (a dropout, a missing value) and a track at 33 ms whose models
+        // differ at odd and even samples, so that a stride that pairs the wrong samples changes
+        // the curve.
+        let t_imu: Vec<i64> = (0..400)
+            .filter(|k| !(150..153).contains(k))
+            .map(|k| k * 30_000_000)
+            .collect();
+        let wave = |t: i64, f: f64| ((t as f64 * 1e-9) * f).sin() + 0.3 * (t as f64 * 3e-9).cos();
+        let mut imu_models: Vec<Vec<f64>> = (1..=3)
+            .map(|m| t_imu.iter().map(|&t| wave(t, m as f64)).collect())
+            .collect();
+        imu_models[1][40] = f64::NAN;
+        let imu = LagSignals {
+            t_ns: t_imu,
+            models: imu_models,
+            sample_scale: 1.0,
+        };
+        let t_track: Vec<i64> = (10..330).map(|k| k * 33_333_333).collect();
+        let track_models: Vec<Vec<f64>> = (1..=3)
+            .map(|m| {
+                t_track
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &t)| {
+                        wave(t + 50_000_000, m as f64) + if i % 2 == 1 { 0.4 } else { 0.0 }
+                    })
+                    .collect()
+            })
+            .collect();
+        let thinned = LagSignals {
+            t_ns: t_track.iter().step_by(2).copied().collect(),
+            models: track_models
+                .iter()
+                .map(|m| m.iter().step_by(2).copied().collect())
+                .collect(),
+            sample_scale: 1.0,
+        };
+        let track = LagSignals {
+            t_ns: t_track,
+            models: track_models,
+            sample_scale: 1.0,
+        };
+        let offsets: Vec<i64> = (-10..=10).map(|k| k * 40_000_000).collect();
+        let (mut weights, mut strided, mut expected, mut every) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let gap = 60_000_000;
+        lag_curve(
+            &imu,
+            &track,
+            2,
+            &offsets,
+            gap,
+            16,
+            &mut weights,
+            &mut strided,
+        );
+        lag_curve(
+            &imu,
+            &thinned,
+            1,
+            &offsets,
+            gap,
+            16,
+            &mut weights,
+            &mut expected,
+        );
+        lag_curve(&imu, &track, 1, &offsets, gap, 16, &mut weights, &mut every);
+        let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert!(expected.iter().all(|v| v.is_finite()), "{expected:?}");
+        assert_eq!(bits(&strided), bits(&expected));
+        assert_ne!(bits(&every), bits(&expected));
     }
 
     #[test]

@@ -3,9 +3,9 @@
 //! and curves.
 
 use super::{
-    COARSE_LAG_STEPS, Engine, ImuState, LAG_DECIMATION, LAG_MIN_TRACK_SAMPLES, LAG_STEP_NS,
-    MAX_IMU_GAP_NS, OFFSET_PEAK_SEPARATION_NS, TrackKey, TrackSample, TrackState, covered_span,
-    sample_range, scaled_count,
+    COARSE_LAG_STEPS, COARSE_TRACK_STRIDE, Engine, ImuState, LAG_DECIMATION, LAG_MIN_TRACK_SAMPLES,
+    LAG_STEP_NS, MAX_IMU_GAP_NS, OFFSET_PEAK_SEPARATION_NS, TrackKey, TrackSample, TrackState,
+    covered_span, sample_range, scaled_count,
 };
 use crate::config::{EngineConfig, OFFSET_CONFIRM_HISTORY, ns};
 use crate::lag_memo::{self, ImuLagMemo};
@@ -1316,6 +1316,7 @@ impl LagScratch {
             sides_curve(
                 imu,
                 track_signals,
+                COARSE_TRACK_STRIDE,
                 offsets_ns,
                 min_samples,
                 weights,
@@ -1337,6 +1338,7 @@ impl LagScratch {
         sides_curve(
             imu,
             track,
+            1,
             offsets_ns,
             min_samples,
             &mut self.weights,
@@ -1358,17 +1360,21 @@ pub(super) type TrackSides<'a> = (&'a LagSignals, Option<&'a LagSignals>);
 fn sides_curve(
     imu: &LagSignals,
     (track, mirror): TrackSides<'_>,
+    track_stride: usize,
     offsets_ns: &[i64],
     min_samples: usize,
     weights: &mut Vec<LagWeight>,
     (out, mirror_out): (&mut Vec<f64>, &mut Vec<f64>),
 ) {
+    // Every `track_stride`-th track sample counts as one of a camera that much slower.
+    let scale = |side: &LagSignals| side.sample_scale / track_stride.max(1) as f64;
     lag_curve(
         imu,
         track,
+        track_stride,
         offsets_ns,
         MAX_IMU_GAP_NS,
-        scaled_count(min_samples, track.sample_scale),
+        scaled_count(min_samples, scale(track)),
         weights,
         out,
     );
@@ -1376,9 +1382,10 @@ fn sides_curve(
         lag_curve(
             imu,
             mirror,
+            track_stride,
             offsets_ns,
             MAX_IMU_GAP_NS,
-            scaled_count(min_samples, mirror.sample_scale),
+            scaled_count(min_samples, scale(mirror)),
             weights,
             mirror_out,
         );
@@ -1902,13 +1909,14 @@ mod tests {
         let (mut one, mut other) = (Vec::new(), Vec::new());
         let (mut both, mut scratch) = (Vec::new(), Vec::new());
         let curve = |track, out: &mut Vec<f64>, weights: &mut Vec<LagWeight>| {
-            lag_curve(&imu, track, &offsets, MAX_IMU_GAP_NS, 16, weights, out);
+            lag_curve(&imu, track, 1, &offsets, MAX_IMU_GAP_NS, 16, weights, out);
         };
         curve(&left, &mut one, &mut weights);
         curve(&right, &mut other, &mut weights);
         sides_curve(
             &imu,
             (&left, Some(&right)),
+            1,
             &offsets,
             16,
             &mut weights,
@@ -1936,6 +1944,7 @@ mod tests {
         sides_curve(
             &imu,
             (&left, None),
+            1,
             &offsets,
             16,
             &mut weights,
