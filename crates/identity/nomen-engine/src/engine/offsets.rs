@@ -613,7 +613,19 @@ impl Engine {
                 own.clear();
                 own.resize(best_grid_len, (0.0, 0usize));
                 if let Some(imu_sig) = imu_cache.signals(i, imu, cut, lag_memos, &self.config) {
+                    // Where each candidate covers the buffer, for reading one view per person.
+                    let covered = |k: TrackKey| {
+                        candidates
+                            .contains(&k)
+                            .then(|| self.tracks.get(&k).map_or(0, |tr| covered_span(tr, lo, hi)))
+                    };
                     for key in candidates.iter() {
+                        // One view per person: the best value at each lag is the pass's, and
+                        // two cameras' views of one person give the same curve to noise.
+                        let views = self.tracks.get(key).map_or(&[][..], |tr| &tr.views[..]);
+                        if covered(*key).is_some_and(|c| is_lesser_view(*key, views, c, covered)) {
+                            continue;
+                        }
                         // A track named after someone else with an accepted offset is
                         // explained by that person's IMU: a look-alike's track (the same gait
                         // a fraction of a stride off, the same turns for a while) would
@@ -1139,18 +1151,17 @@ impl Engine {
             // One view per person: of two cameras' labelled tracks that show the same person
             // (views, as the decisions pair them), only the one covering more of the buffer
             // (on a tie, the lower key) is read; both saw the same motion.
+            let covered = |k: TrackKey| {
+                labelled
+                    .iter()
+                    .find(|(other, _)| *other == k)
+                    .map(|&(_, c)| c)
+            };
             let tracks: Vec<(TrackKey, f64)> = labelled
                 .iter()
-                .filter(|&&(key, covered)| {
-                    self.tracks.get(&key).is_none_or(|tr| {
-                        !tr.views.iter().any(|v| {
-                            v.0 != key.0
-                                && labelled.iter().any(|&(other, theirs)| {
-                                    other == *v
-                                        && (theirs, Reverse(other)) > (covered, Reverse(key))
-                                })
-                        })
-                    })
+                .filter(|&&(key, c)| {
+                    let views = self.tracks.get(&key).map_or(&[][..], |tr| &tr.views[..]);
+                    !is_lesser_view(key, views, c, covered)
                 })
                 .copied()
                 .collect();
@@ -1224,6 +1235,22 @@ const REFINE_KEPT_NS: i64 = 3 * LAG_STEP_NS;
 /// `refine_every`, doubled with every refinement in a row that left the offset within
 /// [`REFINE_KEPT_NS`] of where it was, up to `refine_max`; an offset moved since (by any path)
 /// starts again.
+/// Whether a read of one view per person skips track `key`, which covers `covered` of the
+/// buffer and has the views `views` (other cameras' tracks of its person, as the decisions pair
+/// them): one of them is read too (`covered_of` gives how much of the buffer a read track
+/// covers, `None` for a track not read) and covers more of it, or as much with a lower key.
+fn is_lesser_view<C: PartialOrd + Copy>(
+    key: TrackKey,
+    views: &[TrackKey],
+    covered: C,
+    covered_of: impl Fn(TrackKey) -> Option<C>,
+) -> bool {
+    views.iter().any(|&v| {
+        v.0 != key.0
+            && covered_of(v).is_some_and(|theirs| (theirs, Reverse(v)) > (covered, Reverse(key)))
+    })
+}
+
 fn refine_interval(imu: &ImuState, refine_every: i64, refine_max: i64) -> i64 {
     refine_every
         .saturating_mul(1_i64 << refinements_kept(imu).min(16))
@@ -1825,6 +1852,29 @@ fn mask_unseen(thinned: &mut [f64], seen: &[bool]) {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+
+    #[test]
+    fn one_view_per_person_keeps_the_view_covering_more_then_the_lower_key() {
+        let (a, b, c) = ((0, TrackId(7)), (1, TrackId(3)), (1, TrackId(9)));
+        // Seconds of the buffer each read track covers; `c` is not read.
+        let read = |k: TrackKey| match k {
+            (0, TrackId(7)) => Some(4.0),
+            (1, TrackId(3)) => Some(6.0),
+            _ => None,
+        };
+        // `b` covers more: `a` is skipped, `b` read.
+        assert!(is_lesser_view(a, &[b], 4.0, read));
+        assert!(!is_lesser_view(b, &[a], 6.0, read));
+        // A view that is not read, or one in the track's own camera, never skips it.
+        assert!(!is_lesser_view(a, &[c], 4.0, read));
+        assert!(!is_lesser_view((1, TrackId(1)), &[b], 1.0, read));
+        // As much of the buffer: the lower key is read.
+        let tied = |_: TrackKey| Some(5.0);
+        assert!(!is_lesser_view(a, &[b], 5.0, tied));
+        assert!(is_lesser_view(b, &[a], 5.0, tied));
+        // No views: read.
+        assert!(!is_lesser_view(a, &[], 4.0, read));
+    }
 
     fn sample(t: i64, x: f64) -> TrackSample {
         let mut joints = Joints::new();
