@@ -80,7 +80,7 @@ const COARSE_LAG_STEPS: usize = 4;
 /// pair every this-many-th of the lag search's track samples with the IMU: 7.5 Hz from a 30-Hz
 /// camera, still above twice the 3-Hz low-pass the models are smoothed with, and the fine curve
 /// around each coarse peak pairs them all. With offsets searched, on the 8-person full-network
-/// scene (seed 1), the engine ran 11.4 % fewer instructions (7.37 → 6.53 billion) and its 40
+/// scene (seed 1), the engine ran 11.2 % fewer instructions (7.37 → 6.55 billion) and its 40
 /// clock offsets were as close to the simulator's; over the 60 two-camera 8-person runs of the
 /// sweeps, 6.1 ms off on median both ways and 18.7 → 18.5 ms at the 90th percentile; accuracy
 /// +0.004 points per run over 259 runs (21 better, 18 worse), +0.019 over 86. Every third

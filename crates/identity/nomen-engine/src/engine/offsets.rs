@@ -1231,10 +1231,6 @@ impl Engine {
 /// alone. The offset itself still takes every refinement's estimate.
 const REFINE_KEPT_NS: i64 = 3 * LAG_STEP_NS;
 
-/// How often an accepted offset is refined (and checked against its wearer's labelled tracks):
-/// `refine_every`, doubled with every refinement in a row that left the offset within
-/// [`REFINE_KEPT_NS`] of where it was, up to `refine_max`; an offset moved since (by any path)
-/// starts again.
 /// Whether a read of one view per person skips track `key`, which covers `covered` of the
 /// buffer and has the views `views` (other cameras' tracks of its person, as the decisions pair
 /// them): one of them is read too (`covered_of` gives how much of the buffer a read track
@@ -1251,6 +1247,10 @@ fn is_lesser_view<C: PartialOrd + Copy>(
     })
 }
 
+/// How often an accepted offset is refined (and checked against its wearer's labelled tracks):
+/// `refine_every`, doubled with every refinement in a row that left the offset within
+/// [`REFINE_KEPT_NS`] of where it was, up to `refine_max`; an offset moved since (by any path)
+/// starts again.
 fn refine_interval(imu: &ImuState, refine_every: i64, refine_max: i64) -> i64 {
     refine_every
         .saturating_mul(1_i64 << refinements_kept(imu).min(16))
@@ -1383,7 +1383,8 @@ pub(super) type TrackSides<'a> = (&'a LagSignals, Option<&'a LagSignals>);
 /// [`MAX_IMU_GAP_NS`]) into `out.0`; with a mirror-image site, the larger of the two sides'
 /// values at each lag (`out.1` holds the other side's curve). The search then finds the side
 /// and the lag together: a band on the other wrist than its site peaks about half a stride
-/// away on the site's wrist.
+/// away on the site's wrist. Every `track_stride`-th of the track's samples is paired, and the
+/// sample count a lag needs is scaled down by as much.
 fn sides_curve(
     imu: &LagSignals,
     (track, mirror): TrackSides<'_>,
