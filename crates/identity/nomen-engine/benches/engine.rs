@@ -13,6 +13,15 @@
 //! It allocates through mimalloc, as the `nomen` binary does (the engine library leaves the
 //! allocator to the program): on `nomen run` of this scene mimalloc took 7 % less time than
 //! the system allocator.
+//!
+//! With `NOMEN_BENCH_ONCE=searched` (or `known`, every clock offset given) it runs the engine
+//! once on the scene instead and prints that run's time and a digest of its output, for an
+//! instruction count that compares builds exactly (the engine README quotes these):
+//! ```text
+//! cargo bench -p nomen-engine --no-run   # prints the bench binary's path
+//! NOMEN_BENCH_ONCE=searched valgrind --tool=callgrind \
+//!     --toggle-collect='nomen_engine::run_batch_with_rssi' target/release/deps/engine-<hash>
+//! ```
 #![allow(
     missing_docs,
     clippy::print_stdout,
@@ -23,6 +32,7 @@
 use nomen_core::Message;
 use nomen_engine::{Engine, EngineConfig, run_batch};
 use nomen_sim::{Scenario, SimOutput, load_scenario_clips, simulate};
+use std::hash::{Hash, Hasher};
 use std::path::Path;
 use std::time::Instant;
 
@@ -62,6 +72,31 @@ fn main() {
     let (scenario, sim) = simulate_sorted(&repo, &data, SCENARIO);
     let registry = sim.scene.registry.clone();
     let config = EngineConfig::default();
+    // The steady state's inputs: every clock offset known (here the simulator's true ones).
+    let known = sim.scene.registry_with_true_offsets();
+    let known_config = EngineConfig {
+        known_clock_offsets: true,
+        ..config
+    };
+
+    if let Ok(mode) = std::env::var("NOMEN_BENCH_ONCE") {
+        let (registry, config) = match mode.as_str() {
+            "searched" => (&registry, &config),
+            "known" => (&known, &known_config),
+            _ => panic!("NOMEN_BENCH_ONCE is `searched` or `known`, not `{mode}`"),
+        };
+        let start = Instant::now();
+        let (out, _) = run_batch(registry, &sim.recording, config).expect("runs");
+        let elapsed_s = start.elapsed().as_secs_f64();
+        let mut digest = std::collections::hash_map::DefaultHasher::new();
+        format!("{out:?}").hash(&mut digest);
+        println!(
+            "one run on {SCENARIO} (seed {SEED}, offsets {mode}): {elapsed_s:.3} s = {:.0}× real time, output digest {:016x}",
+            scenario.duration_s / elapsed_s,
+            digest.finish()
+        );
+        return;
+    }
 
     let _ = run_batch(&registry, &sim.recording, &config).expect("warm-up");
     let mut times = Vec::with_capacity(NUM_RUNS);
@@ -81,11 +116,6 @@ fn main() {
 
     // Steady state: once every clock offset is known (here the simulator's true ones, as after
     // the first minute of a session), the lag search stops and only scoring is left.
-    let known = sim.scene.registry_with_true_offsets();
-    let known_config = EngineConfig {
-        known_clock_offsets: true,
-        ..config
-    };
     let mut times = Vec::with_capacity(NUM_RUNS);
     for _ in 0..NUM_RUNS {
         let start = Instant::now();
