@@ -20,8 +20,10 @@
 //! ```text
 //! cargo bench -p nomen-engine --no-run   # prints the bench binary's path
 //! NOMEN_BENCH_ONCE=searched valgrind --tool=callgrind \
-//!     --toggle-collect='nomen_engine::run_batch_with_rssi' target/release/deps/engine-<hash>
+//!     --toggle-collect='nomen_engine::run_batch' target/release/deps/engine-<hash>
 //! ```
+//! (`run_batch`, not the `run_batch_with_rssi` it calls: the bench's build inlines that one,
+//! and a toggle on it collects nothing.)
 #![allow(
     missing_docs,
     clippy::print_stdout,
