@@ -369,9 +369,9 @@ impl<'a> HierarchyParser<'a> {
 /// Largest frame value taken: 10^5 file units is a kilometre in centimetres (100 km in
 /// metres), and 10^5 degrees is 278 turns of a joint. Larger values are corrupt numbers,
 /// caught here with their line instead of as positions out of range after the conversion.
-const MAX_FRAME_VALUE: f64 = 1e5;
+pub(crate) const MAX_FRAME_VALUE: f64 = 1e5;
 
-fn parse_finite(tok: &str, file: &str, line: usize, what: &str) -> Result<f64> {
+pub(crate) fn parse_finite(tok: &str, file: &str, line: usize, what: &str) -> Result<f64> {
     let value: f64 = tok.parse().map_err(|_| MocapError::NotANumber {
         file: file.to_owned(),
         line,

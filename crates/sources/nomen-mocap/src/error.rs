@@ -2,8 +2,8 @@
 
 use thiserror::Error;
 
-/// Everything that can go wrong while reading a BVH file or converting it to the canonical
-/// skeleton.
+/// Everything that can go wrong while reading a BVH file or an ASF/AMC pair, or converting one
+/// to the canonical skeleton.
 ///
 /// Messages are lower-case and start with `file:line` where a line is known (lines count from 1).
 #[derive(Debug, Error)]
@@ -165,6 +165,97 @@ pub enum MocapError {
         num_nodes: usize,
         /// The most joint poses a file may hold.
         max: usize,
+    },
+    /// A bone name that the ASF's `:bonedata` does not define (in `:hierarchy` or an AMC
+    /// frame), or `root` where a bone is required.
+    #[error("{file}:{line}: unknown bone '{name}' (not defined in the skeleton's :bonedata)")]
+    UnknownBone {
+        /// Source name (file name).
+        file: String,
+        /// Line of the name.
+        line: usize,
+        /// The name as written.
+        name: String,
+    },
+    /// A bone defined twice in `:bonedata`, or given values twice in one AMC frame.
+    #[error("{file}:{line}: bone '{name}' appears twice (first at line {first_line})")]
+    DuplicateBone {
+        /// Source name (file name).
+        file: String,
+        /// Line of the second appearance.
+        line: usize,
+        /// The bone's name.
+        name: String,
+        /// Line of the first appearance.
+        first_line: usize,
+    },
+    /// A bone definition that cannot be used (no direction, a negative length, an unsupported
+    /// degree of freedom, limits that do not pair with the dofs, ...).
+    #[error("{file}:{line}: bone '{bone}': {detail}")]
+    BadBone {
+        /// Source name (file name).
+        file: String,
+        /// Line of the offending entry (or the bone's `begin`).
+        line: usize,
+        /// The bone's name (empty when it has none yet).
+        bone: String,
+        /// What is wrong.
+        detail: String,
+    },
+    /// An ASF `:hierarchy` that is not a tree rooted at `root`.
+    #[error("{file}:{line}: bad :hierarchy: {detail}")]
+    Hierarchy {
+        /// Source name (file name).
+        file: String,
+        /// Line of the offending hierarchy entry.
+        line: usize,
+        /// What is wrong.
+        detail: String,
+    },
+    /// An AMC bone line whose number of values differs from the bone's degrees of freedom.
+    #[error("{file}:{line}: bone '{bone}' has {found} values, expected {expected} (dof: {dofs})")]
+    DofValueCount {
+        /// Source name (file name).
+        file: String,
+        /// Line of the bone's values.
+        line: usize,
+        /// The bone's name.
+        bone: String,
+        /// Number of degrees of freedom the ASF gives the bone.
+        expected: usize,
+        /// Number of values on the line.
+        found: usize,
+        /// The degrees of freedom in order, space-separated (`rx ry rz`).
+        dofs: String,
+    },
+    /// An AMC frame number that does not follow the previous one.
+    #[error("{file}:{line}: frame number {found} out of order, expected {expected}")]
+    FrameOrder {
+        /// Source name (file name).
+        file: String,
+        /// Line of the frame number.
+        line: usize,
+        /// The previous frame number plus one.
+        expected: u64,
+        /// The number written.
+        found: u64,
+    },
+    /// An AMC frame that ends (at the next frame number or the end of the file) before every
+    /// bone with degrees of freedom has its values.
+    #[error(
+        "{file}:{line}: frame {frame} (from line {frame_line}) ends without values for {missing}"
+    )]
+    IncompleteFrame {
+        /// Source name (file name).
+        file: String,
+        /// Line where the frame ends: the next frame number, or the last line.
+        line: usize,
+        /// The frame number.
+        frame: u64,
+        /// Line of the frame number.
+        frame_line: usize,
+        /// The bones without values, comma-separated.
+        missing: String,
     },
     /// `Frame Time:` is zero or negative.
     #[error("{file}:{line}: frame time {value} s must be positive")]

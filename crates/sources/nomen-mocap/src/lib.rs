@@ -1,9 +1,15 @@
-//! BVH motion capture parsing and exact forward kinematics into nomen's canonical skeleton.
+//! BVH and ASF/AMC motion capture parsing and exact forward kinematics into nomen's canonical
+//! skeleton.
 //!
 //! Three steps, each usable alone:
 //!
-//! 1. [`parse_bvh`] (sans-IO: text in) → [`Bvh`]: hierarchy and channel values as written
-//!    (file units, Y up, degrees). [`read_bvh_file`] is the same with the file read for you.
+//! 1. Text in (sans-IO) → [`Bvh`]: hierarchy and channel values (file units, Y up, degrees).
+//!    - [`parse_bvh`] reads BVH as written; [`read_bvh_file`] is the same with the file read
+//!      for you.
+//!    - [`parse_asf`] reads an Acclaim skeleton ([`Asf`]) and [`parse_amc`] one of its motions
+//!      into a [`Bvh`] with one node per bone whose forward kinematics are the Acclaim
+//!      semantics exactly (see [`amc`]); [`read_asf_amc_files`] reads both files for you. CMU's
+//!      ASF lengths are inches × `:units length` ([`Asf::cmu_metres_per_unit`]).
 //! 2. [`forward_kinematics`] → a [`JointPose`] per BVH node: exact FK
 //!    (`R_joint = R_parent · R_ch1 · R_ch2 · R_ch3` in channel order,
 //!    `p_joint = p_parent + R_parent · OFFSET`), lengths scaled to metres, then turned once from
@@ -17,7 +23,7 @@
 //! Nothing is re-centred; vertical grounding happens only when asked for ([`Grounding`]).
 //!
 //! ```no_run
-//! use nomen_mocap::{ConvertOptions, convert, read_bvh_file};
+//! use nomen_mocap::{ConvertOptions, convert, read_asf_amc_files, read_bvh_file};
 //! use nomen_core::{CameraId, SessionTime, TrackId};
 //!
 //! let bvh = read_bvh_file("02_01.bvh".as_ref())?;
@@ -27,15 +33,23 @@
 //!     eprintln!("{}: warning: {w}", clip.source);
 //! }
 //! let skeletons = clip.to_skeletons(CameraId::new("mocap"), TrackId(1), SessionTime::ZERO);
+//!
+//! let walk = read_asf_amc_files("02.asf".as_ref(), "02_01.amc".as_ref())?;
+//! let options = ConvertOptions { scale: Some(0.0564444), ..Default::default() };
+//! let clip = convert(&walk, &options)?; // 120 Hz: AMC files state no rate, CMU's are 120 Hz
 //! # Ok::<(), nomen_mocap::MocapError>(())
 //! ```
 
+pub mod amc;
+pub mod asf;
 pub mod bvh;
 pub mod clip;
 mod error;
 pub mod fk;
 pub mod mapping;
 
+pub use amc::{CMU_FRAME_RATE_HZ, parse_amc};
+pub use asf::{Asf, AsfBone, parse_asf};
 pub use bvh::{Bvh, BvhNode, Channel, parse_bvh};
 pub use clip::{
     ConvertOptions, Grounding, MocapClip, MocapWarning, convert, convert_pair, rest_stature_m,
@@ -48,10 +62,25 @@ use std::path::Path;
 
 /// Reads and parses a BVH file; errors name the file by its path.
 pub fn read_bvh_file(path: &Path) -> Result<Bvh> {
+    let (name, text) = read_text(path)?;
+    parse_bvh(&text, &name)
+}
+
+/// Reads an ASF skeleton and one of its AMC motions into a [`Bvh`] (see [`amc`]); errors name
+/// the file they are in by its path.
+pub fn read_asf_amc_files(asf_path: &Path, amc_path: &Path) -> Result<Bvh> {
+    let (asf_name, asf_text) = read_text(asf_path)?;
+    let asf = parse_asf(&asf_text, &asf_name)?;
+    let (amc_name, amc_text) = read_text(amc_path)?;
+    parse_amc(&amc_text, &asf, &amc_name)
+}
+
+/// The file's text and its path as errors name it.
+fn read_text(path: &Path) -> Result<(String, String)> {
     let name = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|io| MocapError::Io {
         path: name.clone(),
         io,
     })?;
-    parse_bvh(&text, &name)
+    Ok((name, text))
 }

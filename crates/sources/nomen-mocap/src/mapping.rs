@@ -25,6 +25,27 @@
 //! - **Foot** is the ball of the foot: `LeftToeBase`, `LeftToe`; the Poser foot has no toe joint,
 //!   so its End Site (`lFoot_end`, about 10 cm forward of the ankle) is used; MakeHuman's
 //!   second-toe base `toe2-1.l` lies on the foot's long axis.
+//!
+//! **CMU's ASF skeletons** ([`SkeletonVariant::CmuAsf`], `shared/data/mocap/cmu-asfamc`): a node
+//! per bone sits at the bone's *start* (see [`crate::amc`]), so each joint is named after the
+//! bone that begins there. Lengths below are subject 02's at 0.0564444 m per unit.
+//!
+//! - **Pelvis** is `root`, about 10 cm above the hip-joint midpoint (`lhipjoint` runs 14 cm down
+//!   and out to the femoral head).
+//! - **Chest** is where the clavicles hang from: the end of `thorax`, which is the start of
+//!   `lowerneck`, `lclavicle` and `rclavicle` (one point; `lowerneck` is used, so the chest's
+//!   `world_from_joint` turns with the lower neck). It lies about 35 cm above the root after
+//!   `lowerback`, `upperback` and `thorax` (11.6–11.7 cm each).
+//! - **Neck** is `upperneck` (the end of `lowerneck`, 8.9 cm up the neck), **head** is `head`
+//!   (the end of `upperneck`, 8.8 cm higher: the base of the skull; `head_end` is 9.2 cm above).
+//! - **Shoulder** is `lhumerus`, the end of the 20.7-cm `lclavicle` (the glenohumeral joint);
+//!   **elbow** `lradius`, 27.5 cm further (the humerus); **wrist** `lwrist`, the end of the
+//!   19-cm `lradius`. The `lwrist` bone (9.5 cm) spans the palm, so the first joints beyond the
+//!   wrist with a non-zero offset are the two at its end, `lhand` and `lthumb`: **hand** is
+//!   `lhand`, the knuckles (like Poser's `lMid1`); `lfingers` starts 3.7 cm further.
+//! - **Hip** is `lfemur` (the femoral head, the end of `lhipjoint`), **knee** `ltibia` (42.9 cm
+//!   down the femur), **ankle** `lfoot` (41.1 cm down the tibia), **foot** `ltoes`, the ball of
+//!   the foot, 12.5 cm forward of the ankle (`ltoes` ends 6.3 cm further, at the toe tip).
 
 use crate::bvh::Bvh;
 use crate::error::{MocapError, Result};
@@ -42,6 +63,9 @@ pub enum SkeletonVariant {
     Poser,
     /// MakeHuman's CMU-MB rig (164 joints): `hip`, `lshoulder`, `lelbow`, `lhip`, `toe2-1.l`.
     MakeHuman,
+    /// CMU's ASF bone names, read with [`crate::parse_amc`]: `root`, `lhumerus`, `lradius`,
+    /// `lfemur`, `ltibia`.
+    CmuAsf,
 }
 
 use Joint::*;
@@ -142,13 +166,37 @@ const MAKEHUMAN: Table = [
     (RightFoot, &["toe2-1.r"]),
 ];
 
+const CMU_ASF: Table = [
+    (Pelvis, &["root"]),
+    (Chest, &["lowerneck"]),
+    (Neck, &["upperneck"]),
+    (Head, &["head"]),
+    (LeftShoulder, &["lhumerus"]),
+    (LeftElbow, &["lradius"]),
+    (LeftWrist, &["lwrist"]),
+    (LeftHand, &["lhand"]),
+    (RightShoulder, &["rhumerus"]),
+    (RightElbow, &["rradius"]),
+    (RightWrist, &["rwrist"]),
+    (RightHand, &["rhand"]),
+    (LeftHip, &["lfemur"]),
+    (LeftKnee, &["ltibia"]),
+    (LeftAnkle, &["lfoot"]),
+    (LeftFoot, &["ltoes"]),
+    (RightHip, &["rfemur"]),
+    (RightKnee, &["rtibia"]),
+    (RightAnkle, &["rfoot"]),
+    (RightFoot, &["rtoes"]),
+];
+
 impl SkeletonVariant {
     /// All variants, in the order detection tries them.
-    pub const ALL: [SkeletonVariant; 4] = [
+    pub const ALL: [SkeletonVariant; 5] = [
         SkeletonVariant::Cgspeed,
         SkeletonVariant::Cmu131,
         SkeletonVariant::Poser,
         SkeletonVariant::MakeHuman,
+        SkeletonVariant::CmuAsf,
     ];
 
     /// A short name for messages.
@@ -158,6 +206,7 @@ impl SkeletonVariant {
             SkeletonVariant::Cmu131 => "cmu-131",
             SkeletonVariant::Poser => "poser",
             SkeletonVariant::MakeHuman => "makehuman",
+            SkeletonVariant::CmuAsf => "cmu-asf",
         }
     }
 
@@ -169,6 +218,7 @@ impl SkeletonVariant {
             SkeletonVariant::Cmu131 => &CMU_131,
             SkeletonVariant::Poser => &POSER,
             SkeletonVariant::MakeHuman => &MAKEHUMAN,
+            SkeletonVariant::CmuAsf => &CMU_ASF,
         }
     }
 
