@@ -30,6 +30,14 @@ pub trait BodyMotion: Send + Sync {
     /// First and last instant (session seconds) at which the person is in the scene.
     fn span_s(&self) -> (f64, f64);
 
+    /// Whether the person is in the room at `t_s`: inside [`BodyMotion::span_s`] and not in one
+    /// of the spans during which they are away (the motion goes on while they are away; cameras
+    /// do not see them and their body blocks nothing). The default: inside the span.
+    fn is_present_at(&self, t_s: f64) -> bool {
+        let (start, end) = self.span_s();
+        t_s >= start && t_s <= end
+    }
+
     /// The pose at `t_s` (clamped to the span). Every canonical joint is present.
     fn pose_at(&self, t_s: f64) -> BodyPose;
 

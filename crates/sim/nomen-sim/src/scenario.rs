@@ -10,7 +10,7 @@ use crate::camera::CameraModelConfig;
 use crate::clips::ClipDef;
 use crate::error::{Result, SimError};
 use crate::geometry::BoxObstacle;
-use crate::motion::MotionSpec;
+use crate::motion::{AvoidanceConfig, MotionSpec};
 use crate::sensors::imu::ImuConfig;
 use crate::sensors::rssi::RssiConfig;
 use crate::sensors::uwb::{RtlsConfig, UwbRangeConfig};
@@ -53,6 +53,9 @@ pub struct Scenario {
     pub sensors: SensorModels,
     /// The people in the scene.
     pub people: Vec<PersonDef>,
+    /// Whether people step aside instead of walking through each other. Default off.
+    #[serde(default, skip_serializing_if = "AvoidanceConfig::is_default")]
+    pub avoidance: AvoidanceConfig,
 }
 
 /// The room: a floor rectangle from (0, 0) to `size_m` and static box obstacles.
@@ -105,7 +108,7 @@ pub struct AntennaDef {
 }
 
 /// Sensor models, one per kind of device.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SensorModels {
     /// Inertial sensors.
@@ -121,6 +124,32 @@ pub struct SensorModels {
     /// RSSI tags (passive UHF RFID, BLE beacons).
     #[serde(default)]
     pub rssi: RssiConfig,
+    /// Scene-wide multiplier, in `[1, 3]`, of every device's noise: the IMU noise densities,
+    /// bias random walks and turn-on bias bounds, the RTLS core σ, the raw UWB range σ and the
+    /// RSSI shadowing σ ("1–3× the fitted defaults"). Outlier rates and sizes, losses and
+    /// clocks are not scaled. It multiplies each device's own draw ([`DeviceDraw`](crate::sensors::DeviceDraw)). Default 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub noise_scale: f64,
+}
+
+impl Default for SensorModels {
+    fn default() -> Self {
+        Self {
+            imu: ImuConfig::default(),
+            rtls: RtlsConfig::default(),
+            uwb_range: None,
+            rssi: RssiConfig::default(),
+            noise_scale: 1.0,
+        }
+    }
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
 }
 
 /// One person.
@@ -197,6 +226,10 @@ impl Scenario {
             o.validate()
                 .map_err(|e| SimError::InvalidScenario(format!("obstacle '{}': {e}", o.name)))?;
         }
+        for (name, def) in &self.clips {
+            def.validate()
+                .map_err(|why| SimError::InvalidScenario(format!("clips.{name}: {why}")))?;
+        }
         let library = self.clip_library();
         let mut people = BTreeSet::new();
         let mut subjects = BTreeSet::new();
@@ -216,6 +249,9 @@ impl Scenario {
                     p.id
                 ));
             }
+            crate::motion::check_absent_spans(&p.motion.absent_s, self.duration_s).map_err(
+                |why| SimError::InvalidScenario(format!("person '{}': motion.{why}", p.id)),
+            )?;
             for clip in p.motion.clip_names() {
                 if !library.contains_key(clip) {
                     return bad(format!(
@@ -263,8 +299,21 @@ impl Scenario {
                 ));
             }
         }
+        let scale = self.sensors.noise_scale;
+        if !(scale.is_finite() && (1.0..=crate::sensors::MAX_NOISE_SCALE).contains(&scale)) {
+            return bad(format!(
+                "sensors.noise_scale must be in [1, {}], got {scale}",
+                crate::sensors::MAX_NOISE_SCALE
+            ));
+        }
         self.sensors.imu.validate()?;
         self.sensors.rtls.validate()?;
+        if self.sensors.rtls.blocked_nlos_probability.is_some() && self.anchors.is_empty() {
+            return bad(
+                "sensors.rtls.blocked_nlos_probability is set but the scene has no anchors"
+                    .to_owned(),
+            );
+        }
         if let Some(r) = &self.sensors.uwb_range {
             if self.anchors.is_empty() {
                 return bad("sensors.uwb_range is set but the scene has no anchors".to_owned());
@@ -272,6 +321,9 @@ impl Scenario {
             r.validate()?;
         }
         self.sensors.rssi.validate()?;
+        self.avoidance
+            .validate()
+            .map_err(SimError::InvalidScenario)?;
         for c in &self.cameras {
             c.validate()?;
         }

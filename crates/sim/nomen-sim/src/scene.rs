@@ -1,26 +1,48 @@
 //! Running a scenario: people, cameras and wearables over the scene's duration, with ground truth.
 
 use crate::body::{BodyMotion, Mount};
-use crate::camera::{CameraModel, PersonInScene};
+use crate::camera::{CameraModel, PersonInScene, is_limb};
 use crate::clips::ClipDef;
 use crate::error::{Result, SimError};
-use crate::geometry::{BodyCapsules, BodyRadii, count_blocking_bodies, obstacles_to_obj};
-use crate::motion::{ClipUse, PersonMotion};
+use crate::geometry::{
+    BodyCapsules, BodyRadii, count_blocking_bodies, obstacles_block_segment, obstacles_to_obj,
+};
+use crate::motion::{
+    AvoidingMotion, ClipUse, PersonMotion, WhenAbsent, is_in_spans, plan_avoidance,
+};
 use crate::rng::stream;
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, WearDef};
+use crate::sensors::DeviceDraw;
 use crate::sensors::imu::simulate_imu;
 use crate::sensors::rssi::simulate_rssi;
-use crate::sensors::uwb::{simulate_rtls, simulate_uwb_ranges};
+use crate::sensors::uwb::{BlockedLines, simulate_rtls_blocked, simulate_uwb_ranges_blocked};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use nomen_core::registry::{Anchor, Antenna, DeviceKind, Registry, Subject, Wearable};
-use nomen_core::{AnchorId, AntennaId, DeviceId, Message, SubjectId};
-use nomen_mocap::{ConvertOptions, MocapClip, convert, parse_bvh};
+use nomen_core::{AnchorId, AntennaId, DeviceId, Joint, Message, SubjectId};
+use nomen_mocap::{ConvertOptions, MocapClip, convert, parse_amc, parse_asf, parse_bvh};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// Parses and converts one clip of the library (sans-IO: the caller reads the file).
-pub fn load_clip(def: &ClipDef, bvh_text: &str, source: &str) -> Result<MocapClip> {
-    let bvh = parse_bvh(bvh_text, source)?;
+/// Parses and converts one clip of the library (sans-IO: the caller reads the files): `text` is
+/// the BVH or AMC file, `skeleton_text` the ASF file of an AMC clip ([`ClipDef::skeleton`]).
+pub fn load_clip(
+    def: &ClipDef,
+    text: &str,
+    skeleton_text: Option<&str>,
+    source: &str,
+) -> Result<MocapClip> {
+    let bvh = match (&def.skeleton, skeleton_text) {
+        (None, _) => parse_bvh(text, source)?,
+        (Some(skeleton), Some(asf_text)) => {
+            let asf = parse_asf(asf_text, skeleton)?;
+            parse_amc(text, &asf, source)?
+        }
+        (Some(skeleton), None) => {
+            return Err(SimError::InvalidScenario(format!(
+                "clip {source}: the skeleton file {skeleton} was not given"
+            )));
+        }
+    };
     let options = ConvertOptions {
         scale: Some(def.scale),
         fps_hz: Some(def.fps_hz),
@@ -30,8 +52,8 @@ pub fn load_clip(def: &ClipDef, bvh_text: &str, source: &str) -> Result<MocapCli
 }
 
 /// Loads every clip the scenario's people use. `read_file(path)` returns the text of a file
-/// given its path relative to the data folder (`ClipDef::file`); the caller decides where that
-/// is, so this stays free of I/O. Errors name the clip and the file.
+/// given its path relative to the data folder (`ClipDef::file`, `ClipDef::skeleton`); the caller
+/// decides where that is, so this stays free of I/O. Errors name the clip and the file.
 pub fn load_scenario_clips(
     scenario: &Scenario,
     read_file: &mut dyn FnMut(&str) -> std::result::Result<String, String>,
@@ -39,20 +61,28 @@ pub fn load_scenario_clips(
     let library = scenario.clip_library();
     let mut clips = BTreeMap::new();
     for p in &scenario.people {
-        let name = &p.motion.clip;
-        if clips.contains_key(name) {
-            continue;
+        for name in p.motion.clip_names() {
+            if clips.contains_key(name) {
+                continue;
+            }
+            let Some(def) = library.get(name) else {
+                return Err(SimError::InvalidScenario(format!(
+                    "person '{}': unknown clip '{name}'",
+                    p.id
+                )));
+            };
+            let mut read = |file: &str| {
+                read_file(file).map_err(|why| {
+                    SimError::InvalidScenario(format!("clip '{name}': cannot read {file}: {why}"))
+                })
+            };
+            let text = read(&def.file)?;
+            let skeleton_text = def.skeleton.as_deref().map(&mut read).transpose()?;
+            clips.insert(
+                name.to_owned(),
+                load_clip(def, &text, skeleton_text.as_deref(), &def.file)?,
+            );
         }
-        let Some(def) = library.get(name) else {
-            return Err(SimError::InvalidScenario(format!(
-                "person '{}': unknown clip '{name}'",
-                p.id
-            )));
-        };
-        let text = read_file(&def.file).map_err(|why| {
-            SimError::InvalidScenario(format!("clip '{name}': cannot read {}: {why}", def.file))
-        })?;
-        clips.insert(name.clone(), load_clip(def, &text, &def.file)?);
     }
     Ok(clips)
 }
@@ -86,6 +116,21 @@ pub struct DeviceTruth {
     /// IMU samples whose accelerometer / gyroscope reading hit the sensor's range (clipped).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub num_saturated: Option<[usize; 2]>,
+    /// Multiplier of the model's noise this device drew (scene `noise_scale` × its own draw,
+    /// see [`DeviceDraw`]); absent when the device uses the model exactly.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise_multiplier: Option<f64>,
+    /// Multiplier of the model's turn-on bias bounds this IMU drew; absent when exactly the
+    /// model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bias_multiplier: Option<f64>,
+    /// Long-run loss fraction this device drew from its model's `loss.loss_fraction_range`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub loss_fraction: Option<f64>,
+    /// Loss fraction of raw ranging cycles this UWB tag drew from
+    /// `uwb_range.loss.loss_fraction_range`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub range_loss_fraction: Option<f64>,
 }
 
 /// The resolved scene, written as `scene.json` beside the recording.
@@ -178,6 +223,18 @@ pub fn simulate(
         })?;
         motions.push(motion);
     }
+    // Side-steps, when people avoid each other; without, every motion is exactly its clip's.
+    let shifts = if scenario.avoidance.enabled {
+        let planned: Vec<&dyn BodyMotion> = motions.iter().map(|m| m as &dyn BodyMotion).collect();
+        plan_avoidance(&planned, 0.0, duration_s, &scenario.avoidance)
+    } else {
+        vec![None; motions.len()]
+    };
+    let motions: Vec<AvoidingMotion<'_>> = motions
+        .iter()
+        .zip(shifts)
+        .map(|(m, shift)| AvoidingMotion::new(m, shift))
+        .collect();
     let spans: Vec<Option<(f64, f64)>> = motions
         .iter()
         .map(|m| {
@@ -209,7 +266,15 @@ pub fn simulate(
     for (i, cam) in scenario.cameras.iter().enumerate() {
         let model = CameraModel::new(cam.clone())?;
         let mut rng = stream(seed, &format!("camera/{}", cam.id));
-        let out = model.simulate(&people, &scenario.room.obstacles, 0.0, duration_s, &mut rng)?;
+        let relabel_rng = stream(seed, &format!("camera/{}/relabel", cam.id));
+        let out = model.simulate_with_relabel_rng(
+            &people,
+            &scenario.room.obstacles,
+            0.0,
+            duration_s,
+            &mut rng,
+            relabel_rng,
+        )?;
         recording.extend(out.observations.into_iter().map(Message::from));
         truth.extend(out.truths.into_iter().map(Message::from));
         progress("cameras", (i + 1) as f64 / num_cameras as f64);
@@ -224,14 +289,47 @@ pub fn simulate(
             .iter()
             .zip(&spans)
             .map(|(m, span)| match span {
-                Some((a, b)) if (*a..=*b).contains(&t_s) => {
+                Some((a, b)) if (*a..=*b).contains(&t_s) && m.is_present_at(t_s) => {
                     BodyCapsules::from_pose(&m.pose_at(t_s), &radii)
                 }
-                // Someone not in the scene blocks nothing: a capsule far below the floor.
+                // Someone not in the room blocks nothing: a capsule far below the floor.
                 _ => BodyCapsules::from_pose(&far_away_pose(), &radii),
             })
             .collect();
         count_blocking_bodies(&bodies, &tag_position, antenna, Some(wearer))
+    };
+    // Whether the line from a tag worn at `site` by person `wearer` to an anchor is blocked: by
+    // an obstacle, another person in the room, or the wearer's own trunk for a tag on a limb
+    // (the camera's coarse self-occlusion).
+    let line_is_blocked = |t_s: f64, site: Joint, wearer: usize, anchor: &Point3<f64>| {
+        let Some(motion) = motions.get(wearer) else {
+            return false;
+        };
+        let tag = motion.joint_at(t_s, site).position_m;
+        if obstacles_block_segment(&scenario.room.obstacles, &tag, anchor) {
+            return true;
+        }
+        motions
+            .iter()
+            .zip(&spans)
+            .enumerate()
+            .any(|(k, (m, span))| {
+                let is_in_room = matches!(span, Some((a, b)) if (*a..=*b).contains(&t_s))
+                    && m.is_present_at(t_s);
+                if !is_in_room {
+                    return false;
+                }
+                let body = BodyCapsules::from_pose(&m.pose_at(t_s), &radii);
+                if k == wearer {
+                    is_limb(site)
+                        && [Joint::Chest, Joint::Neck].iter().any(|b| {
+                            body.bone(*b)
+                                .is_some_and(|c| c.intersects_segment(&tag, anchor))
+                        })
+                } else {
+                    body.intersects_segment(&tag, anchor)
+                }
+            })
     };
     let mut devices = Vec::new();
     let num_wear: usize = scenario
@@ -243,8 +341,11 @@ pub fn simulate(
     let mut done = 0usize;
     for (pi, (p, motion)) in scenario.people.iter().zip(&motions).enumerate() {
         let Some(span) = spans[pi] else { continue };
+        let absent = &p.motion.absent_s;
+        let is_silent_when_absent = p.motion.wearables_when_absent == WhenAbsent::Silent;
         for w in &p.wears {
             let device = DeviceId::new(w.device.clone());
+            let draw = device_draw(scenario, w, seed);
             let mut dt = DeviceTruth {
                 device: w.device.clone(),
                 kind: w.kind,
@@ -257,19 +358,30 @@ pub fn simulate(
                 num_messages: 0,
                 num_lost: 0,
                 num_saturated: None,
+                noise_multiplier: None,
+                bias_multiplier: None,
+                loss_fraction: draw.loss_fraction,
+                range_loss_fraction: draw.range_loss_fraction,
             };
+            if !draw.is_identity() {
+                dt.noise_multiplier = Some(draw.noise_multiplier);
+                if w.kind == DeviceKind::Imu {
+                    dt.bias_multiplier = Some(draw.bias_multiplier);
+                }
+            }
             match w.kind {
                 DeviceKind::Imu => {
                     let mut rng = stream(seed, &format!("imu/{}", w.device));
                     let mount = Mount::at(w.site, UnitQuaternion::identity());
-                    let run = simulate_imu(
-                        motion,
-                        &device,
-                        &mount,
-                        span,
-                        &scenario.sensors.imu,
-                        &mut rng,
-                    )?;
+                    let config = scenario.sensors.imu.for_device(&draw);
+                    let mut run = simulate_imu(motion, &device, &mount, span, &config, &mut rng)?;
+                    if is_silent_when_absent && !absent.is_empty() {
+                        // Stamps are device time; the true clock says when each was taken.
+                        let clock = run.truth.clock;
+                        run.samples.retain(|sample| {
+                            !is_in_spans(absent, clock.to_session_s(sample.t.as_secs_f64()))
+                        });
+                    }
                     let q = run.truth.mount.segment_from_sensor.quaternion();
                     dt.clock_offset_s = run.truth.clock.offset_s;
                     dt.clock_drift_ppm = run.truth.clock.drift_ppm;
@@ -284,23 +396,55 @@ pub fn simulate(
                 }
                 DeviceKind::UwbTag => {
                     let mut rng = stream(seed, &format!("rtls/{}", w.device));
-                    let run = simulate_rtls(
-                        motion,
-                        w.site,
-                        &device,
-                        span,
-                        &scenario.sensors.rtls,
-                        &mut rng,
+                    let config = scenario.sensors.rtls.for_device(&draw);
+                    let is_blocked = |t_s: f64, i: usize| {
+                        anchors
+                            .get(i)
+                            .is_some_and(|a| line_is_blocked(t_s, w.site, pi, &a.position_m))
+                    };
+                    let mut blocked_rng = stream(seed, &format!("rtls/{}/blocked", w.device));
+                    let blocked = config.blocked_nlos_probability.map(|_| BlockedLines {
+                        is_blocked: &is_blocked,
+                        num_anchors: anchors.len(),
+                        rng: &mut blocked_rng,
+                    });
+                    let mut run = simulate_rtls_blocked(
+                        motion, w.site, &device, span, &config, &mut rng, blocked,
                     )?;
+                    if !absent.is_empty() {
+                        // Away, the tag is out of the anchors' coverage: no fix describes an
+                        // instant of absence.
+                        let (fixes, truths) = run
+                            .fixes
+                            .into_iter()
+                            .zip(run.truth)
+                            .filter(|(fix, _)| {
+                                !is_in_spans(absent, fix.t.as_secs_f64() - config.latency_s)
+                            })
+                            .unzip();
+                        (run.fixes, run.truth) = (fixes, truths);
+                    }
                     dt.num_messages = run.fixes.len();
                     dt.num_lost = run.num_lost;
                     recording.extend(run.fixes.into_iter().map(Message::RtlsFix));
                     truth.extend(run.truth.into_iter().map(Message::TruthTag));
                     if let Some(cfg) = &scenario.sensors.uwb_range {
+                        let cfg = cfg.for_device(&draw);
                         let mut rng = stream(seed, &format!("uwb_range/{}", w.device));
-                        let run = simulate_uwb_ranges(
-                            motion, w.site, &device, &anchors, span, cfg, &mut rng,
+                        let mut blocked_rng =
+                            stream(seed, &format!("uwb_range/{}/blocked", w.device));
+                        let blocked = cfg.blocked.as_ref().map(|_| BlockedLines {
+                            is_blocked: &is_blocked,
+                            num_anchors: anchors.len(),
+                            rng: &mut blocked_rng,
+                        });
+                        let mut run = simulate_uwb_ranges_blocked(
+                            motion, w.site, &device, &anchors, span, &cfg, &mut rng, blocked,
                         )?;
+                        if !absent.is_empty() {
+                            run.ranges
+                                .retain(|r| !is_in_spans(absent, r.t.as_secs_f64()));
+                        }
                         dt.num_messages += run.ranges.len();
                         recording.extend(run.ranges.into_iter().map(Message::UwbRange));
                     }
@@ -314,16 +458,15 @@ pub fn simulate(
                             .get(antenna)
                             .map_or(0, |a| blocking(t_s, tag, &a.position_m, pi))
                     };
-                    let run = simulate_rssi(
-                        motion,
-                        w.site,
-                        &device,
-                        &antennas,
-                        span,
-                        &count,
-                        &scenario.sensors.rssi,
-                        &mut rng,
+                    let config = scenario.sensors.rssi.for_device(&draw);
+                    let mut run = simulate_rssi(
+                        motion, w.site, &device, &antennas, span, &count, &config, &mut rng,
                     )?;
+                    if !absent.is_empty() {
+                        // Away, the tag is out of the antennas' range.
+                        run.reads
+                            .retain(|r| !is_in_spans(absent, r.t.as_secs_f64()));
+                    }
                     dt.num_messages = run.reads.len();
                     dt.num_lost = run.num_missed;
                     recording.extend(run.reads.into_iter().map(Message::Rssi));
@@ -356,6 +499,34 @@ pub fn simulate(
         obstacles_obj: obstacles_to_obj(&scenario.room.obstacles),
         scene,
     })
+}
+
+/// What device `w` draws around its kind's model (see [`DeviceDraw`]), from its stream
+/// `spread/<device>`; the identity, without touching any stream, when nothing is spread.
+fn device_draw(scenario: &Scenario, w: &WearDef, seed: u64) -> DeviceDraw {
+    let s = &scenario.sensors;
+    let (spread, loss_range, range_loss_range) = match w.kind {
+        DeviceKind::Imu => (s.imu.device_spread, s.imu.loss.loss_fraction_range, None),
+        DeviceKind::UwbTag => (
+            s.rtls.device_spread,
+            s.rtls.loss.loss_fraction_range,
+            s.uwb_range
+                .as_ref()
+                .and_then(|r| r.loss.loss_fraction_range),
+        ),
+        DeviceKind::RfidTag | DeviceKind::BleTag => (s.rssi.device_spread, None, None),
+    };
+    if spread == 1.0 && s.noise_scale == 1.0 && loss_range.is_none() && range_loss_range.is_none() {
+        return DeviceDraw::IDENTITY;
+    }
+    let mut rng = stream(seed, &format!("spread/{}", w.device));
+    DeviceDraw::draw(
+        s.noise_scale,
+        spread,
+        loss_range,
+        range_loss_range,
+        &mut rng,
+    )
 }
 
 fn vec3(v: &Vector3<f64>) -> [f64; 3] {

@@ -330,10 +330,7 @@ fn clock_offset_and_drift_shift_the_timestamps() {
 fn packet_loss_matches_the_configured_rate_and_burst_length() {
     let config = ImuConfig {
         rate_hz: 50.0,
-        loss: BurstLossConfig {
-            loss_fraction: 0.08,
-            mean_burst_len: 5.0,
-        },
+        loss: BurstLossConfig::bursts(0.08, 5.0),
         ..ImuConfig::noise_free()
     };
     let run = simulate_imu(
@@ -473,10 +470,7 @@ fn invalid_configs_name_the_field() {
         ),
         (
             ImuConfig {
-                loss: BurstLossConfig {
-                    loss_fraction: 0.1,
-                    mean_burst_len: 0.5,
-                },
+                loss: BurstLossConfig::bursts(0.1, 0.5),
                 ..ImuConfig::default()
             },
             "imu.loss.mean_burst_len",

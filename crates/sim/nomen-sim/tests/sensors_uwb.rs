@@ -330,3 +330,139 @@ fn invalid_configs_name_the_field() {
     .to_string();
     assert!(e.contains("rtls.jump_max_m"), "{e}");
 }
+
+#[test]
+fn blocked_lines_add_the_nlos_excess_and_leave_clear_lines_untouched() {
+    use nomen_sim::sensors::uwb::{BlockedLines, BlockedRangeConfig, simulate_uwb_ranges_blocked};
+    // Anchor 0 is always blocked, anchor 1 never.
+    let anchors = anchors(&[[4.0, 2.0, 1.0], [-2.0, 2.0, 1.0]]);
+    let blocked_cfg = BlockedRangeConfig::default();
+    let config = UwbRangeConfig {
+        quantisation_m: 0.0,
+        blocked: Some(blocked_cfg.clone()),
+        ..UwbRangeConfig::default()
+    };
+    let clear = simulate_uwb_ranges(
+        &still(),
+        Joint::Pelvis,
+        &tag(),
+        &anchors,
+        (0.0, 2000.0),
+        &config,
+        &mut stream(8, "r"),
+    )
+    .unwrap();
+    let is_blocked = |_t: f64, i: usize| i == 0;
+    let mut rng = stream(8, "r/blocked");
+    let run = simulate_uwb_ranges_blocked(
+        &still(),
+        Joint::Pelvis,
+        &tag(),
+        &anchors,
+        (0.0, 2000.0),
+        &config,
+        &mut stream(8, "r"),
+        Some(BlockedLines {
+            is_blocked: &is_blocked,
+            num_anchors: anchors.len(),
+            rng: &mut rng,
+        }),
+    )
+    .unwrap();
+    assert_eq!(run.ranges.len(), clear.ranges.len());
+    let mut excess = Vec::new();
+    for (b, c) in run.ranges.iter().zip(&clear.ranges) {
+        assert_eq!((b.t, &b.anchor), (c.t, &c.anchor));
+        if b.anchor.as_str() == "a1" {
+            // A clear line: exactly the error it has without the blocked model.
+            assert_eq!(b.range_m, c.range_m);
+        } else {
+            // A blocked line: never shorter, longer by the excess when NLOS.
+            assert!(b.range_m >= c.range_m);
+            excess.push(b.range_m - c.range_m);
+        }
+    }
+    let n = excess.len() as f64;
+    assert_eq!(run.num_blocked, excess.len());
+    let nlos = excess.iter().filter(|e| **e > 0.0).count() as f64;
+    let p = blocked_cfg.nlos_probability;
+    assert!(
+        (nlos / n - p).abs() < 4.0 * (p * (1.0 - p) / n).sqrt(),
+        "{}",
+        nlos / n
+    );
+    let mean_excess = excess.iter().sum::<f64>() / nlos;
+    assert!(
+        (mean_excess / blocked_cfg.excess_mean_m - 1.0).abs() < 0.05,
+        "{mean_excess}"
+    );
+}
+
+#[test]
+fn fixes_blocked_from_most_anchors_are_outliers_at_the_configured_rate() {
+    use nomen_sim::sensors::uwb::{BlockedLines, simulate_rtls_blocked};
+    let config = RtlsConfig {
+        blocked_nlos_probability: Some(0.4),
+        loss: BurstLossConfig::NONE,
+        ..RtlsConfig::default()
+    };
+    let rate = |blocked_anchors: usize| {
+        let is_blocked = move |_t: f64, i: usize| i < blocked_anchors;
+        let mut rng = stream(3, "f/blocked");
+        let run = simulate_rtls_blocked(
+            &still(),
+            Joint::Pelvis,
+            &tag(),
+            (0.0, 2000.0),
+            &config,
+            &mut stream(3, "f"),
+            Some(BlockedLines {
+                is_blocked: &is_blocked,
+                num_anchors: 4,
+                rng: &mut rng,
+            }),
+        )
+        .unwrap();
+        (run.num_nlos as f64 / run.fixes.len() as f64, run)
+    };
+    let plain = simulate_rtls(
+        &still(),
+        Joint::Pelvis,
+        &tag(),
+        (0.0, 2000.0),
+        &config,
+        &mut stream(3, "f"),
+    )
+    .unwrap();
+    // Two of four anchors is not most of them: the fixes are the plain ones.
+    let (half, run) = rate(2);
+    assert_eq!(run.fixes, plain.fixes);
+    assert!((half - 0.05).abs() < 0.01, "{half}");
+    // Three of four: NLOS at the blocked rate (20 000 fixes, σ 0.35 %).
+    let (most, _) = rate(3);
+    assert!((most - 0.4).abs() < 0.015, "{most}");
+}
+
+#[test]
+fn bad_blocked_settings_are_refused_naming_the_field() {
+    use nomen_sim::sensors::uwb::BlockedRangeConfig;
+    let e = RtlsConfig {
+        blocked_nlos_probability: Some(1.5),
+        ..RtlsConfig::default()
+    }
+    .validate()
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("rtls.blocked_nlos_probability"), "{e}");
+    let e = UwbRangeConfig {
+        blocked: Some(BlockedRangeConfig {
+            excess_mean_m: f64::NAN,
+            ..BlockedRangeConfig::default()
+        }),
+        ..UwbRangeConfig::default()
+    }
+    .validate()
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("uwb_range.blocked.excess_mean_m"), "{e}");
+}

@@ -161,7 +161,8 @@ impl Default for OcclusionConfig {
 /// a longer loss, or leaving the field of view or range, drops the track, and the body comes
 /// back with a new id. Ids start at a random base in `1..=track_id_base_max` and increase by one
 /// per new track, in order of depth when several start together, so they never reveal who is
-/// who. Rates are modelling choices: SDKs do not document them.
+/// who. With `relabel_rate_hz`, a body that stays visible is also dropped now and then and
+/// re-detected under a fresh id. Rates are modelling choices: SDKs do not document them.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct TrackingConfig {
@@ -185,6 +186,18 @@ pub struct TrackingConfig {
     pub flip_duration_s: f64,
     /// Largest first track id. Default 1000.
     pub track_id_base_max: u64,
+    /// Rate at which the SDK drops a tracked, visible body and re-detects it, per second of
+    /// tracking (a Poisson process per body): the track ends, the body goes through the
+    /// acquisition of a new body (unreported for `new_body_delay_frames` frames) and comes back
+    /// under a fresh id from the same counter as every new track. Azure Kinect Body Tracking and
+    /// ZED re-identify bodies this way after tracking glitches. Default 0 (never); at most 10 /s.
+    /// Drawn from the camera's own stream `camera/<id>/relabel`.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub relabel_rate_hz: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Default for TrackingConfig {
@@ -198,6 +211,7 @@ impl Default for TrackingConfig {
             flip_rate_hz: 0.05,
             flip_duration_s: 1.0,
             track_id_base_max: 1000,
+            relabel_rate_hz: 0.0,
         }
     }
 }
@@ -279,6 +293,12 @@ impl CameraModelConfig {
         }
         if !unit(t.swap_probability) {
             return bad("tracking.swap_probability", "must be in [0, 1]");
+        }
+        if !(t.relabel_rate_hz.is_finite() && (0.0..=10.0).contains(&t.relabel_rate_hz)) {
+            return bad(
+                "tracking.relabel_rate_hz",
+                &format!("must be in [0, 10] /s, got {}", t.relabel_rate_hz),
+            );
         }
         if t.track_id_base_max == 0 || t.track_id_base_max > u64::MAX / 2 {
             return bad("tracking.track_id_base_max", "must be in [1, 2^63)");

@@ -14,8 +14,9 @@
 //!   visible joints is not reported;
 //! - depth-dependent joint noise ([`JointNoiseConfig`]);
 //! - track ids as SDKs give them ([`TrackingConfig`]): acquisition delay, id kept over short
-//!   occlusions, new id after long ones and on re-entry, occasional swaps after close encounters,
-//!   occasional left/right flips of people facing away.
+//!   occlusions, new id after long ones and on re-entry (also after an absence from the room),
+//!   occasional swaps after close encounters, occasional left/right flips of people facing away,
+//!   optional re-labelling of bodies that stay visible.
 //!
 //! Not modelled (yet): systematic per-joint bias and bone-length errors, depth-image artefacts
 //! (multipath, flying pixels, sunlight), lens distortion, frame drops and the camera clock (the
@@ -25,4 +26,5 @@ mod config;
 mod sim;
 
 pub use config::{CameraModelConfig, JointNoiseConfig, OcclusionConfig, TrackingConfig};
+pub(crate) use sim::is_limb;
 pub use sim::{CameraModel, CameraOutput, CameraSimulator, PersonInScene};

@@ -20,7 +20,8 @@ pub struct PersonInScene<'a> {
     pub person: String,
     /// The registered subject this person is, if any (ground truth only).
     pub subject: Option<SubjectId>,
-    /// How the person moves; absent outside its span.
+    /// How the person moves; not in the room outside its span and while away
+    /// ([`BodyMotion::is_present_at`]).
     pub motion: &'a dyn BodyMotion,
     /// Body capsule radii used for occlusion.
     pub radii: BodyRadii,
@@ -133,7 +134,8 @@ impl CameraModel {
     }
 
     /// Simulates every frame in `[t0_s, t1_s]` (session seconds) and returns what the camera
-    /// reported, with ground truth.
+    /// reported, with ground truth. A camera with a `tracking.relabel_rate_hz` needs
+    /// [`CameraModel::simulate_with_relabel_rng`].
     pub fn simulate(
         &self,
         people: &[PersonInScene<'_>],
@@ -141,6 +143,33 @@ impl CameraModel {
         t0_s: f64,
         t1_s: f64,
         rng: &mut SimRng,
+    ) -> Result<CameraOutput> {
+        self.simulate_inner(people, obstacles, t0_s, t1_s, rng, None)
+    }
+
+    /// As [`CameraModel::simulate`], with the stream that decides when tracked bodies are
+    /// re-labelled (`tracking.relabel_rate_hz`; the scene uses `camera/<id>/relabel`), kept apart
+    /// from `rng` so that re-labelling leaves the joint noise unchanged.
+    pub fn simulate_with_relabel_rng(
+        &self,
+        people: &[PersonInScene<'_>],
+        obstacles: &[BoxObstacle],
+        t0_s: f64,
+        t1_s: f64,
+        rng: &mut SimRng,
+        relabel_rng: SimRng,
+    ) -> Result<CameraOutput> {
+        self.simulate_inner(people, obstacles, t0_s, t1_s, rng, Some(relabel_rng))
+    }
+
+    fn simulate_inner(
+        &self,
+        people: &[PersonInScene<'_>],
+        obstacles: &[BoxObstacle],
+        t0_s: f64,
+        t1_s: f64,
+        rng: &mut SimRng,
+        relabel_rng: Option<SimRng>,
     ) -> Result<CameraOutput> {
         let (Some(t0), Some(t1)) = (
             SessionTime::from_secs_f64(t0_s),
@@ -152,6 +181,9 @@ impl CameraModel {
             )));
         };
         let mut sim = CameraSimulator::new(self.clone(), people, rng)?;
+        if let Some(r) = relabel_rng {
+            sim = sim.with_relabel_rng(r);
+        }
         let mut out = CameraOutput::default();
         let expected = ((t1_s - t0_s).max(0.0) * self.config.fps_hz) as usize + 1;
         out.observations.reserve(expected * people.len());
@@ -194,7 +226,7 @@ fn look_at(config: &CameraModelConfig) -> Result<Isometry3<f64>> {
 }
 
 /// Joints on the trunk and head, which self-occlusion never hides.
-fn is_limb(j: Joint) -> bool {
+pub(crate) fn is_limb(j: Joint) -> bool {
     !matches!(
         j,
         Joint::Pelvis
@@ -221,6 +253,8 @@ struct PersonState {
     offset_from_pelvis_w: [Vector3<f64>; NUM_JOINTS],
     noise_unit: [Vector3<f64>; NUM_JOINTS],
     is_noise_started: bool,
+    /// Present again this frame after an absence.
+    is_back: bool,
     is_body_visible: bool,
     is_in_view: bool,
     track: Option<TrackId>,
@@ -242,6 +276,7 @@ impl Default for PersonState {
             offset_from_pelvis_w: [Vector3::zeros(); NUM_JOINTS],
             noise_unit: [Vector3::zeros(); NUM_JOINTS],
             is_noise_started: false,
+            is_back: false,
             is_body_visible: false,
             is_in_view: false,
             track: None,
@@ -267,6 +302,8 @@ pub struct CameraSimulator {
     capsules: Vec<BodyCapsules>,
     next_track: u64,
     last_t_s: Option<f64>,
+    /// Decides re-labelling (`tracking.relabel_rate_hz`); separate from the noise stream.
+    relabel_rng: Option<SimRng>,
 }
 
 impl CameraSimulator {
@@ -288,7 +325,15 @@ impl CameraSimulator {
             capsules: vec![BodyCapsules::default(); n],
             next_track,
             last_t_s: None,
+            relabel_rng: None,
         })
+    }
+
+    /// Gives the simulator the stream that decides re-labelling; required when
+    /// `tracking.relabel_rate_hz` is positive.
+    pub fn with_relabel_rng(mut self, rng: SimRng) -> Self {
+        self.relabel_rng = Some(rng);
+        self
     }
 
     /// The camera.
@@ -319,12 +364,19 @@ impl CameraSimulator {
             _ => 1.0 / self.model.config.fps_hz,
         };
         self.last_t_s = Some(t_s);
+        if self.model.config.tracking.relabel_rate_hz > 0.0 && self.relabel_rng.is_none() {
+            return Err(SimError::InvalidScenario(format!(
+                "camera '{}': tracking.relabel_rate_hz is set but the simulator has no relabel \
+                 stream (use CameraSimulator::with_relabel_rng)",
+                self.model.id
+            )));
+        }
         for obstacle in obstacles {
             obstacle.validate().map_err(SimError::InvalidScenario)?;
         }
         self.update_poses(t_s, people);
         self.update_visibility(t_s, obstacles);
-        self.update_tracks(t_s);
+        self.update_tracks(t_s, dt_s);
         self.update_swaps(rng);
         self.emit(t, t_s, dt_s, people, rng, out);
         Ok(())
@@ -332,8 +384,13 @@ impl CameraSimulator {
 
     fn update_poses(&mut self, t_s: f64, people: &[PersonInScene<'_>]) {
         for ((state, person), caps) in self.people.iter_mut().zip(people).zip(&mut self.capsules) {
-            let (start, end) = person.motion.span_s();
-            state.is_present = t_s >= start && t_s <= end;
+            let was_present = state.is_present;
+            state.is_present = person.motion.is_present_at(t_s);
+            if state.is_present && !was_present && state.is_noise_started {
+                // Back from an absence: what the camera held of the joints is stale.
+                state.hidden_since_s = [None; NUM_JOINTS];
+                state.is_back = true;
+            }
             if !state.is_present {
                 // A body nobody can hit: zero radius, far below the floor.
                 *caps = BodyCapsules {
@@ -388,24 +445,40 @@ impl CameraSimulator {
                     state.offset_from_pelvis_w[ji] = p_w - state.pelvis_w;
                 } else if state.hidden_since_s[ji].is_none() {
                     state.hidden_since_s[ji] = Some(t_s);
-                    if !state.is_noise_started {
-                        // Never seen: hold the true offset of the first frame.
+                    if !state.is_noise_started || state.is_back {
+                        // Never seen (since coming back): hold the true offset of this frame.
                         state.offset_from_pelvis_w[ji] = p_w - state.pelvis_w;
                     }
                 }
             }
+            state.is_back = false;
             state.is_in_view = self.model.sees(&state.pelvis_c);
             state.is_body_visible = state.is_in_view
                 && num_visible as f64 >= occ.min_visible_fraction * NUM_JOINTS as f64;
         }
     }
 
-    fn update_tracks(&mut self, t_s: f64) {
+    fn update_tracks(&mut self, t_s: f64, dt_s: f64) {
         let tr = &self.model.config.tracking;
+        // Probability that a tracked body is re-labelled during this frame (Poisson process).
+        let p_relabel = if tr.relabel_rate_hz > 0.0 {
+            1.0 - (-tr.relabel_rate_hz * dt_s).exp()
+        } else {
+            0.0
+        };
         self.new_tracks.clear();
         for (i, state) in self.people.iter_mut().enumerate() {
             if state.is_body_visible {
                 state.lost_since_s = None;
+                if state.track.is_some()
+                    && p_relabel > 0.0
+                    && let Some(rng) = self.relabel_rng.as_mut()
+                    && rng.random::<f64>() < p_relabel
+                {
+                    // The SDK loses the body and acquires it again as a new one.
+                    state.track = None;
+                    state.num_acquire_frames = 0;
+                }
                 if state.track.is_none() {
                     state.num_acquire_frames = state.num_acquire_frames.saturating_add(1);
                     if state.num_acquire_frames > tr.new_body_delay_frames {

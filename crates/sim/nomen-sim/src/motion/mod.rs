@@ -73,6 +73,10 @@
 //! reflected, and every joint keeps its own bone offset, so bone lengths are unchanged. A
 //! right-hand wave becomes a left-hand wave.
 //!
+//! **Absence.** `absent_s` lists spans of session time during which the person is out of the
+//! room ([`BodyMotion::is_present_at`](crate::body::BodyMotion::is_present_at) is false): the
+//! clip keeps playing, cameras do not see the person and the body blocks nothing.
+//!
 //! # `MotionSpec` fields (scenario TOML)
 //!
 //! ```toml
@@ -92,14 +96,18 @@
 //! corner_radius_m = 0.6        # default 0.6
 //! # or: position = [2.0, 3.0] and heading_rad = 1.57
 //! # or: clip_frame = { offset_m = [0.0, 0.0], yaw_rad = 0.0 }
+//! absent_s = [[20.0, 30.0]]    # default none: out of the room from 20 s to 30 s
+//! wearables_when_absent = "stream"  # default; or "silent"
 //! ```
 //!
 //! See the field docs of [`MotionSpec`] for each one.
 
+pub mod avoid;
 mod lowpass;
 mod path;
 mod person;
 
+pub use avoid::{AvoidanceConfig, AvoidingMotion, PLAN_STEP_S, Shift, plan_avoidance};
 pub use path::{HEADING_WINDOW_M, Path, PathPoint};
 pub use person::{ClipUse, LOOP_SEARCH_S, PersonMotion, TRAVEL_THRESHOLD_M};
 
@@ -180,6 +188,36 @@ pub struct MotionSpec {
     /// the clip's frame rate.
     #[serde(default = "default_lowpass_hz")]
     pub lowpass_hz: f64,
+    /// Spans `[[from, to], ...]` of session seconds during which the person is out of the room:
+    /// no camera sees them and their body hides nothing from cameras or radios; when they come
+    /// back, cameras report them under a new track id. Each span is half-open (`from ≤ t < to`),
+    /// inside the scene (`0 ≤ from < to ≤ duration_s`), and the spans are in increasing order
+    /// without overlap. The motion keeps playing while the person is away. Default none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub absent_s: Vec<[f64; 2]>,
+    /// What the person's devices send while they are away (see [`WhenAbsent`]). Default
+    /// `stream`.
+    #[serde(default, skip_serializing_if = "WhenAbsent::is_stream")]
+    pub wearables_when_absent: WhenAbsent,
+}
+
+/// What a person's devices send during the spans of [`MotionSpec::absent_s`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WhenAbsent {
+    /// The person keeps moving elsewhere with their devices on: IMUs keep sending (the hard case
+    /// for identification: inertial data with no skeleton to match); location tags and RSSI tags
+    /// are out of the anchors' and antennas' coverage and give no fixes, ranges or reads.
+    #[default]
+    Stream,
+    /// Every device of the person is silent while they are away (taken off, switched off).
+    Silent,
+}
+
+impl WhenAbsent {
+    fn is_stream(&self) -> bool {
+        *self == Self::Stream
+    }
 }
 
 /// A rigid horizontal transform from a clip's own world frame into the scene:
@@ -215,6 +253,37 @@ fn default_lowpass_hz() -> f64 {
     6.0
 }
 
+/// Whether `t_s` is in one of the half-open spans `[from, to)`.
+pub(crate) fn is_in_spans(spans: &[[f64; 2]], t_s: f64) -> bool {
+    spans.iter().any(|&[from, to]| t_s >= from && t_s < to)
+}
+
+/// Checks [`MotionSpec::absent_s`]: finite, `0 ≤ from < to ≤ duration_s`, increasing, no
+/// overlap. The message names the span (`absent_s[i]`).
+pub(crate) fn check_absent_spans(
+    spans: &[[f64; 2]],
+    duration_s: f64,
+) -> std::result::Result<(), String> {
+    let mut previous_end = 0.0;
+    for (i, &[from, to]) in spans.iter().enumerate() {
+        if !(from.is_finite() && to.is_finite() && from >= 0.0 && to > from && to <= duration_s) {
+            return Err(format!(
+                "absent_s[{i}] must be [from, to] with 0 <= from < to <= {duration_s} (inside \
+                 the scene), got [{from}, {to}]"
+            ));
+        }
+        if i > 0 && from < previous_end {
+            return Err(format!(
+                "absent_s[{i}] = [{from}, {to}] overlaps or precedes absent_s[{}] (spans must \
+                 be in increasing order without overlap)",
+                i - 1
+            ));
+        }
+        previous_end = to;
+    }
+    Ok(())
+}
+
 /// Allowed range of [`MotionSpec::time_warp`].
 pub const TIME_WARP_RANGE: (f64, f64) = (0.85, 1.15);
 
@@ -239,7 +308,14 @@ impl MotionSpec {
             heading_rad: 0.0,
             clip_frame: None,
             lowpass_hz: default_lowpass_hz(),
+            absent_s: Vec::new(),
+            wearables_when_absent: WhenAbsent::Stream,
         }
+    }
+
+    /// Whether `t_s` falls in one of the [`MotionSpec::absent_s`] spans.
+    pub fn is_absent_at(&self, t_s: f64) -> bool {
+        is_in_spans(&self.absent_s, t_s)
     }
 
     /// Names of the clips this motion needs from the library.

@@ -149,6 +149,8 @@ pub struct PersonMotion {
     is_travelling: bool,
     height_factor: f64,
     stature_m: f64,
+    /// Spans of session time during which the person is away, `[from, to)`.
+    absent_s: Vec<[f64; 2]>,
 }
 
 fn invalid(msg: String) -> SimError {
@@ -538,6 +540,7 @@ impl PersonMotion {
             is_travelling,
             height_factor,
             stature_m: stature0 * height_factor,
+            absent_s: spec.absent_s.clone(),
         };
         motion.place(spec, clip)?;
         Ok(motion)
@@ -1081,6 +1084,8 @@ fn check_spec(spec: &MotionSpec) -> Result<()> {
     {
         return bad("clip_frame", "must be finite", f.yaw_rad);
     }
+    super::check_absent_spans(&spec.absent_s, f64::INFINITY)
+        .map_err(|why| invalid(format!("motion of clip '{who}': {why}")))?;
     Ok(())
 }
 
@@ -1133,6 +1138,10 @@ impl PersonMotion {
 impl BodyMotion for PersonMotion {
     fn span_s(&self) -> (f64, f64) {
         self.span_s
+    }
+
+    fn is_present_at(&self, t_s: f64) -> bool {
+        t_s >= self.span_s.0 && t_s <= self.span_s.1 && !super::is_in_spans(&self.absent_s, t_s)
     }
 
     fn pose_at(&self, t_s: f64) -> BodyPose {

@@ -34,6 +34,11 @@ pub struct BurstLossConfig {
     pub loss_fraction: f64,
     /// Mean number of consecutive slots lost in one burst, `≥ 1` (1 = independent losses).
     pub mean_burst_len: f64,
+    /// `[min, max]` with `0 ≤ min ≤ max ≤ 0.999`: each device draws its own long-run loss
+    /// fraction uniformly in this range (from its stream `spread/<device>`, see
+    /// [`DeviceDraw`]), instead of every device using `loss_fraction`. Default absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub loss_fraction_range: Option<[f64; 2]>,
 }
 
 impl Default for BurstLossConfig {
@@ -48,12 +53,121 @@ impl BurstLossConfig {
     pub const NONE: Self = Self {
         loss_fraction: 0.0,
         mean_burst_len: 1.0,
+        loss_fraction_range: None,
     };
+
+    /// Losses of the given long-run fraction in bursts of mean length `mean_burst_len`.
+    pub const fn bursts(loss_fraction: f64, mean_burst_len: f64) -> Self {
+        Self {
+            loss_fraction,
+            mean_burst_len,
+            loss_fraction_range: None,
+        }
+    }
 
     /// Checks the ranges; `prefix` names the config in the error (e.g. `imu.loss`).
     pub fn validate(&self, prefix: &str) -> Result<()> {
         check_in(prefix, "loss_fraction", self.loss_fraction, 0.0, 0.999)?;
-        check_in(prefix, "mean_burst_len", self.mean_burst_len, 1.0, 1e9)
+        check_in(prefix, "mean_burst_len", self.mean_burst_len, 1.0, 1e9)?;
+        if let Some([lo, hi]) = self.loss_fraction_range {
+            check_in(prefix, "loss_fraction_range[0]", lo, 0.0, 0.999)?;
+            check_in(prefix, "loss_fraction_range[1]", hi, lo, 0.999)?;
+        }
+        Ok(())
+    }
+
+    /// This channel with one device's drawn loss fraction, if any.
+    pub fn for_device(&self, loss_fraction: Option<f64>) -> Self {
+        match loss_fraction {
+            Some(loss_fraction) => Self {
+                loss_fraction,
+                ..*self
+            },
+            None => *self,
+        }
+    }
+}
+
+/// Largest [`DeviceDraw`] spread `k` a sensor model accepts (multipliers in `[1/k, k]`).
+pub const MAX_DEVICE_SPREAD: f64 = 10.0;
+
+/// Largest scene-wide noise multiplier (`[sensors] noise_scale`).
+pub const MAX_NOISE_SCALE: f64 = 3.0;
+
+/// What one device draws around its kind's sensor model: real devices of one model differ in
+/// noise, bias and packet loss.
+///
+/// Drawn from the device's own stream `spread/<device>`, in this order: the noise multiplier
+/// (when the spread `k > 1`), the bias multiplier (when `k > 1`), the loss fraction (when a
+/// `loss_fraction_range` is set), the second loss fraction (ranges of a UWB tag, when
+/// `uwb_range.loss.loss_fraction_range` is set). Each multiplier is **log-uniform in
+/// `[1/k, k]`** (`exp(U(−ln k, ln k))`: a device is as likely to be twice as noisy as half as
+/// noisy; median 1), times the scene-wide `noise_scale`; each loss fraction is uniform in its
+/// range. With `k = 1`, `noise_scale = 1` and no ranges nothing is drawn and every device uses the
+/// fitted model exactly.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeviceDraw {
+    /// Multiplier of the device's noise densities or σ (scene `noise_scale` × its own draw).
+    pub noise_multiplier: f64,
+    /// Multiplier of the device's turn-on bias bounds (IMUs; scene `noise_scale` × its own
+    /// draw).
+    pub bias_multiplier: f64,
+    /// The device's own loss fraction, when drawn from a range.
+    pub loss_fraction: Option<f64>,
+    /// A UWB tag's own loss fraction of raw ranging cycles, when drawn from a range.
+    pub range_loss_fraction: Option<f64>,
+}
+
+impl DeviceDraw {
+    /// No spread: the fitted model.
+    pub const IDENTITY: Self = Self {
+        noise_multiplier: 1.0,
+        bias_multiplier: 1.0,
+        loss_fraction: None,
+        range_loss_fraction: None,
+    };
+
+    /// Draws one device (see the type's documentation for the order of the draws).
+    pub fn draw(
+        noise_scale: f64,
+        spread: f64,
+        loss_range: Option<[f64; 2]>,
+        range_loss_range: Option<[f64; 2]>,
+        rng: &mut SimRng,
+    ) -> Self {
+        let noise = log_uniform(rng, spread);
+        let bias = log_uniform(rng, spread);
+        let loss_fraction = loss_range.map(|r| uniform_in(rng, r));
+        let range_loss_fraction = range_loss_range.map(|r| uniform_in(rng, r));
+        Self {
+            noise_multiplier: noise_scale * noise,
+            bias_multiplier: noise_scale * bias,
+            loss_fraction,
+            range_loss_fraction,
+        }
+    }
+
+    /// Whether the draw changes nothing.
+    pub fn is_identity(&self) -> bool {
+        *self == Self::IDENTITY
+    }
+}
+
+/// Log-uniform in `[1/k, k]`; exactly 1, without consuming randomness, when `k ≤ 1`.
+fn log_uniform(rng: &mut SimRng, k: f64) -> f64 {
+    if k > 1.0 {
+        (symmetric(rng, 1.0) * k.ln()).exp()
+    } else {
+        1.0
+    }
+}
+
+/// Uniform in `[lo, hi]`; `lo`, without consuming randomness, when the range is one value.
+fn uniform_in(rng: &mut SimRng, [lo, hi]: [f64; 2]) -> f64 {
+    if hi > lo {
+        lo + rng.random::<f64>() * (hi - lo)
+    } else {
+        lo
     }
 }
 
@@ -196,6 +310,11 @@ impl DeviceClock {
     }
 }
 
+/// Whether a multiplier is exactly 1 (its default; skipped when serialising).
+pub(crate) fn is_one(v: &f64) -> bool {
+    *v == 1.0
+}
+
 /// A standard normal draw.
 #[inline]
 pub(crate) fn normal(rng: &mut SimRng) -> f64 {
@@ -244,10 +363,7 @@ mod tests {
 
     #[test]
     fn gilbert_elliott_loses_the_configured_fraction_in_bursts_of_the_configured_length() {
-        let cfg = BurstLossConfig {
-            loss_fraction: 0.1,
-            mean_burst_len: 4.0,
-        };
+        let cfg = BurstLossConfig::bursts(0.1, 4.0);
         let mut rng = stream(1, "loss");
         let mut ch = BurstLoss::new(&cfg, &mut rng);
         let n = 400_000;
@@ -264,6 +380,75 @@ mod tests {
         let mean_burst = lost as f64 / bursts as f64;
         assert!((frac - 0.1).abs() < 0.01, "{frac}");
         assert!((mean_burst - 4.0).abs() < 0.2, "{mean_burst}");
+    }
+
+    #[test]
+    fn device_multipliers_are_log_uniform_within_the_spread() {
+        let k = 3.0;
+        let draws: Vec<DeviceDraw> = (0..4000)
+            .map(|i| {
+                let mut rng = stream(9, &format!("spread/d{i}"));
+                DeviceDraw::draw(1.0, k, Some([0.02, 0.1]), None, &mut rng)
+            })
+            .collect();
+        for d in &draws {
+            for m in [d.noise_multiplier, d.bias_multiplier] {
+                assert!((1.0 / k..=k).contains(&m), "{m}");
+            }
+            let loss = d.loss_fraction.unwrap();
+            assert!((0.02..=0.1).contains(&loss), "{loss}");
+            assert!(d.range_loss_fraction.is_none());
+        }
+        // Log-uniform: ln m is uniform in [−ln k, ln k], so half the devices are quieter than
+        // the model and a quarter are more than √k times noisier.
+        let n = draws.len() as f64;
+        let below = draws.iter().filter(|d| d.noise_multiplier < 1.0).count() as f64 / n;
+        let far = draws
+            .iter()
+            .filter(|d| d.noise_multiplier > k.sqrt())
+            .count() as f64
+            / n;
+        assert!((below - 0.5).abs() < 0.03, "{below}");
+        assert!((far - 0.25).abs() < 0.03, "{far}");
+        // Noise and bias are drawn independently.
+        assert!(
+            draws
+                .iter()
+                .any(|d| d.noise_multiplier != d.bias_multiplier)
+        );
+    }
+
+    #[test]
+    fn a_spread_of_one_leaves_every_model_exactly_as_fitted() {
+        let mut rng = stream(1, "spread/x");
+        let draw = DeviceDraw::draw(1.0, 1.0, None, None, &mut rng);
+        assert!(draw.is_identity());
+        // Nothing was drawn from the stream.
+        assert_eq!(rng.random::<u64>(), stream(1, "spread/x").random::<u64>());
+        let imu = imu::ImuConfig::default();
+        assert_eq!(imu.for_device(&draw), imu);
+        let rtls = uwb::RtlsConfig::default();
+        assert_eq!(rtls.for_device(&draw), rtls);
+        let ranges = uwb::UwbRangeConfig::default();
+        assert_eq!(ranges.for_device(&draw), ranges);
+        let rssi = rssi::RssiConfig::default();
+        assert_eq!(rssi.for_device(&draw), rssi);
+        // The scene-wide scale alone multiplies without a draw.
+        let scaled = DeviceDraw::draw(2.0, 1.0, None, None, &mut rng);
+        assert_eq!(
+            (scaled.noise_multiplier, scaled.bias_multiplier),
+            (2.0, 2.0)
+        );
+        let noisy = imu.for_device(&scaled);
+        assert_eq!(
+            noisy.gyro_noise_density_radps_per_sqrt_hz,
+            2.0 * imu.gyro_noise_density_radps_per_sqrt_hz
+        );
+        assert_eq!(
+            noisy.accel_turn_on_bias_max_mps2,
+            2.0 * imu.accel_turn_on_bias_max_mps2
+        );
+        assert_eq!(noisy.rate_hz, imu.rate_hz);
     }
 
     #[test]

@@ -19,7 +19,7 @@
 //! if the power is above the receiver's sensitivity. Values are dBm, quantised like a real
 //! receiver reports them, never dBm×100.
 
-use super::{check_in, check_span, normal};
+use super::{DeviceDraw, MAX_DEVICE_SPREAD, check_in, check_span, is_one, normal};
 use crate::body::BodyMotion;
 use crate::error::{Result, SimError};
 use crate::rng::SimRng;
@@ -96,6 +96,12 @@ pub struct RssiConfig {
     pub sensitivity_dbm: f64,
     /// Resolution of reported values, dB (0 = none). Default 1 dB: BLE reports integer dBm.
     pub quantisation_db: f64,
+    /// Spread `k ≥ 1` of the tags around this model: each tag draws its own multiplier of
+    /// `shadowing_sigma_db`, log-uniform in `[1/k, k]` (see [`DeviceDraw`]). Default 1 (every
+    /// tag exactly the model); at most 10. **Not fitted.** Read losses follow the read curve
+    /// and have no per-tag range.
+    #[serde(skip_serializing_if = "is_one")]
+    pub device_spread: f64,
 }
 
 impl Default for RssiConfig {
@@ -118,6 +124,7 @@ impl Default for RssiConfig {
             read_probability_loss_per_m2: 8.76e-4,
             sensitivity_dbm: -100.0,
             quantisation_db: 1.0,
+            device_spread: 1.0,
         }
     }
 }
@@ -198,7 +205,23 @@ impl RssiConfig {
             1.0,
         )?;
         check_in(p, "sensitivity_dbm", self.sensitivity_dbm, -200.0, 30.0)?;
-        check_in(p, "quantisation_db", self.quantisation_db, 0.0, 10.0)
+        check_in(p, "quantisation_db", self.quantisation_db, 0.0, 10.0)?;
+        check_in(
+            p,
+            "device_spread",
+            self.device_spread,
+            1.0,
+            MAX_DEVICE_SPREAD,
+        )
+    }
+
+    /// The model of one tag: `shadowing_sigma_db` times `draw.noise_multiplier`. The identity
+    /// draw returns the model unchanged.
+    pub fn for_device(&self, draw: &DeviceDraw) -> Self {
+        Self {
+            shadowing_sigma_db: self.shadowing_sigma_db * draw.noise_multiplier,
+            ..self.clone()
+        }
     }
 
     /// Probability that a poll at distance `d_m` yields a read (before the sensitivity check).

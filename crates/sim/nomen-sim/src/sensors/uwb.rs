@@ -13,10 +13,16 @@
 //! TWR (LIAS)" rows): `measured = d + bias + slope·(d − reference) + anchor_bias + e`, with `e`
 //! Gaussian (core) or, with the tail weight, a positive exponential excess; quantised to 1 cm.
 //!
+//! **Blocked lines** (optional, [`BlockedLines`]): a range whose tag–anchor line is blocked gets
+//! an extra NLOS excess ([`UwbRangeConfig::blocked`]), and a fix whose tag is blocked from most
+//! anchors is an outlier more often ([`RtlsConfig::blocked_nlos_probability`]).
+//!
 //! Fixes and ranges are stamped on the session clock (an RTLS server or anchor network is
 //! assumed synchronised to it; IMU-style device clocks are not modelled here).
 
-use super::{BurstLoss, BurstLossConfig, check_in, check_span, normal};
+use super::{
+    BurstLoss, BurstLossConfig, DeviceDraw, MAX_DEVICE_SPREAD, check_in, check_span, is_one, normal,
+};
 use crate::body::BodyMotion;
 use crate::error::Result;
 use crate::rng::SimRng;
@@ -64,6 +70,20 @@ pub struct RtlsConfig {
     /// Bursty dropouts of whole fixes. Default 1 % in bursts of 2: an assumption (LIAS lost only
     /// 0.02–0.07 % of range rows, but a body-worn tag loses more fixes to shadowing).
     pub loss: BurstLossConfig,
+    /// Spread `k ≥ 1` of the tags around this model: each tag draws its own multiplier of the
+    /// core σ (horizontal and vertical, and of its raw ranges' `noise_sigma_m`), log-uniform in
+    /// `[1/k, k]` (see [`DeviceDraw`]); with a `loss.loss_fraction_range`, its own loss fraction.
+    /// Default 1 (every tag exactly the model); at most 10. **Not fitted** (one LIAS tag).
+    #[serde(skip_serializing_if = "is_one")]
+    pub device_spread: f64,
+    /// NLOS probability of a fix whose tag has its line of sight to more than half of the
+    /// scene's anchors blocked (by a body, the wearer's own trunk for a tag on a limb, or an
+    /// obstacle), in `0..=1`; such a fix is an NLOS outlier with at least this probability
+    /// (the extra outliers are drawn from the tag's stream `rtls/<device>/blocked`). Needs
+    /// anchors. Default absent: blocked and clear fixes share `nlos_probability`. **An
+    /// assumption** when set: no recording here has blocked fixes to fit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blocked_nlos_probability: Option<f64>,
 }
 
 impl Default for RtlsConfig {
@@ -78,10 +98,9 @@ impl Default for RtlsConfig {
             jump_min_m: 5.0,
             jump_max_m: 30.0,
             latency_s: 0.1,
-            loss: BurstLossConfig {
-                loss_fraction: 0.01,
-                mean_burst_len: 2.0,
-            },
+            loss: BurstLossConfig::bursts(0.01, 2.0),
+            device_spread: 1.0,
+            blocked_nlos_probability: None,
         }
     }
 }
@@ -118,7 +137,28 @@ impl RtlsConfig {
         check_in(p, "jump_min_m", self.jump_min_m, 0.0, 1000.0)?;
         check_in(p, "jump_max_m", self.jump_max_m, self.jump_min_m, 1000.0)?;
         check_in(p, "latency_s", self.latency_s, 0.0, 10.0)?;
+        check_in(
+            p,
+            "device_spread",
+            self.device_spread,
+            1.0,
+            MAX_DEVICE_SPREAD,
+        )?;
+        if let Some(b) = self.blocked_nlos_probability {
+            check_in(p, "blocked_nlos_probability", b, 0.0, 1.0)?;
+        }
         self.loss.validate("rtls.loss")
+    }
+
+    /// The model of one tag: core σ times `draw.noise_multiplier` and the tag's own loss
+    /// fraction if it drew one. The identity draw returns the model unchanged.
+    pub fn for_device(&self, draw: &DeviceDraw) -> Self {
+        Self {
+            core_sigma_m: self.core_sigma_m * draw.noise_multiplier,
+            core_sigma_vertical_m: self.core_sigma_vertical_m * draw.noise_multiplier,
+            loss: self.loss.for_device(draw.loss_fraction),
+            ..self.clone()
+        }
     }
 }
 
@@ -137,6 +177,31 @@ pub struct RtlsRun {
     pub num_jumps: usize,
 }
 
+/// Where a tag's lines of sight to the anchors are blocked, and the stream that draws the NLOS
+/// outliers this adds ([`RtlsConfig::blocked_nlos_probability`],
+/// [`UwbRangeConfig::blocked`]); kept apart from the device's own stream so that the clear
+/// fixes and ranges stay exactly what they are without it.
+pub struct BlockedLines<'a> {
+    /// `is_blocked(t_s, anchor_index)`: whether the line from the tag to the anchor is blocked
+    /// at session time `t_s`.
+    pub is_blocked: &'a dyn Fn(f64, usize) -> bool,
+    /// Number of anchors `is_blocked` knows.
+    pub num_anchors: usize,
+    /// The stream of the extra draws (the scene uses `rtls/<device>/blocked` for fixes and
+    /// `uwb_range/<device>/blocked` for ranges).
+    pub rng: &'a mut SimRng,
+}
+
+impl BlockedLines<'_> {
+    /// Whether the lines to more than half of the anchors are blocked at `t_s`.
+    fn is_mostly_blocked(&self, t_s: f64) -> bool {
+        let num_blocked = (0..self.num_anchors)
+            .filter(|&i| (self.is_blocked)(t_s, i))
+            .count();
+        2 * num_blocked > self.num_anchors
+    }
+}
+
 /// Simulates the RTLS fixes of a tag worn at `site` over the session-time span `span_s`.
 ///
 /// Fix instants are a regular grid at `rate_hz` with a random phase per tag; a fix is emitted
@@ -148,6 +213,22 @@ pub fn simulate_rtls(
     span_s: (f64, f64),
     config: &RtlsConfig,
     rng: &mut SimRng,
+) -> Result<RtlsRun> {
+    simulate_rtls_blocked(motion, site, tag, span_s, config, rng, None)
+}
+
+/// As [`simulate_rtls`], raising the NLOS probability of fixes whose lines to most anchors are
+/// `blocked` to [`RtlsConfig::blocked_nlos_probability`] (when both are given): a received fix
+/// that the device's own draws left clear becomes an outlier with probability
+/// `(p_blocked − p) / (1 − p)`, its excess drawn like any NLOS excess from `blocked.rng`.
+pub fn simulate_rtls_blocked(
+    motion: &dyn BodyMotion,
+    site: Joint,
+    tag: &TagId,
+    span_s: (f64, f64),
+    config: &RtlsConfig,
+    rng: &mut SimRng,
+    mut blocked: Option<BlockedLines<'_>>,
 ) -> Result<RtlsRun> {
     config.validate()?;
     check_span(&format!("rtls {tag}"), span_s)?;
@@ -175,9 +256,9 @@ pub fn simulate_rtls(
             config.core_sigma_m * normal(rng),
             config.core_sigma_vertical_m * normal(rng),
         );
-        let is_nlos =
+        let mut is_nlos =
             config.nlos_probability > 0.0 && rng.random::<f64>() < config.nlos_probability;
-        let nlos = if is_nlos {
+        let mut nlos = if is_nlos {
             exponential(rng, config.nlos_excess_mean_m) * horizontal_direction(rng)
         } else {
             Vector3::zeros()
@@ -198,6 +279,22 @@ pub fn simulate_rtls(
         let Some(t) = SessionTime::from_secs_f64(t_s) else {
             continue;
         };
+        if let (Some(p_blocked), Some(lines)) = (config.blocked_nlos_probability, blocked.as_mut())
+            && !is_nlos
+            && lines.is_mostly_blocked(described_s)
+        {
+            let p = config.nlos_probability;
+            let extra = if p < 1.0 {
+                ((p_blocked - p) / (1.0 - p)).max(0.0)
+            } else {
+                0.0
+            };
+            if extra > 0.0 && lines.rng.random::<f64>() < extra {
+                is_nlos = true;
+                nlos = exponential(lines.rng, config.nlos_excess_mean_m)
+                    * horizontal_direction(lines.rng);
+            }
+        }
         run.num_nlos += usize::from(is_nlos);
         run.num_jumps += usize::from(is_jump);
         run.fixes.push(RtlsFix {
@@ -257,6 +354,35 @@ pub struct UwbRangeConfig {
     /// Bursty loss of whole ranging cycles. Default 0.07 %, independent: LIAS "dropouts" row
     /// (0.02–0.07 % rows lost).
     pub loss: BurstLossConfig,
+    /// NLOS excess of ranges whose line of sight is blocked (a `[sensors.uwb_range.blocked]`
+    /// table turns it on). Default absent: blocked and clear lines get the same LIAS errors.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blocked: Option<BlockedRangeConfig>,
+}
+
+/// The extra error of a range whose tag–anchor line is blocked by a body (another person, or
+/// the wearer's own trunk for a tag on a limb) or an obstacle: with probability
+/// `nlos_probability` the range is the line-of-sight range plus a positive exponential excess
+/// of mean `excess_mean_m`, drawn from the tag's stream `uwb_range/<device>/blocked` (so clear
+/// lines keep exactly their errors). Both defaults are **assumptions**, not fitted: the LIAS
+/// recordings are line of sight; body-shadowed UWB ranges are reported to be biased long by
+/// decimetres, several times the LIAS tail (mean 0.11 m in 5 % of ranges).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BlockedRangeConfig {
+    /// Probability that a blocked range carries the excess, `0..=1`. Default 0.5.
+    pub nlos_probability: f64,
+    /// Mean of the excess, m. Default 0.3 m.
+    pub excess_mean_m: f64,
+}
+
+impl Default for BlockedRangeConfig {
+    fn default() -> Self {
+        Self {
+            nlos_probability: 0.5,
+            excess_mean_m: 0.3,
+        }
+    }
 }
 
 impl Default for UwbRangeConfig {
@@ -272,10 +398,8 @@ impl Default for UwbRangeConfig {
             tail_mean_excess_m: 0.11,
             max_range_m: 50.0,
             quantisation_m: 0.01,
-            loss: BurstLossConfig {
-                loss_fraction: 0.0007,
-                mean_burst_len: 1.0,
-            },
+            loss: BurstLossConfig::bursts(0.0007, 1.0),
+            blocked: None,
         }
     }
 }
@@ -320,7 +444,34 @@ impl UwbRangeConfig {
         check_in(p, "tail_mean_excess_m", self.tail_mean_excess_m, 0.0, 100.0)?;
         check_in(p, "max_range_m", self.max_range_m, 0.0, 1000.0)?;
         check_in(p, "quantisation_m", self.quantisation_m, 0.0, 1.0)?;
+        if let Some(b) = &self.blocked {
+            check_in(
+                "uwb_range.blocked",
+                "nlos_probability",
+                b.nlos_probability,
+                0.0,
+                1.0,
+            )?;
+            check_in(
+                "uwb_range.blocked",
+                "excess_mean_m",
+                b.excess_mean_m,
+                0.0,
+                100.0,
+            )?;
+        }
         self.loss.validate("uwb_range.loss")
+    }
+
+    /// The ranging model of one tag: `noise_sigma_m` times `draw.noise_multiplier` and the tag's
+    /// own loss fraction of ranging cycles if it drew one. The identity draw returns the model
+    /// unchanged.
+    pub fn for_device(&self, draw: &DeviceDraw) -> Self {
+        Self {
+            noise_sigma_m: self.noise_sigma_m * draw.noise_multiplier,
+            loss: self.loss.for_device(draw.range_loss_fraction),
+            ..self.clone()
+        }
     }
 }
 
@@ -335,6 +486,11 @@ pub struct UwbRangeRun {
     pub anchor_bias_m: Vec<f64>,
     /// Ranging cycles lost.
     pub num_cycles_lost: usize,
+    /// Received ranges whose line of sight was blocked (counted only with
+    /// [`UwbRangeConfig::blocked`] and [`BlockedLines`]).
+    pub num_blocked: usize,
+    /// Of those, the ranges that carry the NLOS excess.
+    pub num_blocked_nlos: usize,
 }
 
 /// Simulates raw two-way ranges between a tag worn at `site` and `anchors` over `span_s`.
@@ -348,6 +504,23 @@ pub fn simulate_uwb_ranges(
     span_s: (f64, f64),
     config: &UwbRangeConfig,
     rng: &mut SimRng,
+) -> Result<UwbRangeRun> {
+    simulate_uwb_ranges_blocked(motion, site, tag, anchors, span_s, config, rng, None)
+}
+
+/// As [`simulate_uwb_ranges`], adding the NLOS excess of [`UwbRangeConfig::blocked`] to received
+/// ranges whose line is `blocked` (when both are given; `blocked.is_blocked` is indexed like
+/// `anchors`).
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_uwb_ranges_blocked(
+    motion: &dyn BodyMotion,
+    site: Joint,
+    tag: &TagId,
+    anchors: &[Anchor],
+    span_s: (f64, f64),
+    config: &UwbRangeConfig,
+    rng: &mut SimRng,
+    mut blocked: Option<BlockedLines<'_>>,
 ) -> Result<UwbRangeRun> {
     config.validate()?;
     check_span(&format!("uwb_range {tag}"), span_s)?;
@@ -376,6 +549,8 @@ pub fn simulate_uwb_ranges(
         true_range_m: Vec::new(),
         anchor_bias_m,
         num_cycles_lost: 0,
+        num_blocked: 0,
+        num_blocked_nlos: 0,
     };
     for k in 0..num {
         let cycle_s = span_s.0 + phase_s + k as f64 * period_s;
@@ -395,7 +570,21 @@ pub fn simulate_uwb_ranges(
             let bias = config.bias_m
                 + config.range_slope_m_per_m * (d - config.reference_range_m)
                 + run.anchor_bias_m.get(i).copied().unwrap_or(0.0);
-            let mut r = (d + bias + e).max(0.0);
+            let mut excess = 0.0;
+            if let (Some(b), Some(lines)) = (&config.blocked, blocked.as_mut())
+                && (lines.is_blocked)(t_s, i)
+            {
+                run.num_blocked += 1;
+                if lines.rng.random::<f64>() < b.nlos_probability {
+                    run.num_blocked_nlos += 1;
+                    excess = exponential(lines.rng, b.excess_mean_m);
+                }
+            }
+            let mut r = if excess > 0.0 {
+                (d + bias + e + excess).max(0.0)
+            } else {
+                (d + bias + e).max(0.0)
+            };
             if config.quantisation_m > 0.0 {
                 r = (r / config.quantisation_m).round() * config.quantisation_m;
             }
