@@ -44,6 +44,12 @@ enum Command {
     Validate(cmd::validate::ValidateArgs),
     /// Evaluate an engine result against ground truth (or MOTChallenge files with `eval mot`).
     Eval(cmd::eval::EvalArgs),
+    /// Scene families: randomized scenarios drawn from one definition.
+    #[command(subcommand)]
+    Scenes(cmd::scenes::ScenesCommand),
+    /// Benchmarks: `bench identity` is the held-out identity benchmark over the scene families.
+    #[command(subcommand)]
+    Bench(cmd::bench::BenchCommand),
     /// Regenerate a paper's table: simulate → run → eval for every cell, seeds printed.
     #[command(subcommand)]
     Experiment(cmd::experiment::ExperimentCommand),
@@ -69,6 +75,8 @@ fn main() -> ExitCode {
         Command::Import(c) => cmd::import::run(c),
         Command::Validate(a) => cmd::validate::run(a),
         Command::Eval(a) => cmd::eval::run(a),
+        Command::Scenes(c) => cmd::scenes::run(c),
+        Command::Bench(c) => cmd::bench::run(c),
         Command::Experiment(c) => cmd::experiment::run(c),
         Command::Fit(c) => cmd::fit::run(c),
         Command::Demo(a) => cmd::demo::run(a),

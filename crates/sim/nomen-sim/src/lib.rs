@@ -5,6 +5,8 @@
 //!
 //! - [`body`]: the interface between people and sensors: a [`body::BodyMotion`] gives a smooth
 //!   whole-body pose at any time; sensors sample it where they are mounted.
+//! - [`family`]: scene families, randomized scenarios drawn from one definition (the held-out
+//!   benchmark's scenes).
 //! - [`rng`]: seeded, named random streams, so that adding a device does not change the noise of
 //!   the others.
 
@@ -12,6 +14,7 @@ pub mod body;
 pub mod camera;
 pub mod clips;
 mod error;
+pub mod family;
 pub mod geometry;
 pub mod motion;
 pub mod rng;

@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod bench;
 pub mod calibrate;
 pub mod calibrate_confidence;
 pub mod calibrate_rssi;
@@ -14,6 +15,7 @@ pub mod import;
 pub mod mocap;
 pub mod occlusion;
 pub mod run;
+pub mod scenes;
 pub mod simulate;
 pub mod train;
 pub mod validate;
