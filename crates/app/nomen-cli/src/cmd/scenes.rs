@@ -248,7 +248,7 @@ mod tests {
             for family in &families {
                 for index in 0..3 {
                     let text =
-                        generate(&family, &def.clips, index, def.seed_base + index as u64).unwrap();
+                        generate(family, &def.clips, index, def.seed_base + index as u64).unwrap();
                     let scenario = Scenario::from_toml(&text, &family.name)
                         .unwrap_or_else(|e| panic!("{}: {e}", family.name));
                     let n = scenario.people.len() as u32;
