@@ -173,8 +173,8 @@
 //!    companion who merely moved like the wearer does not inherit her name when she leaves.
 //!    Across cameras, a subject named on a track far from this one (torsos farther apart than
 //!    [`EngineConfig::camera_exclusion_distance_m`] on average over the last two windows) is
-//!    kept off it unless its score is within the same margin of that track's: one person is not
-//!    in two places.
+//!    kept off it unless its score is within [`EngineConfig::camera_exclusion_margin`] (0: at
+//!    least as high) of that track's: one person is not in two places.
 //!    While none of a subject's IMUs has an accepted offset, a move of her name from one
 //!    track to another that coexists with it must beat the holder's score by
 //!    [`EngineConfig::unsynced_switch_margin`], or neither track holds her for that decision;

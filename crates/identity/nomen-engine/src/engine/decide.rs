@@ -166,10 +166,11 @@ impl Engine {
                         && outscored_by
                             .and_then(|m| m.get(&s))
                             .is_some_and(|&held| mean < held - self.config.exclusion_margin);
-                    let is_held_far = self.config.exclusion_margin >= 0.0
-                        && held_far
-                            .iter()
-                            .any(|&(h, held)| h == s && mean < held - self.config.exclusion_margin);
+                    // One person, one place: a subject held by a better-scoring track far away.
+                    let is_held_far = self.config.camera_exclusion_margin >= 0.0
+                        && held_far.iter().any(|&(h, held)| {
+                            h == s && mean < held - self.config.camera_exclusion_margin
+                        });
                     if !is_excluded
                         && !is_held_far
                         && let Some(cell) = row.get_mut(s)
