@@ -2140,6 +2140,18 @@ fn a_subject_named_by_one_camera_is_kept_off_a_track_of_the_other_camera_far_fro
         named > 100,
         "Dan named in {named} frames without the exclusion"
     );
+    // A negative margin turns the rule off as well; a margin as wide as the scores' range lets
+    // Dan's lesser score through.
+    for camera_exclusion_margin in [-1.0, 1.0] {
+        let named = dan_named(&EngineConfig {
+            camera_exclusion_margin,
+            ..config
+        });
+        assert!(
+            named > 100,
+            "Dan named in {named} frames with camera_exclusion_margin {camera_exclusion_margin}"
+        );
+    }
 }
 
 #[test]
