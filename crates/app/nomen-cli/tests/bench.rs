@@ -1,4 +1,4 @@
-//! End-to-end tests of the scene families and the identity benchmark.
+//! End-to-end tests of the scene families, the identity benchmark and the ASF/AMC clips they use.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod common;
@@ -167,4 +167,46 @@ fn bench_identity_pools_a_family_whose_counts_add_up() {
         table.contains("| tiny ") && table.contains("tiny_000 (seed"),
         "{table}"
     );
+}
+
+#[test]
+fn mocap_convert_reads_an_amc_take_with_its_asf_skeleton() {
+    let Some(data) = data_dir() else { return };
+    let dir = data.join("mocap/cmu-asfamc");
+    let tmp = tempfile::tempdir().unwrap();
+    let rec = tmp.path().join("walk.jsonl");
+    let amc = dir.join("02_01.amc");
+    let o = nomen(&[
+        "mocap",
+        "convert",
+        amc.to_str().unwrap(),
+        "--asf",
+        dir.join("02.asf").to_str().unwrap(),
+        "--scale",
+        "0.0564444",
+        "--out",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    // The take's 343 frames, at CMU's 120 Hz.
+    assert!(
+        text(&o.stderr).contains("wrote 343 skeleton messages"),
+        "{}",
+        text(&o.stderr)
+    );
+    let o = nomen(&["validate", rec.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(text(&o.stdout).contains("(2.850 s)"), "{}", text(&o.stdout));
+
+    // Without its skeleton an AMC file is refused by name, with the flag that gives it.
+    let o = nomen(&[
+        "mocap",
+        "convert",
+        amc.to_str().unwrap(),
+        "--out",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = text(&o.stderr);
+    assert!(err.contains("02_01.amc") && err.contains("--asf"), "{err}");
 }

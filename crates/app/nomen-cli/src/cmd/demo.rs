@@ -99,6 +99,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
     ];
     let convert = ConvertArgs {
         files,
+        asf: None,
         scale: Some(CMU_SCALE),
         fps: Some(120.0),
         ground: false,

@@ -1,28 +1,36 @@
-//! `nomen mocap convert`: BVH motion capture → a skeleton recording (and optional ground truth).
+//! `nomen mocap convert`: BVH or ASF/AMC motion capture → a skeleton recording (and optional
+//! ground truth).
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use nomen_core::message::TruthSkeleton;
 use nomen_core::{Camera, CameraId, Message, Registry, SessionTime, TrackId};
-use nomen_mocap::{ConvertOptions, Grounding, MocapClip, convert, convert_pair, read_bvh_file};
+use nomen_mocap::{
+    ConvertOptions, Grounding, MocapClip, convert, convert_pair, read_asf_amc_files, read_bvh_file,
+};
 use nomen_recording::{Header, RecordingWriter, sort_for_writing};
 use std::path::{Path, PathBuf};
 
 /// `nomen mocap ...`
 #[derive(Debug, Subcommand)]
 pub enum MocapCommand {
-    /// Convert BVH files into one skeleton recording on one clock (exact forward kinematics,
-    /// Y-up → Z-up, canonical joints).
+    /// Convert BVH files (or CMU AMC takes with `--asf`) into one skeleton recording on one
+    /// clock (exact forward kinematics, Y-up → Z-up, canonical joints).
     Convert(ConvertArgs),
 }
 
 /// Arguments of `nomen mocap convert`.
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// BVH file(s). Several files become several people on the same clock and in the same frame
-    /// (e.g. the two halves of a two-person take such as 18_01 + 19_01).
+    /// BVH file(s), or AMC file(s) with `--asf`. Several files become several people on the
+    /// same clock and in the same frame (e.g. the two halves of a two-person take such as
+    /// 18_01 + 19_01).
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
+    /// The ASF skeleton of the AMC files (CMU's native format: one skeleton per subject, e.g.
+    /// `mocap/cmu-asfamc/02.asf` for `02_05.amc`; 120 Hz unless `--fps`).
+    #[arg(long)]
+    pub asf: Option<PathBuf>,
     /// File length unit → metres (BVH has no unit; CMU files are 0.0564444, centimetres 0.01).
     #[arg(long)]
     pub scale: Option<f64>,
@@ -79,7 +87,7 @@ pub fn convert_files(args: &ConvertArgs) -> Result<(String, Vec<MocapClip>)> {
         },
         ..Default::default()
     };
-    let clips = load_clips(&args.files, &options)?;
+    let clips = load_clips(&args.files, args.asf.as_deref(), &options)?;
     let camera = CameraId::new(args.camera.clone());
     let registry = Registry {
         cameras: vec![Camera {
@@ -148,15 +156,33 @@ pub fn convert_files(args: &ConvertArgs) -> Result<(String, Vec<MocapClip>)> {
     Ok((summary, clips))
 }
 
-/// Parses and converts every file with the same options; two files go through `convert_pair` so
-/// they share one rate check and one grounding offset.
-pub fn load_clips(files: &[PathBuf], options: &ConvertOptions) -> Result<Vec<MocapClip>> {
+/// Parses and converts every file with the same options (BVH files, or AMC files of the ASF
+/// skeleton `asf`); two files go through `convert_pair` so they share one rate check and one
+/// grounding offset.
+pub fn load_clips(
+    files: &[PathBuf],
+    asf: Option<&Path>,
+    options: &ConvertOptions,
+) -> Result<Vec<MocapClip>> {
     let bvhs = files
         .iter()
-        .map(|p| read_bvh_file(p).with_context(|| format!("reading {}", p.display())))
+        .map(|p| {
+            let is_amc = p.extension().is_some_and(|e| e.eq_ignore_ascii_case("amc"));
+            if asf.is_none() && is_amc {
+                bail!(
+                    "{}: an AMC file needs its subject's skeleton: --asf SUBJECT.asf",
+                    p.display()
+                );
+            }
+            match asf {
+                Some(asf) => read_asf_amc_files(asf, p),
+                None => read_bvh_file(p),
+            }
+            .with_context(|| format!("reading {}", p.display()))
+        })
         .collect::<Result<Vec<_>>>()?;
     match bvhs.as_slice() {
-        [] => bail!("no BVH file given"),
+        [] => bail!("no motion capture file given"),
         [a, b] => {
             let (ca, cb) = convert_pair(a, b, options).with_context(|| {
                 format!(
