@@ -167,6 +167,24 @@ fn bench_identity_pools_a_family_whose_counts_add_up() {
         table.contains("| tiny ") && table.contains("tiny_000 (seed"),
         "{table}"
     );
+
+    // Bad requests are refused with the flag or the family named.
+    for (args, expected) in [
+        (&["bench", "identity", "--count", "0"][..], "--count"),
+        (&["bench", "identity", "--jobs", "0"][..], "--jobs"),
+        (
+            &["bench", "identity", "--family", "nope"][..],
+            "unknown family 'nope'",
+        ),
+    ] {
+        let o = nomen(args);
+        assert!(!o.status.success());
+        assert!(text(&o.stderr).contains(expected), "{}", text(&o.stderr));
+    }
+    assert!(
+        table.contains("| tiny ") && table.contains("tiny_000 (seed"),
+        "{table}"
+    );
 }
 
 #[test]
