@@ -3,9 +3,10 @@
 # they were fitted on, and prints one as a [confidence_map] table: nomen's motion score's by
 # default, another's with a config that sets it (motion_score = "de_marchi" or "belmonte").
 #
-# The scenes: the CNN's training scenes of this folder (seeds 1-4), and the library's IMU,
+# The scenes: the CNN's training scenes of this folder (seeds 1-4), the library's IMU,
 # Belmonte-Hernandez, hospital and UWB scenes at seeds from 1001 on, which none of the
-# figures of the engine README use (they use seeds 1-144).
+# figures of the engine README use (they use seeds 1-144), and the first three scenes of every
+# scene family's validation split (docs/benchmark.md; the test split stays out).
 #
 # Usage: scenarios/train/confidence.sh [OUT_DIR [CONFIG]]
 #   (OUT_DIR default: out/confidence; needs ../shared/data)
@@ -18,16 +19,20 @@ cargo build --release -q -p nomen-cli
 nomen=target/release/nomen
 mkdir -p "$out"
 scenes=()
-sim() { # scenario seed
-    local dir="$out/$(basename "$1" .toml)_$2"
+sim_file() { # scenario-file out-dir [--seed S]
+    local file=$1 dir=$2
+    shift 2
     if [ ! -f "$dir/truth.jsonl" ]; then
         local log
-        if ! log=$("$nomen" simulate "scenarios/$1" --seed "$2" --out "$dir" 2>&1); then
+        if ! log=$("$nomen" simulate "$file" "$@" --out "$dir" 2>&1); then
             echo "$log" >&2
             exit 1
         fi
     fi
     scenes+=("$dir")
+}
+sim() { # scenario seed
+    sim_file "scenarios/$1" "$out/$(basename "$1" .toml)_$2" --seed "$2"
 }
 for f in train/train_mixed_5 train/train_salsa_4 train/train_veer_6; do
     for s in 1 2 3 4; do sim "$f.toml" "$s"; done
@@ -39,5 +44,12 @@ done
 for s in $(seq 1001 1030); do sim belmonte_one_without_band.toml "$s"; done
 for f in uwb_8_among_untagged hospital_room; do
     for s in 1001 1002; do sim "$f.toml" "$s"; done
+done
+for family in $("$nomen" scenes list | awk 'NF { print $1 }'); do
+    dir="$out/families/$family"
+    if [ ! -d "$dir" ]; then
+        "$nomen" scenes generate --family "$family" --split validation --count 3 --out "$dir" >/dev/null
+    fi
+    for f in "$dir"/*.toml; do sim_file "$f" "${f%.toml}"; done
 done
 "$nomen" calibrate confidence --scenes "${scenes[@]}" "${config[@]}"

@@ -44,6 +44,8 @@ enum Command {
     Validate(cmd::validate::ValidateArgs),
     /// Evaluate an engine result against ground truth (or MOTChallenge files with `eval mot`).
     Eval(cmd::eval::EvalArgs),
+    /// Why a track of an engine result carries its identity at a time (the decision trace).
+    Explain(cmd::explain::ExplainArgs),
     /// Scene families: randomized scenarios drawn from one definition.
     #[command(subcommand)]
     Scenes(cmd::scenes::ScenesCommand),
@@ -75,6 +77,7 @@ fn main() -> ExitCode {
         Command::Import(c) => cmd::import::run(c),
         Command::Validate(a) => cmd::validate::run(a),
         Command::Eval(a) => cmd::eval::run(a),
+        Command::Explain(a) => cmd::explain::run(a),
         Command::Scenes(c) => cmd::scenes::run(c),
         Command::Bench(c) => cmd::bench::run(c),
         Command::Experiment(c) => cmd::experiment::run(c),

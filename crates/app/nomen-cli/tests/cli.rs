@@ -504,7 +504,7 @@ fn calibrate_confidence_fits_a_map_that_a_run_takes_and_eval_scores() {
             .as_f64()
             .unwrap()
     };
-    // Raw correlations understate how often the names are right; the map fitted on this
+    // Raw leads understate how often the names are right; the map fitted on this
     // scene tells its frames' odds far better.
     let (before, after) = (ece(&raw, "raw.jsonl"), ece(&map, "mapped.jsonl"));
     assert!(before > 0.1 && after < before / 4.0, "{before} -> {after}");
@@ -626,6 +626,73 @@ fn run_labels_every_skeleton_and_refuses_a_recording_without_registry() {
         report["intruder_anonymous_rate"].as_f64().unwrap() > 0.5,
         "{}",
         report["intruder_anonymous_rate"]
+    );
+
+    // `nomen explain` gives the decision trace of a named frame, as the result holds it.
+    let results = std::fs::read_to_string(&result).unwrap();
+    let named: serde_json::Value = results
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .find(|v| v["type"] == "identified" && v["identity"]["subject"].is_string())
+        .expect("a named decision");
+    let (camera, track) = (
+        named["camera"].as_str().unwrap(),
+        named["track"].as_u64().unwrap().to_string(),
+    );
+    let subject = named["identity"]["subject"].as_str().unwrap();
+    let rule = named["decision"]["rule"]
+        .as_str()
+        .expect("a decision trace");
+    let at = format!("{}", named["t"].as_i64().unwrap() as f64 * 1e-9);
+    let result_path = result.to_str().unwrap();
+    let o = nomen(&[
+        "explain",
+        result_path,
+        "--track",
+        &track,
+        "--camera",
+        camera,
+        "--at",
+        &at,
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let story = text(&o.stdout);
+    assert!(
+        story.starts_with(&format!("{camera} track {track} at ")),
+        "{story}"
+    );
+    assert!(
+        story.contains(&format!("identity    {subject} (confidence")),
+        "{story}"
+    );
+    assert!(story.contains(&format!("rule        {rule} — ")), "{story}");
+    assert!(
+        story.contains(&format!("named       {subject} (score")),
+        "{story}"
+    );
+    assert!(story.contains("timeline ("), "{story}");
+    // A track the result does not have, and a file that is no result, are refused by name.
+    let o = nomen(&["explain", result_path, "--track", "987654", "--at", "1"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("no message of a track 987654"),
+        "{}",
+        text(&o.stderr)
+    );
+    let recording = scene.join("recording.jsonl");
+    let o = nomen(&[
+        "explain",
+        recording.to_str().unwrap(),
+        "--track",
+        &track,
+        "--at",
+        "1",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("no `identified` messages"),
+        "{}",
+        text(&o.stderr)
     );
 
     // Files that do not belong together are refused, not scored 0 %: a truth file without

@@ -45,6 +45,7 @@ fn report() -> EvalReport {
                 }),
                 confidence: 1.0,
                 evidence: vec![],
+                decision: None,
                 joints: Joints::new(),
             })));
         };

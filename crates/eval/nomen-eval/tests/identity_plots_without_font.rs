@@ -34,6 +34,7 @@ fn plots_without_a_font_are_still_png() {
             },
             confidence: 1.0,
             evidence: vec![],
+            decision: None,
             joints: Joints::new(),
         })));
     }

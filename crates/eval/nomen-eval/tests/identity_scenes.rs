@@ -42,6 +42,7 @@ fn label(k: u32, track: u64, subject: Option<&str>) -> Message {
         }),
         confidence: 0.9,
         evidence: vec![],
+        decision: None,
         joints: Joints::new(),
     }))
 }

@@ -485,6 +485,7 @@ impl Llorca {
                 identity,
                 confidence,
                 evidence,
+                decision: None,
                 joints: Default::default(),
             })));
         }

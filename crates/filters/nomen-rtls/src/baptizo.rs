@@ -307,6 +307,7 @@ impl Baptizo {
             identity: Identity::Anonymous,
             confidence: 0.0,
             evidence: Vec::new(),
+            decision: None,
             joints: Joints::new(),
         };
         let Some(world_from_camera) = self.cameras.get(camera).copied() else {
@@ -476,6 +477,7 @@ impl Baptizo {
                             device: tag,
                             score,
                         }],
+                        decision: None,
                         joints: Joints::new(),
                     });
                 }

@@ -1,10 +1,11 @@
 //! What an output's confidence means: the probability that its identity is right.
 //!
 //! A decision's raw confidence is a score, not a probability: for a named frame, its subject's
-//! decayed mean correlation on the track; for an anonymous one, 1 − the best subject's (0 when
-//! no subject has a score there). Correlations of 0.5 are already strong evidence, so raw
-//! confidences understate: on the 259-run sweep of the engine README a frame named at a raw 0.5
-//! to 0.6 was right 98.9 % of the time. [`ConfidenceMap`] turns raw confidences into
+//! lead on the track, the subject's pooled score less the best other subject's (that one
+//! counted from 0 up; the whole score when no other subject has one); for an anonymous one,
+//! 1 − the best subject's score (0 when no subject has a score there). A name that barely
+//! beats another is often wrong whatever its score: a look-alike, or a crowd walking alike,
+//! scores high for several subjects at once. [`ConfidenceMap`] turns raw confidences into
 //! probabilities with two monotone piecewise-linear maps, one for named and one for anonymous
 //! frames, fitted by isotonic regression ([`ConfidenceMap::fit`]) on frames whose truth is
 //! known. `nomen calibrate confidence` fits one from simulated (or annotated) scenes;
@@ -102,121 +103,110 @@ impl From<Knots> for Vec<[f64; 2]> {
 
 /// The named side fitted for nomen's motion score ([`MotionScore::Nomen`]).
 const NOMEN_NAMED: &[[f64; 2]] = &[
-    [0.1515, 0.6854],
-    [0.2494, 0.6854],
-    [0.2502, 0.9375],
-    [0.3499, 0.9375],
-    [0.35, 0.968],
-    [0.55, 0.968],
-    [0.5501, 0.991],
-    [0.65, 0.991],
-    [0.75, 0.9959],
-    [0.8, 0.9986],
-    [0.9084, 0.9999],
+    [0.0, 0.381],
+    [0.05, 0.381],
+    [0.0501, 0.8501],
+    [0.1, 0.8501],
+    [0.15, 0.9477],
+    [0.2, 0.9673],
+    [0.25, 0.9814],
+    [0.3, 0.9913],
+    [0.9599, 0.9941],
 ];
 /// The anonymous side fitted for nomen's motion score ([`MotionScore::Nomen`]).
+#[allow(
+    clippy::approx_constant,
+    reason = "fitted probabilities; one may look like a mathematical constant"
+)]
 const NOMEN_ANONYMOUS: &[[f64; 2]] = &[
-    [0.0, 0.0036],
-    [0.2213, 0.0233],
-    [0.2479, 0.0233],
-    [0.263, 0.5281],
-    [0.2996, 0.5281],
-    [0.3029, 0.6561],
-    [0.3489, 0.6561],
-    [0.3516, 0.7305],
-    [0.3977, 0.7305],
-    [0.4011, 0.866],
-    [0.7481, 0.866],
-    [0.7503, 0.9631],
-    [0.85, 0.9631],
-    [0.8501, 0.9888],
-    [0.9, 0.9888],
-    [0.9001, 0.9961],
-    [1.0, 0.9961],
+    [0.0, 0.0745],
+    [0.2479, 0.0745],
+    [0.2579, 0.3534],
+    [0.399, 0.3534],
+    [0.4, 0.4343],
+    [0.4496, 0.4343],
+    [0.4506, 0.5099],
+    [0.4999, 0.5099],
+    [0.5002, 0.6702],
+    [0.5498, 0.6702],
+    [0.55, 0.6737],
+    [0.6, 0.6737],
+    [0.6499, 0.7617],
+    [0.6503, 0.8325],
+    [0.7, 0.8325],
+    [0.7001, 0.9026],
+    [0.75, 0.9026],
+    [0.8, 0.9674],
+    [0.8001, 0.9707],
+    [0.8499, 0.9707],
+    [0.8501, 0.9858],
+    [0.8999, 0.9858],
+    [0.9001, 0.9971],
+    [0.9499, 0.9971],
+    [0.95, 0.9972],
+    [1.0, 0.9972],
 ];
 /// The named side fitted for De Marchi's ([`MotionScore::DeMarchi`]).
 const DE_MARCHI_NAMED: &[[f64; 2]] = &[
-    [0.1502, 0.1111],
-    [0.1998, 0.1111],
-    [0.202, 0.2821],
-    [0.2494, 0.2821],
-    [0.2509, 0.892],
-    [0.7999, 0.892],
-    [0.8, 0.9255],
-    [0.9, 0.9255],
-    [0.95, 0.9479],
-    [0.9984, 0.9856],
+    [0.0, 0.4886],
+    [0.05, 0.4886],
+    [0.1, 0.9245],
+    [0.15, 0.9706],
+    [0.9991, 0.9769],
 ];
 /// The anonymous side fitted for De Marchi's ([`MotionScore::DeMarchi`]).
 const DE_MARCHI_ANONYMOUS: &[[f64; 2]] = &[
-    [0.0, 0.0031],
-    [0.0484, 0.0031],
-    [0.0557, 0.1481],
-    [0.0996, 0.1481],
-    [0.1004, 0.41],
-    [0.1479, 0.41],
-    [0.1508, 0.8075],
-    [0.1991, 0.8075],
-    [0.2017, 0.9122],
-    [0.2497, 0.9122],
-    [0.2501, 0.9864],
-    [0.7993, 0.9864],
-    [0.8019, 0.9959],
-    [0.8499, 0.9959],
-    [0.8501, 0.9997],
-    [0.8997, 0.9997],
-    [0.9001, 0.9998],
-    [0.9496, 0.9998],
-    [0.9503, 0.9999],
-    [0.9996, 0.9999],
+    [0.0, 0.0974],
+    [0.0496, 0.0974],
+    [0.0503, 0.6771],
+    [0.0998, 0.6771],
+    [0.1001, 0.6969],
+    [0.25, 0.6969],
+    [0.2501, 0.7742],
+    [0.2998, 0.7742],
+    [0.3001, 0.8322],
+    [0.35, 0.8322],
+    [0.3501, 0.9508],
+    [0.7484, 0.9508],
+    [0.7506, 0.9775],
+    [0.7993, 0.9775],
+    [0.8001, 0.9975],
+    [0.8499, 0.9975],
+    [0.8501, 0.9999],
+    [1.0, 0.9999],
 ];
 /// The named side fitted for Belmonte-Hernández's ([`MotionScore::Belmonte`]).
 const BELMONTE_NAMED: &[[f64; 2]] = &[
-    [0.1302, 0.8075],
-    [0.1499, 0.8075],
-    [0.1501, 0.8305],
-    [0.25, 0.8305],
-    [0.2502, 0.8911],
-    [0.3, 0.8911],
-    [0.3001, 0.9304],
-    [0.35, 0.9304],
-    [0.4, 0.9496],
-    [0.55, 0.9551],
-    [0.6, 0.9589],
-    [0.6499, 0.985],
-    [0.65, 0.9854],
-    [0.7, 0.9854],
-    [0.7001, 0.9866],
-    [0.8, 0.9866],
-    [0.8001, 0.9966],
-    [0.85, 0.9966],
-    [0.9, 0.9982],
-    [0.9498, 0.9993],
-    [0.95, 0.9997],
-    [0.9883, 0.9997],
+    [0.0, 0.6147],
+    [0.05, 0.6147],
+    [0.1, 0.8593],
+    [0.15, 0.919],
+    [0.2, 0.9501],
+    [0.25, 0.9675],
+    [0.3, 0.97],
+    [0.6, 0.9704],
+    [0.9849, 0.9799],
 ];
 /// The anonymous side fitted for Belmonte-Hernández's ([`MotionScore::Belmonte`]).
 const BELMONTE_ANONYMOUS: &[[f64; 2]] = &[
-    [0.0, 0.0034],
-    [0.1458, 0.0035],
-    [0.3997, 0.0035],
-    [0.4056, 0.0721],
-    [0.5996, 0.0721],
-    [0.6002, 0.1398],
-    [0.6497, 0.1398],
-    [0.6503, 0.2753],
-    [0.6997, 0.2753],
-    [0.7001, 0.4904],
-    [0.75, 0.4904],
-    [0.7996, 0.7887],
-    [0.8, 0.8374],
-    [0.8499, 0.8374],
-    [0.8501, 0.9025],
-    [0.9, 0.9025],
-    [0.9001, 0.9686],
-    [0.9496, 0.9686],
-    [0.9503, 0.9947],
-    [0.9996, 0.9947],
+    [0.0, 0.0735],
+    [0.1979, 0.0735],
+    [0.201, 0.0747],
+    [0.2481, 0.0747],
+    [0.2508, 0.3222],
+    [0.3499, 0.3222],
+    [0.3507, 0.4067],
+    [0.4, 0.4067],
+    [0.4005, 0.4509],
+    [0.75, 0.4509],
+    [0.7501, 0.5737],
+    [0.8, 0.5737],
+    [0.85, 0.7142],
+    [0.8999, 0.8397],
+    [0.9, 0.9643],
+    [0.9499, 0.9643],
+    [0.9501, 0.9811],
+    [1.0, 0.9811],
 ];
 
 /// One frame for [`ConfidenceMap::fit`]: its raw confidence, whether it was named and whether
@@ -233,8 +223,9 @@ pub struct RawConfidence {
 
 impl ConfidenceMap {
     /// The map fitted for `motion_score` by `scenarios/train/confidence.sh` (`nomen calibrate
-    /// confidence` on 82 simulated scenes that none of the engine README's figures use; see
-    /// its "Confidence" section). The raw confidences of each motion score differ, and so do
+    /// confidence` on 109 simulated scenes: library scenes at seeds none of the engine README's
+    /// figures use and the first three validation scenes of every scene family; see its
+    /// "Confidence" section). The raw confidences of each motion score differ, and so do
     /// their maps.
     pub fn fitted(motion_score: MotionScore) -> Self {
         let (named, anonymous) = match motion_score {
@@ -445,11 +436,13 @@ mod tests {
         }
         assert_eq!(ConfidenceMap::default(), ConfidenceMap::raw());
         let map = ConfidenceMap::fitted(MotionScore::Nomen);
-        // A frame named at a raw 0.55 is right far more often than that.
-        assert!(map.apply(true, 0.55) > 0.95);
-        // An anonymous frame without any evidence is almost never right (the person is
-        // someone's, not yet named).
-        assert!(map.apply(false, 0.0) < 0.01);
+        // A name that leads the next subject by 0.3 is right far more often than that.
+        assert!(map.apply(true, 0.3) > 0.95);
+        // One that barely leads is a coin toss at best.
+        assert!(map.apply(true, 0.01) < 0.6);
+        // An anonymous frame without any evidence is rarely right (the person is someone's,
+        // not yet named).
+        assert!(map.apply(false, 0.0) < 0.1);
     }
 
     #[test]

@@ -17,9 +17,9 @@ use decide::pooled_mean;
 use nalgebra::{Isometry3, Matrix3, Point3, UnitQuaternion, Vector3};
 use nomen_core::skeleton::{JointState, Joints};
 use nomen_core::{
-    AntennaId, CameraId, DeviceId, DeviceKind, Evidence, IdentifiedSkeleton, Identity, ImuSample,
-    Joint, Message, Registry, RssiRead, RtlsFix, SessionTime, SkeletonObservation, SubjectId,
-    TagCorrection, TrackId,
+    AntennaId, CameraId, Candidate, DecisionRule, DecisionTrace, DeviceId, DeviceKind, Evidence,
+    IdentifiedSkeleton, Identity, ImuSample, Joint, Message, Registry, RssiRead, RtlsFix,
+    SessionTime, SkeletonObservation, SubjectId, TagCorrection, TrackId,
 };
 use nomen_evidence::PairScorer;
 use nomen_evidence::belmonte::axis_pitches_rad;
@@ -571,6 +571,8 @@ struct TrackState {
     /// Mean model score per IMU (reported as the evidence behind a label).
     device_evidence: BTreeMap<usize, Accumulator>,
     label: Option<usize>,
+    /// The rule behind `label` and the window end of that decision.
+    decision: Decided,
     /// A subject whose move from this track to a coexisting one was held back (see
     /// [`Engine::hold_back_unsynced_names`]): this track still holds it for that rule while
     /// it is anonymous, until its next named decision.
@@ -620,7 +622,23 @@ struct TrackState {
 struct WarmDecision {
     end: i64,
     name: Option<(usize, f64)>,
+    rule: DecisionRule,
     is_final: bool,
+}
+
+/// The rule of a track's latest decision and that decision's window end (session ns).
+#[derive(Debug, Clone, Copy)]
+struct Decided {
+    rule: DecisionRule,
+    end: i64,
+}
+
+/// The subject with the highest score (the lower index on a tie).
+fn best_of(scores: &BTreeMap<usize, f64>) -> Option<(usize, f64)> {
+    scores
+        .iter()
+        .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
+        .map(|(s, v)| (*s, *v))
 }
 
 impl TrackState {
@@ -1249,6 +1267,10 @@ impl Engine {
                 rssi_evidence: BTreeMap::new(),
                 device_evidence: BTreeMap::new(),
                 label: None,
+                decision: Decided {
+                    rule: DecisionRule::NoEvidence,
+                    end: t,
+                },
                 held_back: None,
                 subject_scores: BTreeMap::new(),
                 outscored_by: BTreeMap::new(),
@@ -1594,15 +1616,25 @@ impl Engine {
     /// is not given when another track of this camera seen over a span that holds `t` carries
     /// that name now: the per-camera assignment gives a subject one track at a time, and a
     /// name from elsewhere must not undo that (an earlier decision may have been made before
-    /// the subject's clock was known, and named a look-alike). `None` where no rule gives a
-    /// name.
+    /// the subject's clock was known, and named a look-alike). None of these is given when the
+    /// observation's own decision `own` found evidence against naming the track (its best
+    /// subject held by a better-scoring track of this camera or of another, the exclusion
+    /// rules), unless
+    /// [`EngineConfig::names_against_own_evidence`] is set. `None` where no rule gives a name.
     fn name_from_elsewhere(
         &self,
         key: TrackKey,
         tr: &TrackState,
         t: i64,
+        own: Decided,
         warm_until: i64,
-    ) -> Option<(usize, f64)> {
+    ) -> Option<((usize, f64), DecisionRule)> {
+        // A track whose own evidence points at a subject held elsewhere takes no name from
+        // elsewhere ([`EngineConfig::names_against_own_evidence`]).
+        let is_open = !matches!(own.rule, DecisionRule::Excluded | DecisionRule::HeldFarAway);
+        if !is_open && !self.config.names_against_own_evidence {
+            return None;
+        }
         let is_held_here = |s: usize| {
             self.tracks
                 .range((key.0, TrackId(0))..)
@@ -1617,15 +1649,20 @@ impl Engine {
             .rev()
             .filter(|d| d.end <= warm_until && d.end >= t.saturating_add(self.delay_ns))
             .find_map(|d| d.name)
-            .filter(|(s, _)| !is_held_here(*s));
-        warm.or_else(|| self.successors_name(tr)).or_else(|| {
+            .filter(|(s, _)| !is_held_here(*s))
+            .map(|name| (name, DecisionRule::EarlierDecision));
+        let continued = || {
+            self.successors_name(tr)
+                .map(|name| (name, DecisionRule::ContinuedTrack))
+        };
+        warm.or_else(continued).or_else(|| {
             let (s, score) = tr
                 .views
                 .iter()
                 .filter_map(|k| self.tracks.get(k))
                 .filter(|view| t <= view.last_t.saturating_add(VIEW_NAMES_AFTER_END_NS))
                 .find_map(|view| view.named().or_else(|| self.successors_name(view)))?;
-            (!is_held_here(s)).then_some((s, score))
+            (!is_held_here(s)).then_some(((s, score), DecisionRule::OtherCameraView))
         })
     }
 
@@ -1658,23 +1695,33 @@ impl Engine {
                 continue;
             };
             let key = (c, self.person_track(c, track, t));
-            let (identity, confidence, evidence) = match self.tracks.get(&key) {
+            let (identity, confidence, evidence, decision) = match self.tracks.get(&key) {
                 Some(tr) => {
                     // An observation that waited for the warm-up's end takes its track's first
                     // final decision from its own due time on, if there was one.
                     let due = self.base_due_at(t);
                     let warm = tr.warm_labels.iter().find(|d| d.end >= due && d.is_final);
-                    let name = match warm {
-                        Some(d) => d
-                            .name
-                            .or_else(|| self.name_from_elsewhere(key, tr, t, d.end)),
-                        None => tr
-                            .named()
-                            .or_else(|| self.name_from_elsewhere(key, tr, t, i64::MAX)),
+                    let (own, decided, warm_until) = match warm {
+                        Some(d) => (
+                            d.name,
+                            Decided {
+                                rule: d.rule,
+                                end: d.end,
+                            },
+                            d.end,
+                        ),
+                        None => (tr.named(), tr.decision, i64::MAX),
                     };
-                    self.identity_as(tr, name)
+                    let (name, decided) = match own {
+                        Some(name) => (Some(name), decided),
+                        None => match self.name_from_elsewhere(key, tr, t, decided, warm_until) {
+                            Some((name, rule)) => (Some(name), Decided { rule, ..decided }),
+                            None => (None, decided),
+                        },
+                    };
+                    self.identity_as(tr, name, decided)
                 }
-                None => (Identity::Anonymous, 0.0, Vec::new()),
+                None => (Identity::Anonymous, 0.0, Vec::new(), None),
             };
             if identity != Identity::Anonymous {
                 self.stats.num_identified += 1;
@@ -1688,6 +1735,7 @@ impl Engine {
                     identity,
                     confidence,
                     evidence,
+                    decision,
                     joints: Joints::new(),
                 })));
         }
@@ -1735,21 +1783,26 @@ impl Engine {
         }
     }
 
-    /// The identity of a track named `name` (subject and score, or anonymous), a confidence in
-    /// `0..=1` and the evidence behind it.
+    /// The identity of a track named `name` (subject and score, or anonymous) by the decision
+    /// `decided`, a confidence in `0..=1`, the evidence behind it and the decision's trace.
     ///
-    /// Confidence: the raw score (the subject's for a named track; for an anonymous track, one
-    /// minus the best candidate's, 0 without any evidence), mapped by
+    /// Confidence: the raw confidence (for a named track, its subject's score less the best
+    /// other subject's, counted from 0 up; for an anonymous track, one minus the best
+    /// candidate's score, 0 without any evidence), mapped by
     /// [`EngineConfig::confidence_map`] (or the map fitted for the motion score) to the
     /// probability that the identity is right.
     fn identity_as(
         &self,
         tr: &TrackState,
         name: Option<(usize, f64)>,
-    ) -> (Identity, f64, Vec<Evidence>) {
-        let best = tr
+        decided: Decided,
+    ) -> (Identity, f64, Vec<Evidence>, Option<DecisionTrace>) {
+        let best = best_of(&tr.subject_scores);
+        // The best subject other than the one named (for an anonymous track, the best).
+        let runner_up = tr
             .subject_scores
             .iter()
+            .filter(|(s, _)| name.is_none_or(|(n, _)| n != **s))
             .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
             .map(|(s, v)| (*s, *v));
         // The raw confidence (see `crate::confidence`), mapped to a probability.
@@ -1759,7 +1812,8 @@ impl Engine {
                     .subjects
                     .get(s)
                     .map_or(Identity::Anonymous, |id| Identity::Subject(id.clone()));
-                (id, score.clamp(0.0, 1.0), Some(s))
+                let lead = score - runner_up.map_or(0.0, |(_, v)| v.max(0.0));
+                (id, lead.clamp(0.0, 1.0), Some(s))
             }
             (None, Some((s, score))) => {
                 (Identity::Anonymous, (1.0 - score).clamp(0.0, 1.0), Some(s))
@@ -1784,7 +1838,20 @@ impl Engine {
                     .collect()
             })
             .unwrap_or_default();
-        (identity, confidence, evidence)
+        let candidate = |(s, score): (usize, f64)| {
+            self.subjects.get(s).map(|id| Candidate {
+                subject: id.clone(),
+                score,
+            })
+        };
+        let named = name.filter(|_| is_named);
+        let decision = DecisionTrace {
+            rule: decided.rule,
+            decided_at: SessionTime::from_ns(decided.end),
+            named: named.and_then(candidate),
+            runner_up: runner_up.and_then(candidate),
+        };
+        (identity, confidence, evidence, Some(decision))
     }
 
     /// Drops samples no later window can use and tracks that went away.

@@ -183,6 +183,16 @@
 //!    Named for the first time or kept (no other coexisting track held her), her name needs
 //!    the same margin over every coexisting track the assignment left without a name: an
 //!    intruder who walks like her scores almost as well at his own lag.
+//!    A track left anonymous may still be named from elsewhere: an earlier decision about it,
+//!    the track that continues it, or another camera's view of its person. None of these
+//!    names a track whose own decision kept its best subject off it for a better-scoring
+//!    holder (the exclusion rules above), unless [`EngineConfig::names_against_own_evidence`]
+//!    is set: the track's own evidence then speaks against a name, and an intruder's track
+//!    paired with a wrongly named view stays anonymous.
+//!
+//! Every output carries a [`nomen_core::DecisionTrace`]: the rule that gave its identity
+//! ([`nomen_core::DecisionRule`]), the decision's window end, the named subject's pooled score
+//! and the best other subject's (`nomen explain` prints it).
 //!
 //! # Output and latency
 //! Exactly one `Message::Identified` per accepted skeleton observation, with its `(t, camera,

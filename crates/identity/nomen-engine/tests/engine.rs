@@ -2304,14 +2304,27 @@ fn a_new_track_continues_the_track_another_camera_saw_its_person_on() {
     let (out, _) = run_batch(&registry, &msgs, &unsmoothed).unwrap();
     let ana = labels_of(&out, common::CAMERA, 11, 10.5, 16.0);
     assert!(ana.iter().all(|l| l.as_deref() == Some("ana")), "{ana:?}");
-    // Stitching by walking reach only, Ana's new track still takes Ben's old one, but the
-    // second camera's view of her names its frames while its own decisions hold back.
+    // Stitching by walking reach only, Ana's new track still takes Ben's old one. Its own
+    // decisions keep Ana off it while her view on the second camera holds her with a better
+    // score: by default its frames then stay anonymous rather than take the view's name, and
+    // are never named Ben; letting names from elsewhere override the track's own evidence,
+    // the view names every frame.
     let reach_stitch = EngineConfig {
         stitch_across_cameras: false,
         ..unsmoothed
     };
     let (out, stats) = run_batch(&registry, &msgs, &reach_stitch).unwrap();
     assert_eq!(stats.num_stitched, 1, "{stats:?}");
+    let ana = labels_of(&out, common::CAMERA, 11, 10.5, 16.0);
+    assert!(
+        ana.len() > 150 && ana.iter().all(|l| l.as_deref() != Some("ben")),
+        "{ana:?}"
+    );
+    let overriding = EngineConfig {
+        names_against_own_evidence: true,
+        ..reach_stitch
+    };
+    let (out, _) = run_batch(&registry, &msgs, &overriding).unwrap();
     let ana = labels_of(&out, common::CAMERA, 11, 10.5, 16.0);
     assert!(ana.iter().all(|l| l.as_deref() == Some("ana")), "{ana:?}");
     // Without the other camera (neither to stitch through nor to name a view from).
@@ -2848,4 +2861,66 @@ fn a_network_wearers_name_follows_her_track_soon_after_the_camera_hands_it_to_he
         ..known_offsets()
     });
     assert!(slow < 0.1, "{slow}");
+}
+
+#[test]
+fn every_decision_carries_a_trace_that_agrees_with_its_identity() {
+    // Two wearers, a look-alike who wears nothing, and the wearer leaving view: named and
+    // anonymous decisions both occur, for several reasons.
+    let mut people = ana_and_her_look_alike(0.8);
+    people.push(Person::new(Some("ben"), 1.3, 2.5, 3));
+    let mut msgs = recording(&people, 20.0);
+    msgs.retain(
+        |m| !matches!(m, Message::Skeleton(s) if s.track == TrackId(1) && s.t.as_secs_f64() > 12.0),
+    );
+    let (out, _) = run_batch(&registry(&people), &msgs, &EngineConfig::default()).unwrap();
+    let mut rules = BTreeSet::new();
+    let mut num_named = 0;
+    for m in &out {
+        let Message::Identified(id) = m else {
+            continue;
+        };
+        let d = id
+            .decision
+            .as_ref()
+            .expect("every engine output has a decision trace");
+        rules.insert(d.rule.as_str());
+        let names = d.rule.names();
+        match &id.identity {
+            Identity::Subject(s) => {
+                num_named += 1;
+                assert!(names, "{:?} named {s}", d.rule);
+                let named = d
+                    .named
+                    .as_ref()
+                    .expect("a named decision names its subject");
+                assert_eq!(&named.subject, s);
+                assert!(named.score.is_finite());
+                assert!(d.runner_up.as_ref().is_none_or(|r| r.subject != *s));
+            }
+            Identity::Anonymous => {
+                assert!(!names, "{:?} left {} anonymous", d.rule, id.track.0);
+                assert!(d.named.is_none());
+            }
+        }
+        // A decision comes from a window that ends after the observation (within the delay
+        // and the warm-up).
+        assert!(
+            d.decided_at >= id.t,
+            "decided at {} for {}",
+            d.decided_at,
+            id.t
+        );
+        assert!(d.decided_at.secs_since(id.t) < 20.0);
+    }
+    assert!(num_named > 0);
+    assert!(rules.len() >= 2, "{rules:?}");
+    // The trace survives the recording format.
+    let line = serde_json::to_string(
+        out.iter()
+            .find(|m| matches!(m, Message::Identified(_)))
+            .unwrap(),
+    )
+    .unwrap();
+    assert!(line.contains("\"decision\":{\"rule\":"), "{line}");
 }

@@ -21,7 +21,8 @@ pub use error::{CoreError, Result};
 pub use frame::RigidTransform;
 pub use ids::{AnchorId, AntennaId, CameraId, DeviceId, SubjectId, TagId, TrackId};
 pub use message::{
-    Evidence, IdentifiedSkeleton, Identity, Message, TagCorrection, TruthSkeleton, TruthTag,
+    Candidate, DecisionRule, DecisionTrace, Evidence, IdentifiedSkeleton, Identity, Message,
+    TagCorrection, TruthSkeleton, TruthTag,
 };
 pub use registry::{
     Anchor, Antenna, Camera, CameraIntrinsics, DeviceKind, Registry, Subject, Wearable,

@@ -40,6 +40,117 @@ pub struct Evidence {
     pub score: f64,
 }
 
+/// The rule that gave an identity (see the engine's documentation for each).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DecisionRule {
+    /// The camera's assignment of subjects to its tracks named the track: its score cleared the
+    /// rejection threshold and no other track of the camera took the subject.
+    Assigned,
+    /// The subject went to an earlier or later track of the same camera that never coexisted with
+    /// this one (one person under successive track ids), and this track takes it too.
+    SuccessiveTrack,
+    /// An earlier decision about the track named it (observations of the warm-up, or waiting
+    /// for their decision while the track's latest decision leaves it anonymous).
+    EarlierDecision,
+    /// The track that continues this one (stitched) carries the name.
+    ContinuedTrack,
+    /// The track continues an ended one (stitched) and carries its name until its own first
+    /// decision.
+    Stitched,
+    /// Another camera's view of the same person carries the name.
+    OtherCameraView,
+    /// Anonymous: no subject's score clears the rejection threshold.
+    BelowThreshold,
+    /// Anonymous: the best subject went to another track of the camera.
+    TakenByOtherTrack,
+    /// Anonymous: the best subject is held by a coexisting track of the camera that scored
+    /// better for it (the exclusion rule).
+    Excluded,
+    /// Anonymous: the best subject is held by a better-scoring track of another camera, far
+    /// from this one (one person, one place).
+    HeldFarAway,
+    /// Anonymous: a name withheld while its subject's clock offsets are unknown and another
+    /// track scores almost as well for it.
+    HeldBack,
+    /// Anonymous: no evidence about any subject yet.
+    NoEvidence,
+}
+
+impl DecisionRule {
+    /// Every rule, naming ones first.
+    pub const ALL: [DecisionRule; 12] = [
+        DecisionRule::Assigned,
+        DecisionRule::SuccessiveTrack,
+        DecisionRule::EarlierDecision,
+        DecisionRule::ContinuedTrack,
+        DecisionRule::Stitched,
+        DecisionRule::OtherCameraView,
+        DecisionRule::BelowThreshold,
+        DecisionRule::TakenByOtherTrack,
+        DecisionRule::Excluded,
+        DecisionRule::HeldFarAway,
+        DecisionRule::HeldBack,
+        DecisionRule::NoEvidence,
+    ];
+
+    /// The rule's name as recordings spell it (`assigned`, `held_far_away`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            DecisionRule::Assigned => "assigned",
+            DecisionRule::SuccessiveTrack => "successive_track",
+            DecisionRule::EarlierDecision => "earlier_decision",
+            DecisionRule::ContinuedTrack => "continued_track",
+            DecisionRule::Stitched => "stitched",
+            DecisionRule::OtherCameraView => "other_camera_view",
+            DecisionRule::BelowThreshold => "below_threshold",
+            DecisionRule::TakenByOtherTrack => "taken_by_other_track",
+            DecisionRule::Excluded => "excluded",
+            DecisionRule::HeldFarAway => "held_far_away",
+            DecisionRule::HeldBack => "held_back",
+            DecisionRule::NoEvidence => "no_evidence",
+        }
+    }
+
+    /// Whether the rule gives a name (the others leave the track anonymous).
+    pub fn names(self) -> bool {
+        matches!(
+            self,
+            DecisionRule::Assigned
+                | DecisionRule::SuccessiveTrack
+                | DecisionRule::EarlierDecision
+                | DecisionRule::ContinuedTrack
+                | DecisionRule::Stitched
+                | DecisionRule::OtherCameraView
+        )
+    }
+}
+
+/// A subject and its score for a track: pooled over the modalities and the cameras' views, the
+/// score the decision compares (higher is more alike).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    /// The subject.
+    pub subject: SubjectId,
+    /// Its pooled score.
+    pub score: f64,
+}
+
+/// A short trace of the decision behind an identity.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DecisionTrace {
+    /// The rule that gave the identity.
+    pub rule: DecisionRule,
+    /// Session time of the decision (the end of its evidence window).
+    pub decided_at: SessionTime,
+    /// The named subject and its score, for a named track.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub named: Option<Candidate>,
+    /// The best other subject and its score (for an anonymous track, the best subject).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub runner_up: Option<Candidate>,
+}
+
 /// An engine output: a skeleton observation with the identity nomen gives it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct IdentifiedSkeleton {
@@ -58,6 +169,9 @@ pub struct IdentifiedSkeleton {
     /// Evidence used for the decision.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub evidence: Vec<Evidence>,
+    /// Why the identity was given, when the producer says (nomen's engine always does).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decision: Option<DecisionTrace>,
     /// The (possibly refined) joints; may be omitted to keep results small.
     #[serde(default, skip_serializing_if = "Joints::is_empty")]
     pub joints: Joints<JointObservation>,
@@ -211,6 +325,16 @@ impl Message {
                 for (i, e) in m.evidence.iter().enumerate() {
                     check_finite_all_lazy(|| format!("evidence[{i}].score"), &[e.score])?;
                 }
+                if let Some(d) = &m.decision {
+                    for (name, c) in [
+                        ("decision.named", &d.named),
+                        ("decision.runner_up", &d.runner_up),
+                    ] {
+                        if let Some(c) = c {
+                            check_finite_all_lazy(|| format!("{name}.score"), &[c.score])?;
+                        }
+                    }
+                }
                 // The joints follow the skeleton rules (finite, plausible, finite covariance).
                 SkeletonObservation {
                     t: m.t,
@@ -280,6 +404,15 @@ mod tests {
                 identity: Identity::Anonymous,
                 confidence: 0.5,
                 evidence: vec![],
+                decision: Some(DecisionTrace {
+                    rule: DecisionRule::BelowThreshold,
+                    decided_at: SessionTime(3),
+                    named: None,
+                    runner_up: Some(Candidate {
+                        subject: SubjectId::new("ana"),
+                        score: 0.1,
+                    }),
+                }),
                 joints: Joints::new(),
             })),
         ];
@@ -297,6 +430,12 @@ mod tests {
             s.contains(r#""right_wrist":{"position_m":[0.1,0.2,1.0]"#),
             "{s}"
         );
+        for rule in DecisionRule::ALL {
+            assert_eq!(
+                serde_json::to_string(&rule).unwrap(),
+                format!("\"{}\"", rule.as_str())
+            );
+        }
         let id = serde_json::to_string(&Identity::Subject(SubjectId::new("ana"))).unwrap();
         assert_eq!(id, r#"{"subject":"ana"}"#);
         assert_eq!(

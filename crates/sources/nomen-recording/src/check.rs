@@ -395,6 +395,11 @@ fn check_ids(ids: &IdIndex, msg: &Message) -> std::result::Result<(), IdProblem>
             for e in &m.evidence {
                 device(ids, "evidence device", e.device.as_str(), Kinds::Any)?;
             }
+            if let Some(d) = &m.decision {
+                for c in d.named.iter().chain(&d.runner_up) {
+                    member(&ids.subjects, "decision subject", c.subject.as_str())?;
+                }
+            }
             Ok(())
         }
         Message::TagCorrection(m) => device(ids, "rtls tag", m.tag.as_str(), Kinds::LocationTag),

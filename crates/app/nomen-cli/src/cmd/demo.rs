@@ -176,6 +176,7 @@ fn anonymous_baseline(recording: &Path, truth: &Path, result_path: &Path) -> Res
                 identity: Identity::Anonymous,
                 confidence: 1.0,
                 evidence: Vec::new(),
+                decision: None,
                 joints: Default::default(),
             })));
         }

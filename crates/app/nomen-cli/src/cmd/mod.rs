@@ -9,6 +9,7 @@ pub mod demo;
 pub mod eval;
 pub mod eval_identity;
 pub mod experiment;
+pub mod explain;
 pub mod fit;
 pub mod ghosting;
 pub mod import;

@@ -4,11 +4,11 @@
 
 use super::{
     ALIVE_AT_END_NS, Accumulator, AnchorPath, AnchorSample, CAMERA_PAIR_LOOKBACK_WINDOWS,
-    CAMERA_PAIR_MAX_DT_NS, CAMERA_PAIR_MIN_FRAMES, Engine, TORSO_ANCHORS, TrackKey, TrackState,
-    VIEW_NAMES_AFTER_END_NS, WarmDecision, sample_range, spans_overlap,
+    CAMERA_PAIR_MAX_DT_NS, CAMERA_PAIR_MIN_FRAMES, Decided, Engine, TORSO_ANCHORS, TrackKey,
+    TrackState, VIEW_NAMES_AFTER_END_NS, WarmDecision, best_of, sample_range, spans_overlap,
 };
 use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
-use nomen_core::TrackId;
+use nomen_core::{DecisionRule, TrackId};
 use std::collections::BTreeMap;
 
 impl Engine {
@@ -118,6 +118,7 @@ impl Engine {
                 continue;
             }
             let mut rows = Vec::with_capacity(keys.len());
+            let mut anonymous_rules = Vec::with_capacity(keys.len());
             for key in &keys {
                 // The track's own evidence and that of the other cameras' views of its person.
                 let views: Vec<&TrackState> = std::iter::once(key)
@@ -139,6 +140,7 @@ impl Engine {
                     Vec::new()
                 };
                 let mut scores = BTreeMap::new();
+                let mut gated = BTreeMap::new();
                 let mut row = vec![None; self.subjects.len()];
                 for s in 0..self.subjects.len() {
                     // Every modality the subject has evidence from counts equally (crate docs).
@@ -171,16 +173,30 @@ impl Engine {
                         && held_far.iter().any(|&(h, held)| {
                             h == s && mean < held - self.config.camera_exclusion_margin
                         });
-                    if !is_excluded
-                        && !is_held_far
-                        && let Some(cell) = row.get_mut(s)
-                    {
+                    if is_excluded {
+                        gated.insert(s, DecisionRule::Excluded);
+                    } else if is_held_far {
+                        gated.insert(s, DecisionRule::HeldFarAway);
+                    } else if let Some(cell) = row.get_mut(s) {
                         *cell = Some(mean + bonus);
                     }
                 }
+                // Why the track stays anonymous if it does: its best subject's gate, else
+                // a score below the threshold, else the subject went to another track.
+                let anonymous_rule = match best_of(&scores) {
+                    None => DecisionRule::NoEvidence,
+                    Some((s, _)) => match (gated.get(&s), row.get(s).copied().flatten()) {
+                        (Some(rule), _) => *rule,
+                        (None, Some(v)) if v >= self.config.rejection_threshold => {
+                            DecisionRule::TakenByOtherTrack
+                        }
+                        _ => DecisionRule::BelowThreshold,
+                    },
+                };
                 if let Some(tr) = self.tracks.get_mut(key) {
                     tr.subject_scores = scores;
                 }
+                anonymous_rules.push(anonymous_rule);
                 rows.push(row);
             }
             let Ok(matrix) = CostMatrix::from_gated_rows(&rows) else {
@@ -205,11 +221,30 @@ impl Engine {
             // Each track's span as the observations before `end` tell, for the three steps below.
             let spans: Vec<Option<(i64, i64)>> =
                 keys.iter().map(|k| self.span_before(k, end)).collect();
+            let assigned = labels.clone();
             self.share_between_successive_tracks(&spans, &rows, &mut labels);
+            let shared = labels.clone();
             let held_back = self.hold_back_unsynced_names(&keys, &spans, &rows, &mut labels);
+            let rules: Vec<DecisionRule> = labels
+                .iter()
+                .enumerate()
+                .map(
+                    |(q, label)| match (label, shared.get(q).copied().flatten()) {
+                        (Some(s), _) if assigned.get(q).copied().flatten() == Some(*s) => {
+                            DecisionRule::Assigned
+                        }
+                        (Some(_), _) => DecisionRule::SuccessiveTrack,
+                        (None, Some(_)) => DecisionRule::HeldBack,
+                        (None, None) => anonymous_rules
+                            .get(q)
+                            .copied()
+                            .unwrap_or(DecisionRule::NoEvidence),
+                    },
+                )
+                .collect();
             self.note_exclusions(&keys, &spans, &labels);
             let is_warming_up = self.is_warming_up(end);
-            for (q, (key, new_label)) in keys.iter().zip(labels).enumerate() {
+            for (q, ((key, new_label), rule)) in keys.iter().zip(labels).zip(rules).enumerate() {
                 // Final for the warm-up: named after someone whose clock is known, or anonymous
                 // for another reason than a name withheld for unknown clocks.
                 let is_final = match new_label {
@@ -223,6 +258,7 @@ impl Engine {
                     self.stats.num_label_switches += 1;
                 }
                 tr.label = new_label;
+                tr.decision = Decided { rule, end };
                 if new_label.is_some() {
                     tr.held_back = None;
                 }
@@ -230,6 +266,7 @@ impl Engine {
                     tr.warm_labels.push(WarmDecision {
                         end,
                         name: tr.named(),
+                        rule,
                         is_final,
                     });
                 }

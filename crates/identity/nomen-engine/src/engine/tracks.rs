@@ -8,7 +8,7 @@ use super::{
     median_interval_ns, scaled_count,
 };
 use super::{
-    Engine, GapReturn, STITCH_MIN_GAP_NS, STITCH_VIEW_LOOKBACK_NS, STITCH_VIEW_MIN_FRAMES,
+    Decided, Engine, GapReturn, STITCH_MIN_GAP_NS, STITCH_VIEW_LOOKBACK_NS, STITCH_VIEW_MIN_FRAMES,
     SWAP_MAX_GAP_NS, SWAP_NOISE_M, SWAP_RETURN_GAP_NS, SWAP_RETURN_WINDOW_NS, SWAP_SPEED_MPS,
     TrackKey, TrackSample, TrackState, average_evidence, joint_centroid, sample_range,
     settle_track, smooth_track,
@@ -16,7 +16,7 @@ use super::{
 use crate::EngineConfig;
 use crate::config::ns;
 use nalgebra::Point3;
-use nomen_core::TrackId;
+use nomen_core::{DecisionRule, TrackId};
 use nomen_evidence::{BelmonteConfig, GeometricConfig};
 
 impl Engine {
@@ -76,6 +76,10 @@ impl Engine {
                 tr.rssi_evidence = rssi_evidence;
                 tr.device_evidence = device_evidence;
                 tr.label = label;
+                tr.decision = Decided {
+                    rule: DecisionRule::Stitched,
+                    end,
+                };
                 tr.held_back = held_back;
                 tr.subject_scores = subject_scores;
             }

@@ -149,6 +149,7 @@ pub fn every_kind() -> Vec<Message> {
                 device: DeviceId::new("band1"),
                 score: 0.81,
             }],
+            decision: None,
             joints: Joints::new(),
         })),
         Message::TagCorrection(TagCorrection {
