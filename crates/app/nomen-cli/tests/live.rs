@@ -398,14 +398,18 @@ fn serve_on_the_embedded_broker_decides_as_run_does() {
 
 #[test]
 fn serve_on_mosquitto_decides_as_run_does() {
-    if Command::new("mosquitto").arg("-h").output().is_err() {
+    // Debian installs it in /usr/sbin, which a user's PATH may lack.
+    let mosquitto = ["mosquitto", "/usr/sbin/mosquitto"]
+        .into_iter()
+        .find(|m| Command::new(m).arg("-h").output().is_ok());
+    let Some(mosquitto) = mosquitto else {
         assert!(
             std::env::var_os("CI").is_none(),
             "mosquitto is not installed (CI installs it: apt-get install mosquitto)"
         );
         eprintln!("skipping: mosquitto is not installed (apt-get install mosquitto)");
         return;
-    }
+    };
     let tmp = tempfile::tempdir().unwrap();
     let Some((recording, expected)) = scene_and_run(tmp.path()) else {
         return;
@@ -421,7 +425,7 @@ fn serve_on_mosquitto_decides_as_run_does() {
         ),
     )
     .unwrap();
-    let mut mosquitto = Command::new("mosquitto")
+    let mut mosquitto = Command::new(mosquitto)
         .args(["-c", conf.to_str().unwrap()])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
