@@ -65,6 +65,9 @@ enum Command {
     Serve(cmd::serve::ServeArgs),
     /// Publish a recording to an MQTT broker with its timing (e.g. into `nomen serve`).
     Replay(cmd::replay::ReplayArgs),
+    /// Read `nomen serve`'s identity log: `log query LOG` prints who was named where and why.
+    #[command(subcommand)]
+    Log(cmd::log::LogCommand),
     /// Train a learned model (De Marchi's two-branch CNN) on simulated scenes.
     #[command(subcommand)]
     Train(cmd::train::TrainCommand),
@@ -87,6 +90,7 @@ fn main() -> ExitCode {
         Command::Train(c) => cmd::train::run(c),
         Command::Serve(a) => cmd::serve::run(a),
         Command::Replay(a) => cmd::replay::run(a),
+        Command::Log(c) => cmd::log::run(c),
         Command::Calibrate(c) => cmd::calibrate::run(c),
     };
     // A line without its `\n` may still be buffered: write it now, while an error can be reported.

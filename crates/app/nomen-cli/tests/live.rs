@@ -73,6 +73,8 @@ fn message_lines(path: &Path) -> Vec<String> {
 #[derive(Default)]
 struct Seen {
     num_identified: usize,
+    /// (camera, track, t_ns) of each identified skeleton.
+    identified: Vec<(String, i64, i64)>,
     health: Option<Value>,
     events: Vec<Value>,
 }
@@ -100,6 +102,12 @@ fn watch(port: u16) -> Arc<Mutex<Seen>> {
                     let mut seen = shared.lock().unwrap();
                     if p.topic.starts_with("nomen/out/identified/") {
                         seen.num_identified += 1;
+                        let d: Value = serde_json::from_slice(&p.payload).unwrap();
+                        seen.identified.push((
+                            d["camera"].as_str().unwrap().to_owned(),
+                            d["track"].as_i64().unwrap(),
+                            d["t"].as_i64().unwrap(),
+                        ));
                     } else if p.topic == "nomen/out/health" {
                         seen.health = serde_json::from_slice(&p.payload).ok();
                     } else if p.topic == "nomen/out/event" {
@@ -441,4 +449,73 @@ fn serve_on_mosquitto_decides_as_run_does() {
     if let Err(e) = result {
         std::panic::resume_unwind(e);
     }
+}
+
+#[test]
+fn after_kill_9_the_identity_log_holds_every_published_decision() {
+    let tmp = tempfile::tempdir().unwrap();
+    let Some(data) = data_dir() else {
+        return;
+    };
+    let recording = short_scene(tmp.path(), &data);
+    let port = free_port();
+    write_config(
+        tmp.path(),
+        &format!("embedded_listen = \"127.0.0.1:{port}\"\n"),
+    );
+    let log = tmp.path().join("identity.sqlite");
+    let mut serve = Serve::start(tmp.path(), &["--log", log.to_str().unwrap()]);
+    wait_for_port(port);
+    let seen = watch(port);
+    let mut replay = nomen_command(&[
+        "replay",
+        recording.to_str().unwrap(),
+        "--mqtt",
+        &format!("mqtt://127.0.0.1:{port}"),
+        "--speed",
+        "4",
+    ])
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap();
+    // Mid-stream: a third of the scene's decisions published.
+    let started = Instant::now();
+    while seen.lock().unwrap().num_identified < 300 {
+        assert!(started.elapsed() < TIMEOUT, "too few decisions published");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    serve.child.kill().unwrap(); // SIGKILL
+    serve.child.wait().unwrap();
+    let _ = replay.kill();
+    let _ = replay.wait();
+    // What was in flight to the watcher when the broker died is in its hands now.
+    std::thread::sleep(Duration::from_millis(200));
+    let published = seen.lock().unwrap().identified.clone();
+    let o = nomen(&["log", "query", log.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let logged: std::collections::BTreeSet<(String, i64, i64)> = text(&o.stdout)
+        .lines()
+        .map(|l| {
+            let d: Value = serde_json::from_str(l).unwrap();
+            (
+                d["camera"].as_str().unwrap().to_owned(),
+                d["track"].as_i64().unwrap(),
+                d["t_ns"].as_i64().unwrap(),
+            )
+        })
+        .collect();
+    assert!(published.len() >= 300);
+    let missing: Vec<_> = published.iter().filter(|d| !logged.contains(*d)).collect();
+    assert!(
+        missing.is_empty(),
+        "{} of {} published decisions are not in the log, e.g. {:?}",
+        missing.len(),
+        published.len(),
+        missing.first()
+    );
+    assert!(
+        logged.len() < 1100,
+        "serve was killed mid-stream: {} logged",
+        logged.len()
+    );
 }

@@ -17,6 +17,9 @@ pub struct ServeConfig {
     /// The registry: a JSON file holding one registry object, or a recording whose header carries
     /// one. Without it the service waits for one on `nomen/in/registry`.
     pub registry: Option<PathBuf>,
+    /// The identity log: an SQLite file that every decision and event goes to before it is
+    /// published (`docs/live.md` has the schema). `--log` overrides it. Default: none.
+    pub log: Option<PathBuf>,
     /// The MQTT client id of the service. Default `nomen-serve`.
     pub client_id: String,
     /// Decoded messages the input queue holds before it drops (and counts) what comes next.
@@ -39,6 +42,7 @@ impl Default for ServeConfig {
             mqtt: None,
             embedded_listen: "127.0.0.1:1883".to_owned(),
             registry: None,
+            log: None,
             client_id: "nomen-serve".to_owned(),
             queue_capacity: 16_384,
             publish_capacity: 4_096,

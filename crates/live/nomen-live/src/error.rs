@@ -41,6 +41,14 @@ pub enum LiveError {
     /// A recording (replay, or a registry read from a recording's header).
     #[error(transparent)]
     Recording(#[from] nomen_recording::RecordingError),
+    /// The identity log (SQLite).
+    #[error("{path}: identity log: {why}")]
+    Log {
+        /// The log file.
+        path: String,
+        /// What went wrong.
+        why: String,
+    },
     /// The engine refused its registry or configuration.
     #[error("engine: {0}")]
     Engine(String),

@@ -13,6 +13,7 @@ pub mod decode;
 mod error;
 pub mod events;
 pub mod health;
+pub mod log;
 pub mod replay;
 mod serve;
 pub mod session;

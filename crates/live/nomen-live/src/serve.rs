@@ -4,12 +4,13 @@
 use crate::broker::BrokerAddr;
 use crate::decode::{Input, MAX_PAYLOAD_BYTES, decode};
 use crate::health::{Health, HealthReport};
+use crate::log::IdentityLog;
 use crate::session::{IDLE_TICK, Output, Refusal, Session};
 use crate::topics::{EVENT_TOPIC, HEALTH_TOPIC, INPUT_FILTER, input_source, output_topic};
 use crate::{LiveError, Result};
 use nomen_core::{Message, Registry};
 use rumqttc::{Client, Connection, Event, MqttOptions, Outgoing, Packet, QoS};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, SyncSender, TrySendError, sync_channel};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
@@ -50,6 +51,9 @@ pub struct ServeSummary {
     pub num_events: u64,
 }
 
+/// How long a stopping service waits for the broker to acknowledge its last publishes.
+const ACK_TIMEOUT: Duration = Duration::from_secs(10);
+
 /// The state the client thread and the session loop share: the counts behind the health reports.
 type SharedHealth = Arc<Mutex<Health>>;
 
@@ -61,12 +65,14 @@ fn lock(health: &SharedHealth) -> std::sync::MutexGuard<'_, Health> {
 /// Runs the live service until `stop` is set: connects to the broker, subscribes to the inputs,
 /// runs `session` on them, publishes its outputs (QoS 1), a health report every period and,
 /// at the end, the session's last decisions. `registry`, when given, starts the first session
-/// before any registry message arrives.
+/// before any registry message arrives. Every batch of outputs goes to `log` (committed) before
+/// it is published, and to `sink`.
 pub fn serve(
     options: &ServeOptions,
     mut session: Session,
     registry: Option<Registry>,
     mut sink: Option<&mut dyn DecisionSink>,
+    mut log: Option<IdentityLog>,
     stop: &AtomicBool,
 ) -> Result<ServeSummary> {
     let started = Instant::now();
@@ -82,7 +88,9 @@ pub fn serve(
     let (queue_in, queue) = sync_channel(options.queue_capacity);
     let (connected_tx, connected) = sync_channel(1);
     let in_queue = Arc::new(AtomicUsize::new(0));
+    let num_acked = Arc::new(AtomicU64::new(0));
     let network = {
+        let num_acked = Arc::clone(&num_acked);
         let client = client.clone();
         let health = Arc::clone(&health);
         let in_queue = Arc::clone(&in_queue);
@@ -95,6 +103,7 @@ pub fn serve(
                     &health,
                     &queue_in,
                     &in_queue,
+                    &num_acked,
                     &connected_tx,
                 )
             })
@@ -119,14 +128,17 @@ pub fn serve(
         }
     }
     let mut out = Vec::new();
-    if let Some(registry) = registry {
-        session.set_registry(registry, &mut out);
-    }
     let mut publisher = Publisher {
         client: &client,
         num_decisions: 0,
         num_events: 0,
+        num_sent: 0,
+        logged_session: 0,
     };
+    if let Some(registry) = registry {
+        session.set_registry(registry, &mut out);
+        publisher.publish(&mut out, &session, &mut sink, &mut log, &health)?;
+    }
     let mut last_message = Instant::now();
     let mut next_health = started + options.health_period;
     let mut result = Ok(());
@@ -142,7 +154,11 @@ pub fn serve(
             Ok(Input::Message(m)) => {
                 last_message = Instant::now();
                 match session.push(&m, last_message, &mut out) {
-                    Ok(()) => {}
+                    Ok(()) => {
+                        if let (Some(log), Message::Skeleton(s)) = (log.as_mut(), &m) {
+                            log.observe(s);
+                        }
+                    }
                     Err(refusal) => {
                         let mut h = lock(&health);
                         match (refusal, input_source(&m)) {
@@ -168,7 +184,7 @@ pub fn serve(
                 break;
             }
         }
-        if let Err(e) = publisher.publish(&mut out, &session, &mut sink, &health) {
+        if let Err(e) = publisher.publish(&mut out, &session, &mut sink, &mut log, &health) {
             result = Err(e);
             break;
         }
@@ -194,7 +210,7 @@ pub fn serve(
         }
     }
     session.finish(&mut out);
-    publisher.publish(&mut out, &session, &mut sink, &health)?;
+    publisher.publish(&mut out, &session, &mut sink, &mut log, &health)?;
     if let Some(sink) = sink {
         sink.finish().map_err(|e| LiveError::Io {
             what: "cannot write the decisions".to_owned(),
@@ -214,6 +230,13 @@ pub fn serve(
         num_decisions: publisher.num_decisions,
         num_events: publisher.num_events,
     };
+    // Wait for the broker's acknowledgements first: a socket closed with unread acks is reset,
+    // and a broker may then drop the last publishes it had not read yet.
+    let waiting = Instant::now();
+    while num_acked.load(Ordering::Relaxed) < publisher.num_sent && waiting.elapsed() < ACK_TIMEOUT
+    {
+        std::thread::sleep(Duration::from_millis(2));
+    }
     // The disconnect goes after every publish queued before it; the client thread ends on it.
     let _ = client.disconnect();
     drop(queue);
@@ -239,6 +262,10 @@ struct Publisher<'a> {
     client: &'a Client,
     num_decisions: u64,
     num_events: u64,
+    /// Publishes handed to the client (each acknowledged by the broker, QoS 1).
+    num_sent: u64,
+    /// The session the log's rows go to (0: none yet).
+    logged_session: u64,
 }
 
 impl Publisher<'_> {
@@ -247,11 +274,36 @@ impl Publisher<'_> {
         out: &mut Vec<Output>,
         session: &Session,
         sink: &mut Option<&mut dyn DecisionSink>,
+        log: &mut Option<IdentityLog>,
         health: &SharedHealth,
     ) -> Result<()> {
-        if out.is_empty() {
-            return Ok(());
+        if !out.is_empty() {
+            if let Some(log) = log.as_mut() {
+                // Written and committed before anything is published.
+                log.write(out)?;
+            }
+            self.send_all(out, session, sink, health)?;
         }
+        // A new session (after its predecessor's last outputs went to the old one).
+        if let (Some(log), Some(registry)) = (log.as_mut(), session.registry())
+            && session.num_sessions() != self.logged_session
+        {
+            let unix_ms = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| i64::try_from(d.as_millis()).unwrap_or(i64::MAX));
+            log.begin_session(registry, unix_ms)?;
+            self.logged_session = session.num_sessions();
+        }
+        Ok(())
+    }
+
+    fn send_all(
+        &mut self,
+        out: &mut Vec<Output>,
+        session: &Session,
+        sink: &mut Option<&mut dyn DecisionSink>,
+        health: &SharedHealth,
+    ) -> Result<()> {
         let mut num_decisions = 0;
         for o in out.iter() {
             match o {
@@ -292,7 +344,8 @@ impl Publisher<'_> {
         self.send(HEALTH_TOPIC.to_owned(), to_json(report))
     }
 
-    fn send(&self, topic: String, payload: Vec<u8>) -> Result<()> {
+    fn send(&mut self, topic: String, payload: Vec<u8>) -> Result<()> {
+        self.num_sent += 1;
         self.client
             .publish(topic, QoS::AtLeastOnce, false, payload)
             .map_err(|e| LiveError::Mqtt {
@@ -315,6 +368,7 @@ fn run_client(
     health: &SharedHealth,
     queue: &SyncSender<Input>,
     in_queue: &AtomicUsize,
+    num_acked: &AtomicU64,
     connected: &SyncSender<std::result::Result<(), String>>,
 ) {
     let mut is_first = true;
@@ -361,6 +415,9 @@ fn run_client(
                 }
                 Err(reason) => lock(health).malformed(&p.topic, &reason),
             },
+            Ok(Event::Incoming(Packet::PubAck(_))) => {
+                num_acked.fetch_add(1, Ordering::Relaxed);
+            }
             Ok(Event::Outgoing(Outgoing::Disconnect)) => return,
             Ok(_) => {}
             Err(e) => {

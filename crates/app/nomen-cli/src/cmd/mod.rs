@@ -12,6 +12,7 @@ pub mod experiment;
 pub mod fit;
 pub mod ghosting;
 pub mod import;
+pub mod log;
 pub mod mocap;
 pub mod occlusion;
 pub mod replay;

@@ -33,6 +33,10 @@ pub struct ServeArgs {
     /// on `nomen/in/registry`.
     #[arg(long, value_name = "FILE")]
     pub registry: Option<PathBuf>,
+    /// The identity log (SQLite, WAL): every decision and event, committed before it is
+    /// published; `nomen log query FILE` reads it.
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
     /// Also write every decision to this file, as `nomen run --out` does (a recording).
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -110,6 +114,12 @@ pub fn run(args: ServeArgs) -> Result<()> {
     let stop = Arc::new(AtomicBool::new(false));
     nomen_live::signals::stop_on_signals(Arc::clone(&stop))?;
     let mut sink = args.out.as_deref().map(FileSink::new);
+    let log = args
+        .log
+        .as_ref()
+        .or(config.log.as_ref())
+        .map(|p| nomen_live::log::IdentityLog::open(p))
+        .transpose()?;
     eprintln!(
         "nomen serve: connected to {broker}; inputs on nomen/in/<kind>/<source>, registry {}; \
          outputs on nomen/out/...; Ctrl-C stops",
@@ -124,6 +134,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
         session,
         registry,
         sink.as_mut().map(|s| s as &mut dyn DecisionSink),
+        log,
         &stop,
     )?;
     let h = &summary.health;
