@@ -519,3 +519,60 @@ fn after_kill_9_the_identity_log_holds_every_published_decision() {
         logged.len()
     );
 }
+
+#[test]
+fn serve_and_replay_refuse_a_bad_broker_with_its_address() {
+    let o = nomen(&["serve", "--mqtt", "http://127.0.0.1:1883"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("must start with mqtt://"),
+        "{}",
+        text(&o.stderr)
+    );
+    // Nothing listens on a port just freed.
+    let url = format!("mqtt://127.0.0.1:{}", free_port());
+    let o = nomen(&["serve", "--mqtt", &url]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains(&format!("connect to {url}")),
+        "{}",
+        text(&o.stderr)
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let recording = tmp.path().join("r.jsonl");
+    std::fs::write(
+        &recording,
+        "{\"type\":\"header\",\"format\":\"nomen-recording\",\"version\":1,\"registry\":null}\n",
+    )
+    .unwrap();
+    let o = nomen(&["replay", recording.to_str().unwrap(), "--mqtt", &url]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains(&format!("connect to {url}")),
+        "{}",
+        text(&o.stderr)
+    );
+    let o = nomen(&["replay", recording.to_str().unwrap(), "--speed", "0"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("not a speed"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+#[test]
+fn log_query_refuses_a_file_that_is_not_a_log() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = nomen(&[
+        "log",
+        "query",
+        tmp.path().join("none.sqlite").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("no such file"),
+        "{}",
+        text(&o.stderr)
+    );
+}

@@ -33,14 +33,25 @@ impl BrokerAddr {
         if rest.contains('/') || rest.contains('@') {
             return Err(bad("only mqtt://host:port is understood"));
         }
-        let (host, port) = match rest.rsplit_once(':') {
-            Some((host, port)) if !host.ends_with(']') || host.starts_with('[') => {
-                let port = port
-                    .parse::<u16>()
-                    .map_err(|_| bad(&format!("port '{port}' is not a number from 1 to 65535")))?;
-                (host, port)
+        let parse_port = |port: &str| {
+            port.parse::<u16>()
+                .map_err(|_| bad(&format!("port '{port}' is not a number from 1 to 65535")))
+        };
+        let (host, port) = if let Some(bracketed) = rest.strip_prefix('[') {
+            // An IPv6 address: [::1] or [::1]:1883.
+            let (host, after) = bracketed
+                .split_once(']')
+                .ok_or_else(|| bad("an opening [ without its ]"))?;
+            match after.strip_prefix(':') {
+                Some(port) => (host, parse_port(port)?),
+                None if after.is_empty() => (host, DEFAULT_PORT),
+                None => return Err(bad("only mqtt://host:port is understood")),
             }
-            _ => (rest, DEFAULT_PORT),
+        } else {
+            match rest.rsplit_once(':') {
+                Some((host, port)) => (host, parse_port(port)?),
+                None => (rest, DEFAULT_PORT),
+            }
         };
         if host.is_empty() || port == 0 {
             return Err(bad("no host, or port 0"));
@@ -57,7 +68,11 @@ impl BrokerAddr {
 
 impl std::fmt::Display for BrokerAddr {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "mqtt://{}:{}", self.host, self.port)
+        if self.host.contains(':') {
+            write!(f, "mqtt://[{}]:{}", self.host, self.port)
+        } else {
+            write!(f, "mqtt://{}:{}", self.host, self.port)
+        }
     }
 }
 
@@ -134,6 +149,7 @@ mod tests {
         );
         assert_eq!(BrokerAddr::parse("mqtt://broker").unwrap().port, 1883);
         assert_eq!(BrokerAddr::parse("mqtt://[::1]:99").unwrap().host, "::1");
+        assert_eq!(BrokerAddr::parse("mqtt://[::1]").unwrap().port, 1883);
         assert!(BrokerAddr::parse("http://x").is_err());
         assert!(BrokerAddr::parse("mqtt://x:99999").is_err());
         assert!(BrokerAddr::parse("mqtt://:1883").is_err());

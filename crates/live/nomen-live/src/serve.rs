@@ -89,6 +89,8 @@ pub fn serve(
     let (connected_tx, connected) = sync_channel(1);
     let in_queue = Arc::new(AtomicUsize::new(0));
     let num_acked = Arc::new(AtomicU64::new(0));
+    // Dropped when the client thread ends.
+    let (ended_tx, ended) = sync_channel::<()>(0);
     let network = {
         let num_acked = Arc::clone(&num_acked);
         let client = client.clone();
@@ -97,6 +99,7 @@ pub fn serve(
         std::thread::Builder::new()
             .name("nomen-mqtt".to_owned())
             .spawn(move || {
+                let _ended = ended_tx;
                 run_client(
                     connection,
                     &client,
@@ -238,9 +241,12 @@ pub fn serve(
         std::thread::sleep(Duration::from_millis(2));
     }
     // The disconnect goes after every publish queued before it; the client thread ends on it.
-    let _ = client.disconnect();
+    // With the broker gone it may never be sent: the thread is then left behind, not waited for.
+    let _ = client.try_disconnect();
     drop(queue);
-    let _ = network.join();
+    if ended.recv_timeout(Duration::from_secs(5)) == Err(RecvTimeoutError::Disconnected) {
+        let _ = network.join();
+    }
     result.map(|()| summary)
 }
 
