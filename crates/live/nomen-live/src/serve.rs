@@ -260,7 +260,7 @@ fn report(
     lock(health).report(
         started.elapsed().as_secs_f64(),
         session.num_sessions(),
-        (in_queue.load(Ordering::Relaxed), capacity),
+        (in_queue.load(Ordering::Relaxed).min(capacity), capacity),
     )
 }
 
@@ -399,19 +399,20 @@ fn run_client(
                     {
                         lock(health).received(*kind, s, m.t().as_ns());
                     }
+                    // Counted before it is sent, so that the consumer's count never goes
+                    // below zero; at most one more than the queue holds.
+                    in_queue.fetch_add(1, Ordering::Relaxed);
                     if matches!(input, Input::Registry(_)) {
                         // Rare and never to be lost: wait for room.
                         if queue.send(input).is_err() {
                             return;
                         }
-                        in_queue.fetch_add(1, Ordering::Relaxed);
                         continue;
                     }
                     match queue.try_send(input) {
-                        Ok(()) => {
-                            in_queue.fetch_add(1, Ordering::Relaxed);
-                        }
+                        Ok(()) => {}
                         Err(TrySendError::Full(_)) => {
+                            in_queue.fetch_sub(1, Ordering::Relaxed);
                             if let Some((kind, s)) = &source {
                                 lock(health).dropped(*kind, s);
                             }
