@@ -1,6 +1,7 @@
-//! Events derived from the decision stream, published on [`crate::topics::EVENT_TOPIC`]: a
-//! subject named for the first time, named again on another track (re-identified), lost (no
-//! decision names him for `lost_after_s` of session time), and warnings.
+//! Events derived from the decision stream, published on [`crate::topics::EVENT_TOPIC`], per
+//! subject and camera: a subject named for the first time on a camera, named there again on
+//! another track (re-identified), lost to it (no decision of that camera names him for
+//! `lost_after_s` of session time), and warnings.
 
 use nomen_core::{CameraId, IdentifiedSkeleton, SubjectId, TrackId};
 use serde::Serialize;
@@ -10,11 +11,12 @@ use std::collections::BTreeMap;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EventKind {
-    /// A subject is named for the first time in the session.
+    /// A subject is named for the first time in the session by a camera.
     Named,
-    /// A subject is named on another track than the one he had, or after he was lost.
+    /// A subject is named on another track of a camera than the one he had there, or after he
+    /// was lost to it.
     ReIdentified,
-    /// No decision has named a subject for `lost_after_s`.
+    /// No decision of a camera has named a subject for `lost_after_s`.
     Lost,
     /// Something an operator should know (a registry refused, the engine's warnings).
     Warning,
@@ -60,18 +62,17 @@ impl Event {
 
 #[derive(Debug)]
 struct Seen {
-    camera: CameraId,
     track: TrackId,
     last_t_ns: i64,
     is_lost: bool,
 }
 
 /// Follows who is named where and turns the decisions into events. Holds one entry per
-/// subject named in the session (the registry bounds them).
+/// subject and camera named in the session (the registry bounds them).
 #[derive(Debug)]
 pub struct Events {
     lost_after_ns: i64,
-    subjects: BTreeMap<SubjectId, Seen>,
+    subjects: BTreeMap<(SubjectId, CameraId), Seen>,
 }
 
 impl Events {
@@ -98,16 +99,15 @@ impl Events {
             confidence: Some(d.confidence),
             message,
         };
-        match self.subjects.get_mut(subject) {
+        match self.subjects.get_mut(&(subject.clone(), d.camera.clone())) {
             None => {
                 out.push(event(
                     EventKind::Named,
                     format!("{subject} named on {} track {}", d.camera, d.track),
                 ));
                 self.subjects.insert(
-                    subject.clone(),
+                    (subject.clone(), d.camera.clone()),
                     Seen {
-                        camera: d.camera.clone(),
                         track: d.track,
                         last_t_ns: t_ns,
                         is_lost: false,
@@ -115,19 +115,17 @@ impl Events {
                 );
             }
             Some(seen) => {
-                if seen.is_lost || seen.camera != d.camera || seen.track != d.track {
+                if seen.is_lost || seen.track != d.track {
                     out.push(event(
                         EventKind::ReIdentified,
                         format!(
-                            "{subject} named on {} track {} (was {} track {}{})",
+                            "{subject} named on {} track {} (was track {}{})",
                             d.camera,
                             d.track,
-                            seen.camera,
                             seen.track,
                             if seen.is_lost { ", lost" } else { "" }
                         ),
                     ));
-                    seen.camera = d.camera.clone();
                     seen.track = d.track;
                     seen.is_lost = false;
                 }
@@ -138,19 +136,18 @@ impl Events {
 
     /// The subjects lost by session time `now_ns`.
     pub fn on_time(&mut self, now_ns: i64, out: &mut Vec<Event>) {
-        for (subject, seen) in &mut self.subjects {
+        for ((subject, camera), seen) in &mut self.subjects {
             if !seen.is_lost && now_ns.saturating_sub(seen.last_t_ns) > self.lost_after_ns {
                 seen.is_lost = true;
                 out.push(Event {
                     t_ns: now_ns,
                     kind: EventKind::Lost,
                     subject: Some(subject.clone()),
-                    camera: Some(seen.camera.clone()),
+                    camera: Some(camera.clone()),
                     track: Some(seen.track),
                     confidence: None,
                     message: format!(
-                        "{subject} lost: last named on {} track {} {:.1} s ago",
-                        seen.camera,
+                        "{subject} lost to {camera}: last named on track {} {:.1} s ago",
                         seen.track,
                         (now_ns - seen.last_t_ns) as f64 * 1e-9
                     ),
@@ -167,9 +164,13 @@ mod tests {
     use nomen_core::{Identity, SessionTime};
 
     fn decision(t_s: f64, track: u64, who: Option<&str>) -> IdentifiedSkeleton {
+        decision_on("cam", t_s, track, who)
+    }
+
+    fn decision_on(camera: &str, t_s: f64, track: u64, who: Option<&str>) -> IdentifiedSkeleton {
         IdentifiedSkeleton {
             t: SessionTime::from_ns((t_s * 1e9) as i64),
-            camera: CameraId::new("cam"),
+            camera: CameraId::new(camera),
             track: TrackId(track),
             identity: who.map_or(Identity::Anonymous, |s| {
                 Identity::Subject(SubjectId::new(s))
@@ -193,6 +194,19 @@ mod tests {
         events.on_decision(&decision(1.5, 7, Some("ana")), &mut out);
         assert_eq!(out[1].kind, EventKind::ReIdentified);
         assert_eq!(out[1].track, Some(TrackId(7)));
+    }
+
+    #[test]
+    fn a_subject_seen_by_two_cameras_is_named_once_by_each_and_not_reidentified_between_them() {
+        let mut events = Events::new(2.0);
+        let mut out = Vec::new();
+        for i in 0..10 {
+            let t = f64::from(i) * 0.1;
+            events.on_decision(&decision_on("front", t, 1, Some("ana")), &mut out);
+            events.on_decision(&decision_on("side", t, 5, Some("ana")), &mut out);
+        }
+        assert_eq!(out.len(), 2);
+        assert!(out.iter().all(|e| e.kind == EventKind::Named));
     }
 
     #[test]
