@@ -57,6 +57,17 @@ const ACK_TIMEOUT: Duration = Duration::from_secs(10);
 /// The state the client thread and the session loop share: the counts behind the health reports.
 type SharedHealth = Arc<Mutex<Health>>;
 
+/// What the client thread tells the session loop besides the queue.
+#[derive(Default)]
+struct Shared {
+    /// Messages in the input queue (counted before they are queued).
+    in_queue: AtomicUsize,
+    /// The broker's acknowledgements of the service's publishes.
+    num_acked: AtomicU64,
+    /// A registry that found the input queue full.
+    pending_registry: Mutex<Option<Box<Registry>>>,
+}
+
 fn lock(health: &SharedHealth) -> std::sync::MutexGuard<'_, Health> {
     // The counts stay usable after a panic elsewhere.
     health.lock().unwrap_or_else(PoisonError::into_inner)
@@ -87,15 +98,13 @@ pub fn serve(
     let health: SharedHealth = Arc::default();
     let (queue_in, queue) = sync_channel(options.queue_capacity);
     let (connected_tx, connected) = sync_channel(1);
-    let in_queue = Arc::new(AtomicUsize::new(0));
-    let num_acked = Arc::new(AtomicU64::new(0));
+    let shared = Arc::new(Shared::default());
     // Dropped when the client thread ends.
     let (ended_tx, ended) = sync_channel::<()>(0);
     let network = {
-        let num_acked = Arc::clone(&num_acked);
+        let shared = Arc::clone(&shared);
         let client = client.clone();
         let health = Arc::clone(&health);
-        let in_queue = Arc::clone(&in_queue);
         std::thread::Builder::new()
             .name("nomen-mqtt".to_owned())
             .spawn(move || {
@@ -105,8 +114,7 @@ pub fn serve(
                     &client,
                     &health,
                     &queue_in,
-                    &in_queue,
-                    &num_acked,
+                    &shared,
                     &connected_tx,
                 )
             })
@@ -148,9 +156,17 @@ pub fn serve(
     while !stop.load(Ordering::Relaxed) {
         let now = Instant::now();
         let wait = next_health.saturating_duration_since(now).min(IDLE_TICK);
+        let pending = shared
+            .pending_registry
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take();
+        if let Some(registry) = pending {
+            session.set_registry(*registry, &mut out);
+        }
         let input = queue.recv_timeout(wait);
         if input.is_ok() {
-            in_queue.fetch_sub(1, Ordering::Relaxed);
+            shared.in_queue.fetch_sub(1, Ordering::Relaxed);
         }
         match input {
             Ok(Input::Registry(registry)) => session.set_registry(*registry, &mut out),
@@ -197,7 +213,7 @@ pub fn serve(
                 &health,
                 started,
                 &session,
-                &in_queue,
+                &shared.in_queue,
                 options.queue_capacity,
             );
             publisher.health(&report)?;
@@ -224,7 +240,7 @@ pub fn serve(
         &health,
         started,
         &session,
-        &in_queue,
+        &shared.in_queue,
         options.queue_capacity,
     );
     publisher.health(&report)?;
@@ -236,7 +252,8 @@ pub fn serve(
     // Wait for the broker's acknowledgements first: a socket closed with unread acks is reset,
     // and a broker may then drop the last publishes it had not read yet.
     let waiting = Instant::now();
-    while num_acked.load(Ordering::Relaxed) < publisher.num_sent && waiting.elapsed() < ACK_TIMEOUT
+    while shared.num_acked.load(Ordering::Relaxed) < publisher.num_sent
+        && waiting.elapsed() < ACK_TIMEOUT
     {
         std::thread::sleep(Duration::from_millis(2));
     }
@@ -373,8 +390,7 @@ fn run_client(
     client: &Client,
     health: &SharedHealth,
     queue: &SyncSender<Input>,
-    in_queue: &AtomicUsize,
-    num_acked: &AtomicU64,
+    shared: &Shared,
     connected: &SyncSender<std::result::Result<(), String>>,
 ) {
     let mut is_first = true;
@@ -401,18 +417,21 @@ fn run_client(
                     }
                     // Counted before it is sent, so that the consumer's count never goes
                     // below zero; at most one more than the queue holds.
-                    in_queue.fetch_add(1, Ordering::Relaxed);
-                    if matches!(input, Input::Registry(_)) {
-                        // Rare and never to be lost: wait for room.
-                        if queue.send(input).is_err() {
-                            return;
-                        }
-                        continue;
-                    }
+                    shared.in_queue.fetch_add(1, Ordering::Relaxed);
                     match queue.try_send(input) {
                         Ok(()) => {}
+                        // Rare and never to be lost, but waiting here could deadlock with a
+                        // session loop waiting for this thread to send its outputs: the slot
+                        // of its own is taken at the session loop's next turn.
+                        Err(TrySendError::Full(Input::Registry(registry))) => {
+                            shared.in_queue.fetch_sub(1, Ordering::Relaxed);
+                            *shared
+                                .pending_registry
+                                .lock()
+                                .unwrap_or_else(PoisonError::into_inner) = Some(registry);
+                        }
                         Err(TrySendError::Full(_)) => {
-                            in_queue.fetch_sub(1, Ordering::Relaxed);
+                            shared.in_queue.fetch_sub(1, Ordering::Relaxed);
                             if let Some((kind, s)) = &source {
                                 lock(health).dropped(*kind, s);
                             }
@@ -423,7 +442,7 @@ fn run_client(
                 Err(reason) => lock(health).malformed(&p.topic, &reason),
             },
             Ok(Event::Incoming(Packet::PubAck(_))) => {
-                num_acked.fetch_add(1, Ordering::Relaxed);
+                shared.num_acked.fetch_add(1, Ordering::Relaxed);
             }
             Ok(Event::Outgoing(Outgoing::Disconnect)) => return,
             Ok(_) => {}
