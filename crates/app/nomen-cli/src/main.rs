@@ -63,6 +63,13 @@ enum Command {
     Calibrate(cmd::calibrate::CalibrateCommand),
     /// Run the end-to-end demonstration on the default data, with no hardware and no server.
     Demo(cmd::demo::DemoArgs),
+    /// The engine as a live service over MQTT (embedded broker unless --mqtt names one).
+    Serve(cmd::serve::ServeArgs),
+    /// Publish a recording to an MQTT broker with its timing (e.g. into `nomen serve`).
+    Replay(cmd::replay::ReplayArgs),
+    /// Read `nomen serve`'s identity log: `log query LOG` prints who was named where and why.
+    #[command(subcommand)]
+    Log(cmd::log::LogCommand),
     /// Train a learned model (De Marchi's two-branch CNN) on simulated scenes.
     #[command(subcommand)]
     Train(cmd::train::TrainCommand),
@@ -84,6 +91,9 @@ fn main() -> ExitCode {
         Command::Fit(c) => cmd::fit::run(c),
         Command::Demo(a) => cmd::demo::run(a),
         Command::Train(c) => cmd::train::run(c),
+        Command::Serve(a) => cmd::serve::run(a),
+        Command::Replay(a) => cmd::replay::run(a),
+        Command::Log(c) => cmd::log::run(c),
         Command::Calibrate(c) => cmd::calibrate::run(c),
     };
     // A line without its `\n` may still be buffered: write it now, while an error can be reported.

@@ -101,7 +101,7 @@ pub struct EngineExtras {
     pub retrack: bool,
 }
 
-fn load_rssi_model(path: &Path) -> Result<nomen_rssi::RssiModel> {
+pub fn load_rssi_model(path: &Path) -> Result<nomen_rssi::RssiModel> {
     let text = crate::io::read_settings(path)?;
     Ok(nomen_rssi::RssiModel::from_json(
         &text,
@@ -523,6 +523,33 @@ pub fn load_config(path: Option<&Path>) -> Result<EngineConfig> {
     }
 }
 
+/// The engine of `nomen run` and `nomen serve`: `config` on `registry`, with the RSSI model and
+/// the CNN of `extras` when given; `source` names the input in errors.
+pub fn build_engine(
+    registry: Registry,
+    config: EngineConfig,
+    extras: &EngineExtras,
+    source: &str,
+) -> Result<Engine> {
+    let mut engine = Engine::new(registry, config)?;
+    if let Some(model) = &extras.rssi_model {
+        engine = engine
+            .with_rssi_model(model)
+            .with_context(|| format!("{source}: the RSSI model"))?;
+    }
+    if let Some(path) = &extras.cnn {
+        engine = engine.with_pair_scorer(Box::new(super::train::load_scorer(path)?));
+    }
+    Ok(engine)
+}
+
+/// How far past the newest message a live input's idle tick may move the session clock: far
+/// enough for every decision to come out, never a time jump (`nomen run --live`, `nomen serve`).
+pub fn max_idle_ns(config: &EngineConfig) -> i64 {
+    ((config.max_latency_s() + config.silence_timeout_s + config.hop_s).min(config.max_time_jump_s)
+        * 1e9) as i64
+}
+
 /// Streams `recording` through the engine into `out`; returns a summary line. `skip`: skip bad
 /// lines, up to this limit (`None`: stop at the first).
 pub fn run_file(
@@ -551,15 +578,12 @@ pub fn run_file(
             crate::io::source_name(recording)
         );
     };
-    let mut engine = Engine::new(registry.clone(), config)?;
-    if let Some(model) = &extras.rssi_model {
-        engine = engine
-            .with_rssi_model(model)
-            .with_context(|| format!("{}: the RSSI model", crate::io::source_name(recording)))?;
-    }
-    if let Some(path) = &extras.cnn {
-        engine = engine.with_pair_scorer(Box::new(super::train::load_scorer(path)?));
-    }
+    let mut engine = build_engine(
+        registry.clone(),
+        config,
+        extras,
+        &crate::io::source_name(recording),
+    )?;
     let mut refinement = if extras.refine_joints {
         Some(Refinement::new(&registry, extras.environment.as_deref())?)
     } else {
@@ -612,9 +636,7 @@ pub fn run_file(
     let mut read_error = None;
     // Before each idle tick's heartbeat, what the clock may run to: far enough for every
     // decision to come out, never a time jump.
-    let max_idle_ns = ((config.max_latency_s() + config.silence_timeout_s + config.hop_s)
-        .min(config.max_time_jump_s)
-        * 1e9) as i64;
+    let max_idle_ns = max_idle_ns(&config);
     // Whether the engine accepted the message.
     let mut push = |m: &Message, engine: &mut Engine, refinement: &mut Option<Refinement>| {
         if let (Some(r), Message::Skeleton(s)) = (refinement.as_mut(), m) {

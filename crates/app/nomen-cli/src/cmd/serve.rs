@@ -1,0 +1,230 @@
+//! `nomen serve`: the engine as a live service over MQTT (`docs/live.md`). With no broker given
+//! it starts one in this process (rumqttd on 127.0.0.1); inputs come on `nomen/in/#`, decisions,
+//! events and health go out on `nomen/out/...`. Ctrl-C or SIGTERM stops it cleanly: the engine
+//! is flushed and its last decisions published.
+
+use super::run::{EngineExtras, build_engine, load_rssi_model, max_idle_ns};
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use nomen_core::{Message, Registry};
+use nomen_live::ServeOptions;
+use nomen_live::broker::{BrokerAddr, start_embedded};
+use nomen_live::session::{Session, SessionOptions};
+use nomen_live::{DecisionSink, ServeConfig};
+use nomen_recording::{Header, RecordingReader, RecordingWriter};
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+/// Arguments of `nomen serve`.
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// Service configuration (TOML, `docs/live.md`): broker, registry, queue sizes, `[engine]`.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// An existing broker, `mqtt://host:port`; without it (and without `mqtt` in the
+    /// configuration) an embedded broker starts on 127.0.0.1:1883 (`embedded_listen`).
+    #[arg(long, value_name = "URL")]
+    pub mqtt: Option<String>,
+    /// The registry: a JSON file with one registry object, or a recording whose header carries
+    /// one. Without it (and without `registry` in the configuration) the service waits for one
+    /// on `nomen/in/registry`.
+    #[arg(long, value_name = "FILE")]
+    pub registry: Option<PathBuf>,
+    /// The identity log (SQLite, WAL): every decision and event, committed before it is
+    /// published; `nomen log query FILE` reads it.
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+    /// Also write every decision to this file, as `nomen run --out` does (a recording).
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// RSSI model (JSON, from `nomen calibrate rssi`): gives the engine RSSI evidence.
+    #[arg(long, value_name = "MODEL.json")]
+    pub rssi_model: Option<PathBuf>,
+    /// A model from `nomen train cnn`: the engine adds its score as one more model.
+    #[arg(long, value_name = "MODEL")]
+    pub cnn: Option<PathBuf>,
+}
+
+/// How long `nomen serve` waits for its broker to answer.
+const CONNECT_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Runs `nomen serve`.
+pub fn run(args: ServeArgs) -> Result<()> {
+    let config = match &args.config {
+        None => ServeConfig::default(),
+        Some(path) => {
+            let text = crate::io::read_settings(path)?;
+            ServeConfig::from_toml(&text, &path.display().to_string())?
+        }
+    };
+    let registry_path = args.registry.as_ref().or(config.registry.as_ref());
+    let registry = registry_path.map(|p| load_registry(p)).transpose()?;
+    let broker = match args.mqtt.as_ref().or(config.mqtt.as_ref()) {
+        Some(url) => BrokerAddr::parse(url)?,
+        None => {
+            let listen: SocketAddr = config.embedded_listen.parse().with_context(|| {
+                format!(
+                    "embedded_listen '{}' is not an address such as 127.0.0.1:1883",
+                    config.embedded_listen
+                )
+            })?;
+            start_embedded(listen)?;
+            eprintln!("nomen serve: embedded broker listening on mqtt://{listen}");
+            BrokerAddr {
+                host: listen.ip().to_string(),
+                port: listen.port(),
+            }
+        }
+    };
+    let extras = EngineExtras {
+        rssi_model: args
+            .rssi_model
+            .as_deref()
+            .map(load_rssi_model)
+            .transpose()?,
+        cnn: args.cnn.clone(),
+        ..EngineExtras::default()
+    };
+    let engine_config = config.engine;
+    // Checked now, so that a bad model fails at start rather than at the first registry.
+    if let Some(registry) = &registry {
+        build_engine(registry.clone(), engine_config, &extras, "nomen serve")?;
+    }
+    let session = Session::new(
+        Box::new(move |registry| {
+            build_engine(registry, engine_config, &extras, "nomen serve")
+                .map_err(|e| format!("{e:#}"))
+        }),
+        SessionOptions {
+            max_idle_ns: max_idle_ns(&engine_config),
+            lost_after_s: config.lost_after_s,
+        },
+    );
+    let options = ServeOptions {
+        broker: broker.clone(),
+        client_id: config.client_id.clone(),
+        queue_capacity: config.queue_capacity,
+        publish_capacity: config.publish_capacity,
+        health_period: Duration::from_secs_f64(config.health_period_s),
+        connect_timeout: CONNECT_TIMEOUT,
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    nomen_live::signals::stop_on_signals(Arc::clone(&stop))?;
+    let mut sink = args.out.as_deref().map(FileSink::new);
+    let log = args
+        .log
+        .as_ref()
+        .or(config.log.as_ref())
+        .map(|p| nomen_live::log::IdentityLog::open(p))
+        .transpose()?;
+    eprintln!(
+        "nomen serve: connected to {broker}; inputs on nomen/in/<kind>/<source>, registry {}; \
+         outputs on nomen/out/...; Ctrl-C stops",
+        if registry.is_some() {
+            "from the file"
+        } else {
+            "on nomen/in/registry"
+        }
+    );
+    let summary = nomen_live::serve(
+        &options,
+        session,
+        registry,
+        sink.as_mut().map(|s| s as &mut dyn DecisionSink),
+        log,
+        &stop,
+    )?;
+    let h = &summary.health;
+    eprintln!(
+        "nomen serve: received {} messages ({} malformed, {} dropped on a full queue, {} refused by \
+         the engine, {} before any registry) in {} session(s); published {} decisions and {} events",
+        h.num_received,
+        h.num_malformed,
+        h.num_dropped,
+        h.num_rejected,
+        h.num_before_registry,
+        h.session,
+        summary.num_decisions,
+        summary.num_events
+    );
+    if let Some(sink) = &sink
+        && let Some(path) = &args.out
+    {
+        eprintln!(
+            "nomen serve: wrote {} decisions to {}",
+            sink.num_written,
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+/// A registry from a JSON file holding one, or from the header of a recording.
+pub fn load_registry(path: &Path) -> Result<Registry> {
+    if let Ok(reader) = RecordingReader::open(path) {
+        return match &reader.header().registry {
+            Some(registry) => Ok(registry.clone()),
+            None => bail!(
+                "{}: the recording's header carries no registry",
+                path.display()
+            ),
+        };
+    }
+    let text = crate::io::read_settings(path)?;
+    let registry: Registry = serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{}: neither a registry (JSON) nor a recording with one",
+            path.display()
+        )
+    })?;
+    registry
+        .validate()
+        .with_context(|| format!("{}: invalid registry", path.display()))?;
+    Ok(registry)
+}
+
+/// `--out`: the decisions as a recording, its header holding the first session's registry.
+struct FileSink {
+    path: PathBuf,
+    writer: Option<RecordingWriter<Box<dyn std::io::Write>>>,
+    num_written: u64,
+}
+
+impl FileSink {
+    fn new(path: &Path) -> Self {
+        FileSink {
+            path: path.to_path_buf(),
+            writer: None,
+            num_written: 0,
+        }
+    }
+}
+
+impl DecisionSink for FileSink {
+    fn write(&mut self, registry: &Registry, decisions: &[Message]) -> std::io::Result<()> {
+        let writer = match &mut self.writer {
+            Some(w) => w,
+            None => {
+                let header = Header::new(registry.clone()).with_meta("generator", "nomen serve");
+                let sink = crate::io::create_write(&self.path).map_err(std::io::Error::other)?;
+                let writer = RecordingWriter::new(sink, &header).map_err(std::io::Error::other)?;
+                self.writer.insert(writer)
+            }
+        };
+        for m in decisions {
+            writer.write(m).map_err(std::io::Error::other)?;
+            self.num_written += 1;
+        }
+        writer.flush().map_err(std::io::Error::other)
+    }
+
+    fn finish(&mut self) -> std::io::Result<()> {
+        match self.writer.take() {
+            Some(w) => w.finish().map(drop).map_err(std::io::Error::other),
+            None => Ok(()),
+        }
+    }
+}

@@ -1,0 +1,582 @@
+//! End-to-end tests of `nomen serve` and `nomen replay`: a simulated scene replayed through a
+//! broker (the embedded one, and a real Mosquitto) into `nomen serve` gives the decisions
+//! `nomen run` gives on the same file, and malformed payloads are counted on the health topic
+//! while the stream goes on.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use common::{data_dir, nomen, nomen_command, repo, text};
+use rumqttc::{Client, Event, MqttOptions, Packet, QoS};
+use serde_json::Value;
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Seconds of the scene: long enough for both people to be named, short enough for CI.
+const SCENE_S: f64 = 20.0;
+/// How long a test waits for the service to take every message.
+const TIMEOUT: Duration = Duration::from_secs(120);
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn wait_for_port(port: u16) {
+    let started = Instant::now();
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(
+            started.elapsed() < Duration::from_secs(10),
+            "nothing listens on port {port}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// `scenarios/imu_wrist_2.toml` cut to [`SCENE_S`] and simulated into `dir`: its recording.
+fn short_scene(dir: &Path, data: &Path) -> PathBuf {
+    let scenario = std::fs::read_to_string(repo().join("scenarios/imu_wrist_2.toml")).unwrap();
+    let scenario = scenario.replace("duration_s = 60.0", &format!("duration_s = {SCENE_S}"));
+    assert!(scenario.contains(&format!("duration_s = {SCENE_S}")));
+    let path = dir.join("short.toml");
+    std::fs::write(&path, scenario).unwrap();
+    let scene = dir.join("scene");
+    let o = nomen(&[
+        "simulate",
+        path.to_str().unwrap(),
+        "--out",
+        scene.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    scene.join("recording.jsonl")
+}
+
+/// The message lines of a recording (header left out).
+fn message_lines(path: &Path) -> Vec<String> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.contains("\"type\":\"header\""))
+        .map(str::to_owned)
+        .collect()
+}
+
+/// What a subscriber to `nomen/out/#` saw.
+#[derive(Default)]
+struct Seen {
+    num_identified: usize,
+    /// (camera, track, t_ns) of each identified skeleton.
+    identified: Vec<(String, i64, i64)>,
+    health: Option<Value>,
+    events: Vec<Value>,
+}
+
+/// Subscribes to `nomen/out/#` on the broker at `port` and collects what comes.
+fn watch(port: u16) -> Arc<Mutex<Seen>> {
+    let seen = Arc::new(Mutex::new(Seen::default()));
+    let mut options = MqttOptions::new(format!("watch-{port}"), "127.0.0.1", port);
+    options.set_max_packet_size(1 << 21, 1 << 21);
+    let (client, mut connection) = Client::new(options, 64);
+    let (subscribed_tx, subscribed) = std::sync::mpsc::channel();
+    let shared = Arc::clone(&seen);
+    std::thread::spawn(move || {
+        for event in connection.iter() {
+            match event {
+                Ok(Event::Incoming(Packet::ConnAck(_))) => {
+                    client
+                        .try_subscribe("nomen/out/#", QoS::AtLeastOnce)
+                        .unwrap();
+                }
+                Ok(Event::Incoming(Packet::SubAck(_))) => {
+                    let _ = subscribed_tx.send(());
+                }
+                Ok(Event::Incoming(Packet::Publish(p))) => {
+                    let mut seen = shared.lock().unwrap();
+                    if p.topic.starts_with("nomen/out/identified/") {
+                        seen.num_identified += 1;
+                        let d: Value = serde_json::from_slice(&p.payload).unwrap();
+                        seen.identified.push((
+                            d["camera"].as_str().unwrap().to_owned(),
+                            d["track"].as_i64().unwrap(),
+                            d["t"].as_i64().unwrap(),
+                        ));
+                    } else if p.topic == "nomen/out/health" {
+                        seen.health = serde_json::from_slice(&p.payload).ok();
+                    } else if p.topic == "nomen/out/event" {
+                        seen.events
+                            .push(serde_json::from_slice(&p.payload).unwrap());
+                    }
+                }
+                Ok(_) => {}
+                Err(_) => std::thread::sleep(Duration::from_millis(100)),
+            }
+        }
+    });
+    subscribed
+        .recv_timeout(Duration::from_secs(10))
+        .expect("the watcher subscribes");
+    seen
+}
+
+fn publish_raw(port: u16, messages: &[(&str, &[u8])]) {
+    let (client, mut connection) = Client::new(
+        MqttOptions::new(format!("raw-{port}"), "127.0.0.1", port),
+        64,
+    );
+    for (topic, payload) in messages {
+        client
+            .publish(*topic, QoS::AtLeastOnce, false, payload.to_vec())
+            .unwrap();
+    }
+    let mut num_acked = 0;
+    for event in connection.iter() {
+        match event {
+            Ok(Event::Incoming(Packet::PubAck(_))) => {
+                num_acked += 1;
+                if num_acked == messages.len() {
+                    client.disconnect().unwrap();
+                }
+            }
+            Ok(Event::Outgoing(rumqttc::Outgoing::Disconnect)) => break,
+            Err(e) => panic!("{e}"),
+            Ok(_) => {}
+        }
+    }
+    assert_eq!(
+        num_acked,
+        messages.len(),
+        "the broker takes the raw payloads"
+    );
+}
+
+/// A running `nomen serve`, stopped with SIGTERM.
+struct Serve {
+    child: Child,
+    stderr: PathBuf,
+}
+
+impl Serve {
+    fn start(dir: &Path, args: &[&str]) -> Serve {
+        let stderr = dir.join("serve.stderr");
+        let config = dir.join("serve.toml");
+        let child =
+            nomen_command(&[&["serve", "--config", config.to_str().unwrap()], args].concat())
+                .stdout(Stdio::null())
+                .stderr(std::fs::File::create(&stderr).unwrap())
+                .spawn()
+                .unwrap();
+        Serve { child, stderr }
+    }
+
+    /// Stops it as Ctrl-C would and returns its stderr.
+    fn stop(mut self) -> String {
+        let status = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let status = self.child.wait().unwrap();
+        let stderr = std::fs::read_to_string(&self.stderr).unwrap();
+        assert!(status.success(), "nomen serve failed: {stderr}");
+        stderr
+    }
+}
+
+impl Drop for Serve {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Replays `recording` into a `nomen serve` on the broker at `port` (already listening) after
+/// two malformed payloads, and checks: the decisions equal `nomen run`'s (`expected`), each was
+/// published, and health counted every message and both malformed payloads with topic and reason.
+fn replay_and_compare(dir: &Path, port: u16, recording: &Path, expected: &Path, speed: &str) {
+    let seen = watch(port);
+    let out = dir.join(format!("serve-{speed}.jsonl"));
+    let serve = Serve::start(
+        dir,
+        &[
+            "--mqtt",
+            &format!("mqtt://127.0.0.1:{port}"),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    replay_into(dir, serve, port, &seen, recording, expected, &out, speed);
+}
+
+#[allow(clippy::too_many_arguments)]
+fn replay_into(
+    _dir: &Path,
+    serve: Serve,
+    port: u16,
+    seen: &Arc<Mutex<Seen>>,
+    recording: &Path,
+    expected: &Path,
+    out: &Path,
+    speed: &str,
+) {
+    // The first health report says the service is subscribed.
+    let started = Instant::now();
+    while seen.lock().unwrap().health.is_none() {
+        assert!(started.elapsed() < TIMEOUT, "no health report");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    publish_raw(
+        port,
+        &[
+            ("nomen/in/imu/ghost", b"{\"type\":\"imu\",\"t\":"),
+            ("nomen/in/video/cam1", b"{}"),
+        ],
+    );
+    let url = format!("mqtt://127.0.0.1:{port}");
+    let o = nomen(&[
+        "replay",
+        recording.to_str().unwrap(),
+        "--mqtt",
+        &url,
+        "--speed",
+        speed,
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let num_inputs = message_lines(recording)
+        .iter()
+        .filter(|l| !l.contains("\"type\":\"truth"))
+        .count() as u64;
+    // Wait until health says every message was taken.
+    let started = Instant::now();
+    loop {
+        let health = seen.lock().unwrap().health.clone().unwrap();
+        if health["num_received"].as_u64() == Some(num_inputs) && health["queue_len"] == 0 {
+            assert_eq!(health["num_malformed"], 2, "{health}");
+            let malformed = health["malformed"].as_array().unwrap();
+            assert_eq!(malformed[0]["topic"], "nomen/in/imu/ghost");
+            assert!(
+                malformed[0]["reason"].as_str().unwrap().contains("EOF"),
+                "{health}"
+            );
+            assert_eq!(malformed[1]["topic"], "nomen/in/video/cam1");
+            assert!(
+                malformed[1]["reason"]
+                    .as_str()
+                    .unwrap()
+                    .contains("unknown kind")
+            );
+            assert_eq!(health["num_dropped"], 0, "{health}");
+            break;
+        }
+        assert!(started.elapsed() < TIMEOUT, "the service took {health}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let stderr = serve.stop();
+    let run = message_lines(expected);
+    let served = message_lines(out);
+    assert!(run.len() > 100, "{} decisions", run.len());
+    assert_same_decisions(&run, &served, last_skeleton_ns(recording), &stderr);
+    // Every decision was published too (QoS 1 from the service to the watcher).
+    let started = Instant::now();
+    while seen.lock().unwrap().num_identified < run.len() {
+        assert!(
+            started.elapsed() < TIMEOUT,
+            "published {} of {}",
+            seen.lock().unwrap().num_identified,
+            run.len()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let seen = seen.lock().unwrap();
+    assert_eq!(seen.num_identified, run.len());
+    let named: Vec<&str> = seen
+        .events
+        .iter()
+        .filter(|e| e["kind"] == "named")
+        .map(|e| e["subject"].as_str().unwrap())
+        .collect();
+    assert!(
+        named.contains(&"ana") && named.contains(&"ben"),
+        "{named:?}"
+    );
+}
+
+/// The newest skeleton stamp of a recording, ns (cameras stamp on the session clock; an IMU's
+/// stamps are on its own).
+fn last_skeleton_ns(recording: &Path) -> i64 {
+    message_lines(recording)
+        .iter()
+        .filter(|l| l.contains("\"type\":\"skeleton\""))
+        .map(|l| {
+            serde_json::from_str::<Value>(l).unwrap()["t"]
+                .as_i64()
+                .unwrap()
+        })
+        .max()
+        .unwrap()
+}
+
+/// The bound `docs/live.md` states: `nomen serve` makes the decisions `nomen run` makes, one
+/// for one; those stamped more than the engine's latency with a silent source
+/// (`EngineConfig::latency_s` + `silence_timeout_s`) before the stream's last skeleton are
+/// equal to the bit. The later ones are decided when the service sees the stream pause
+/// (`Engine::advance_to`), not at the end of a file (`Engine::finish`), and may name
+/// differently.
+fn assert_same_decisions(run: &[String], served: &[String], last_skeleton_ns: i64, stderr: &str) {
+    assert_eq!(run.len(), served.len(), "{stderr}");
+    let config = nomen_engine::EngineConfig::default();
+    let bound_ns = ((config.latency_s() + config.silence_timeout_s) * 1e9) as i64;
+    let mut num_equal = 0;
+    for (r, s) in run.iter().zip(served) {
+        let (r_value, s_value): (Value, Value) = (
+            serde_json::from_str(r).unwrap(),
+            serde_json::from_str(s).unwrap(),
+        );
+        for key in ["type", "t", "camera", "track", "tag"] {
+            assert_eq!(r_value[key], s_value[key], "{r}\n{s}");
+        }
+        if r_value["t"].as_i64().unwrap() < last_skeleton_ns - bound_ns {
+            assert_eq!(
+                r, s,
+                "a decision before the stream's last {bound_ns} ns differs"
+            );
+            num_equal += 1;
+        }
+    }
+    // Most of the scene is before the bound (20 s of which 3.25 at the end).
+    assert!(
+        num_equal * 10 > run.len() * 6,
+        "{num_equal} of {}",
+        run.len()
+    );
+}
+
+/// The scene simulated and run through `nomen run`, or `None` without the shared data.
+fn scene_and_run(dir: &Path) -> Option<(PathBuf, PathBuf)> {
+    let data = data_dir()?;
+    let recording = short_scene(dir, &data);
+    let expected = dir.join("run.jsonl");
+    let o = nomen(&[
+        "run",
+        recording.to_str().unwrap(),
+        "--out",
+        expected.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    Some((recording, expected))
+}
+
+fn write_config(dir: &Path, extra: &str) {
+    std::fs::write(
+        dir.join("serve.toml"),
+        format!("health_period_s = 0.1\n{extra}"),
+    )
+    .unwrap();
+}
+
+#[test]
+fn serve_on_the_embedded_broker_decides_as_run_does() {
+    let tmp = tempfile::tempdir().unwrap();
+    let Some((recording, expected)) = scene_and_run(tmp.path()) else {
+        return;
+    };
+    let port = free_port();
+    write_config(
+        tmp.path(),
+        &format!("embedded_listen = \"127.0.0.1:{port}\"\n"),
+    );
+    let out = tmp.path().join("serve-embedded.jsonl");
+    let serve = Serve::start(tmp.path(), &["--out", out.to_str().unwrap()]);
+    wait_for_port(port);
+    let seen = watch(port);
+    replay_into(
+        tmp.path(),
+        serve,
+        port,
+        &seen,
+        &recording,
+        &expected,
+        &out,
+        "max",
+    );
+}
+
+#[test]
+fn serve_on_mosquitto_decides_as_run_does() {
+    // Debian installs it in /usr/sbin, which a user's PATH may lack.
+    let mosquitto = ["mosquitto", "/usr/sbin/mosquitto"]
+        .into_iter()
+        .find(|m| Command::new(m).arg("-h").output().is_ok());
+    let Some(mosquitto) = mosquitto else {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "mosquitto is not installed (CI installs it: apt-get install mosquitto)"
+        );
+        eprintln!("skipping: mosquitto is not installed (apt-get install mosquitto)");
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let Some((recording, expected)) = scene_and_run(tmp.path()) else {
+        return;
+    };
+    let port = free_port();
+    let conf = tmp.path().join("mosquitto.conf");
+    // No limit on queued QoS 1 messages (the default, 1000, drops beyond it for a slow
+    // subscriber); no persistence file.
+    std::fs::write(
+        &conf,
+        format!(
+            "listener {port} 127.0.0.1\nallow_anonymous true\nmax_queued_messages 0\npersistence false\n"
+        ),
+    )
+    .unwrap();
+    let mut mosquitto = Command::new(mosquitto)
+        .args(["-c", conf.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_for_port(port);
+    write_config(tmp.path(), "");
+    let result = std::panic::catch_unwind(|| {
+        replay_and_compare(tmp.path(), port, &recording, &expected, "max");
+    });
+    let _ = mosquitto.kill();
+    let _ = mosquitto.wait();
+    if let Err(e) = result {
+        std::panic::resume_unwind(e);
+    }
+}
+
+#[test]
+fn after_kill_9_the_identity_log_holds_every_published_decision() {
+    let tmp = tempfile::tempdir().unwrap();
+    let Some(data) = data_dir() else {
+        return;
+    };
+    let recording = short_scene(tmp.path(), &data);
+    let port = free_port();
+    write_config(
+        tmp.path(),
+        &format!("embedded_listen = \"127.0.0.1:{port}\"\n"),
+    );
+    let log = tmp.path().join("identity.sqlite");
+    let mut serve = Serve::start(tmp.path(), &["--log", log.to_str().unwrap()]);
+    wait_for_port(port);
+    let seen = watch(port);
+    let mut replay = nomen_command(&[
+        "replay",
+        recording.to_str().unwrap(),
+        "--mqtt",
+        &format!("mqtt://127.0.0.1:{port}"),
+        "--speed",
+        "4",
+    ])
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap();
+    // Mid-stream: a third of the scene's decisions published.
+    let started = Instant::now();
+    while seen.lock().unwrap().num_identified < 300 {
+        assert!(started.elapsed() < TIMEOUT, "too few decisions published");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    serve.child.kill().unwrap(); // SIGKILL
+    serve.child.wait().unwrap();
+    let _ = replay.kill();
+    let _ = replay.wait();
+    // What was in flight to the watcher when the broker died is in its hands now.
+    std::thread::sleep(Duration::from_millis(200));
+    let published = seen.lock().unwrap().identified.clone();
+    let o = nomen(&["log", "query", log.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let logged: std::collections::BTreeSet<(String, i64, i64)> = text(&o.stdout)
+        .lines()
+        .map(|l| {
+            let d: Value = serde_json::from_str(l).unwrap();
+            (
+                d["camera"].as_str().unwrap().to_owned(),
+                d["track"].as_i64().unwrap(),
+                d["t_ns"].as_i64().unwrap(),
+            )
+        })
+        .collect();
+    assert!(published.len() >= 300);
+    let missing: Vec<_> = published.iter().filter(|d| !logged.contains(*d)).collect();
+    assert!(
+        missing.is_empty(),
+        "{} of {} published decisions are not in the log, e.g. {:?}",
+        missing.len(),
+        published.len(),
+        missing.first()
+    );
+    assert!(
+        logged.len() < 1100,
+        "serve was killed mid-stream: {} logged",
+        logged.len()
+    );
+}
+
+#[test]
+fn serve_and_replay_refuse_a_bad_broker_with_its_address() {
+    let o = nomen(&["serve", "--mqtt", "http://127.0.0.1:1883"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("must start with mqtt://"),
+        "{}",
+        text(&o.stderr)
+    );
+    // Nothing listens on a port just freed.
+    let url = format!("mqtt://127.0.0.1:{}", free_port());
+    let o = nomen(&["serve", "--mqtt", &url]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains(&format!("connect to {url}")),
+        "{}",
+        text(&o.stderr)
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let recording = tmp.path().join("r.jsonl");
+    std::fs::write(
+        &recording,
+        "{\"type\":\"header\",\"format\":\"nomen-recording\",\"version\":1,\"registry\":null}\n",
+    )
+    .unwrap();
+    let o = nomen(&["replay", recording.to_str().unwrap(), "--mqtt", &url]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains(&format!("connect to {url}")),
+        "{}",
+        text(&o.stderr)
+    );
+    let o = nomen(&["replay", recording.to_str().unwrap(), "--speed", "0"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("not a speed"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+#[test]
+fn log_query_refuses_a_file_that_is_not_a_log() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = nomen(&[
+        "log",
+        "query",
+        tmp.path().join("none.sqlite").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("no such file"),
+        "{}",
+        text(&o.stderr)
+    );
+}

@@ -1,0 +1,157 @@
+//! Broker addresses, and the embedded broker (rumqttd in this process) that `nomen serve` starts
+//! when it is given none.
+
+use crate::decode::MAX_PAYLOAD_BYTES;
+use crate::{LiveError, Result};
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::time::{Duration, Instant};
+
+/// The MQTT port brokers listen on by default.
+pub const DEFAULT_PORT: u16 = 1883;
+
+/// Where a broker listens: `mqtt://host[:port]`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BrokerAddr {
+    /// Host name or address.
+    pub host: String,
+    /// TCP port.
+    pub port: u16,
+}
+
+impl BrokerAddr {
+    /// Reads `mqtt://host[:port]` (a `tcp://` scheme is taken too; the port defaults to 1883).
+    pub fn parse(url: &str) -> Result<Self> {
+        let bad = |why: &str| LiveError::BrokerUrl {
+            url: url.to_owned(),
+            why: why.to_owned(),
+        };
+        let rest = url
+            .strip_prefix("mqtt://")
+            .or_else(|| url.strip_prefix("tcp://"))
+            .ok_or_else(|| bad("it must start with mqtt:// (TLS, mqtts://, is not supported)"))?;
+        let rest = rest.trim_end_matches('/');
+        if rest.contains('/') || rest.contains('@') {
+            return Err(bad("only mqtt://host:port is understood"));
+        }
+        let parse_port = |port: &str| {
+            port.parse::<u16>()
+                .map_err(|_| bad(&format!("port '{port}' is not a number from 1 to 65535")))
+        };
+        let (host, port) = if let Some(bracketed) = rest.strip_prefix('[') {
+            // An IPv6 address: [::1] or [::1]:1883.
+            let (host, after) = bracketed
+                .split_once(']')
+                .ok_or_else(|| bad("an opening [ without its ]"))?;
+            match after.strip_prefix(':') {
+                Some(port) => (host, parse_port(port)?),
+                None if after.is_empty() => (host, DEFAULT_PORT),
+                None => return Err(bad("only mqtt://host:port is understood")),
+            }
+        } else {
+            match rest.rsplit_once(':') {
+                Some((host, port)) => (host, parse_port(port)?),
+                None => (rest, DEFAULT_PORT),
+            }
+        };
+        if host.is_empty() || port == 0 {
+            return Err(bad("no host, or port 0"));
+        }
+        Ok(BrokerAddr {
+            host: host
+                .trim_start_matches('[')
+                .trim_end_matches(']')
+                .to_owned(),
+            port,
+        })
+    }
+}
+
+impl std::fmt::Display for BrokerAddr {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.host.contains(':') {
+            write!(f, "mqtt://[{}]:{}", self.host, self.port)
+        } else {
+            write!(f, "mqtt://{}:{}", self.host, self.port)
+        }
+    }
+}
+
+/// How long [`start_embedded`] waits for the broker to accept connections.
+const START_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Starts rumqttd in this process, listening on `listen` (MQTT 3.1.1), and returns once it
+/// accepts connections. It runs on its own threads until the process ends.
+pub fn start_embedded(listen: SocketAddr) -> Result<()> {
+    let fail = |why: String| LiveError::Broker {
+        listen: listen.to_string(),
+        why,
+    };
+    // rumqttd reports a port in use from a thread of its own; find out here instead.
+    drop(TcpListener::bind(listen).map_err(|e| fail(e.to_string()))?);
+    let config = format!(
+        r#"
+id = 0
+[router]
+id = 0
+max_connections = 1000
+max_outgoing_packet_count = 200
+max_segment_size = 104857600
+max_segment_count = 10
+
+[v4.1]
+name = "nomen-v4"
+listen = "{listen}"
+next_connection_delay_ms = 1
+[v4.1.connections]
+connection_timeout_ms = 60000
+max_payload_size = {max_payload}
+max_inflight_count = 100
+dynamic_filters = true
+"#,
+        max_payload = MAX_PAYLOAD_BYTES + 4096
+    );
+    let config: rumqttd::Config = toml::from_str(&config).map_err(|e| fail(e.to_string()))?;
+    let mut broker = rumqttd::Broker::new(config);
+    std::thread::Builder::new()
+        .name("nomen-broker".to_owned())
+        .spawn(move || {
+            // A broker that fails to start is found below: it never accepts a connection.
+            let _ = broker.start();
+        })
+        .map_err(|e| fail(e.to_string()))?;
+    let started = Instant::now();
+    loop {
+        if TcpStream::connect_timeout(&listen, Duration::from_millis(200)).is_ok() {
+            return Ok(());
+        }
+        if started.elapsed() > START_TIMEOUT {
+            return Err(fail(format!(
+                "not accepting connections after {} s",
+                START_TIMEOUT.as_secs()
+            )));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn broker_urls_give_host_and_port() {
+        assert_eq!(
+            BrokerAddr::parse("mqtt://127.0.0.1:1884").unwrap(),
+            BrokerAddr {
+                host: "127.0.0.1".to_owned(),
+                port: 1884
+            }
+        );
+        assert_eq!(BrokerAddr::parse("mqtt://broker").unwrap().port, 1883);
+        assert_eq!(BrokerAddr::parse("mqtt://[::1]:99").unwrap().host, "::1");
+        assert_eq!(BrokerAddr::parse("mqtt://[::1]").unwrap().port, 1883);
+        assert!(BrokerAddr::parse("http://x").is_err());
+        assert!(BrokerAddr::parse("mqtt://x:99999").is_err());
+        assert!(BrokerAddr::parse("mqtt://:1883").is_err());
+    }
+}

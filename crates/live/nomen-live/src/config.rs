@@ -1,0 +1,111 @@
+//! `serve.toml`: what `nomen serve` reads from `--config` (every field optional).
+
+use crate::{LiveError, Result};
+use nomen_engine::EngineConfig;
+use serde::Deserialize;
+use std::path::PathBuf;
+
+/// The live service's configuration.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ServeConfig {
+    /// The broker to use, `mqtt://host:port`; none: start the embedded broker on
+    /// `embedded_listen`. `--mqtt` overrides it.
+    pub mqtt: Option<String>,
+    /// Where the embedded broker listens. Default `127.0.0.1:1883`.
+    pub embedded_listen: String,
+    /// The registry: a JSON file holding one registry object, or a recording whose header carries
+    /// one. Without it the service waits for one on `nomen/in/registry`.
+    pub registry: Option<PathBuf>,
+    /// The identity log: an SQLite file that every decision and event goes to before it is
+    /// published (`docs/live.md` has the schema). `--log` overrides it. Default: none.
+    pub log: Option<PathBuf>,
+    /// The MQTT client id of the service. Default `nomen-serve`.
+    pub client_id: String,
+    /// Decoded messages the input queue holds before it drops (and counts) what comes next.
+    /// Default 16,384: 2 s of 8 people with 5 IMUs each at 100 Hz and 2 cameras at 30 Hz, at
+    /// most 40 MB with full skeletons.
+    pub queue_capacity: usize,
+    /// Outputs the MQTT client buffers before a publish waits. Default 4,096.
+    pub publish_capacity: usize,
+    /// Period of the health reports, s. Default 1.
+    pub health_period_s: f64,
+    /// Session time without a decision naming a subject after which he is lost, s. Default 3.
+    pub lost_after_s: f64,
+    /// The engine's configuration, as in `nomen run --config`.
+    pub engine: EngineConfig,
+}
+
+impl Default for ServeConfig {
+    fn default() -> Self {
+        ServeConfig {
+            mqtt: None,
+            embedded_listen: "127.0.0.1:1883".to_owned(),
+            registry: None,
+            log: None,
+            client_id: "nomen-serve".to_owned(),
+            queue_capacity: 16_384,
+            publish_capacity: 4_096,
+            health_period_s: 1.0,
+            lost_after_s: 3.0,
+            engine: EngineConfig::default(),
+        }
+    }
+}
+
+impl ServeConfig {
+    /// Reads a configuration from TOML text; `path` names it in errors.
+    pub fn from_toml(text: &str, path: &str) -> Result<Self> {
+        let config: ServeConfig = toml::from_str(text).map_err(|e| LiveError::Config {
+            path: path.to_owned(),
+            why: e.to_string(),
+        })?;
+        config.validate(path)?;
+        Ok(config)
+    }
+
+    /// Checks the numbers.
+    pub fn validate(&self, path: &str) -> Result<()> {
+        let bad = |why: &str| {
+            Err(LiveError::Config {
+                path: path.to_owned(),
+                why: why.to_owned(),
+            })
+        };
+        if self.queue_capacity == 0 || self.publish_capacity == 0 {
+            return bad("queue_capacity and publish_capacity must be at least 1");
+        }
+        if !(self.health_period_s.is_finite() && self.health_period_s >= 0.01) {
+            return bad("health_period_s must be at least 0.01");
+        }
+        if !(self.lost_after_s.is_finite() && self.lost_after_s > 0.0) {
+            return bad("lost_after_s must be positive");
+        }
+        self.engine.validate().map_err(|e| LiveError::Config {
+            path: path.to_owned(),
+            why: e.to_string(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_empty_file_gives_the_defaults_and_unknown_keys_are_refused() {
+        assert_eq!(
+            ServeConfig::from_toml("", "serve.toml").unwrap(),
+            ServeConfig::default()
+        );
+        let c = ServeConfig::from_toml(
+            "mqtt = \"mqtt://h:1\"\nqueue_capacity = 10\n[engine]\nhop_s = 0.25\n",
+            "serve.toml",
+        )
+        .unwrap();
+        assert_eq!(c.queue_capacity, 10);
+        assert_eq!(c.engine.hop_s, 0.25);
+        assert!(ServeConfig::from_toml("queue = 1", "serve.toml").is_err());
+        assert!(ServeConfig::from_toml("queue_capacity = 0", "serve.toml").is_err());
+    }
+}

@@ -1,0 +1,460 @@
+//! `nomen serve`'s network loop: an MQTT client thread that decodes inputs into a bounded queue,
+//! and the session loop that feeds the engine and publishes what it makes.
+
+use crate::broker::BrokerAddr;
+use crate::decode::{Input, MAX_PAYLOAD_BYTES, decode};
+use crate::health::{Health, HealthReport};
+use crate::log::IdentityLog;
+use crate::session::{IDLE_TICK, Output, Refusal, Session};
+use crate::topics::{EVENT_TOPIC, HEALTH_TOPIC, INPUT_FILTER, input_source, output_topic};
+use crate::{LiveError, Result};
+use nomen_core::{Message, Registry};
+use rumqttc::{Client, Connection, Event, MqttOptions, Outgoing, Packet, QoS};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc::{RecvTimeoutError, SyncSender, TrySendError, sync_channel};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
+
+/// Where the decisions go besides MQTT (the CLI's `--out` file).
+pub trait DecisionSink {
+    /// A batch of decisions of the session whose registry is `registry`, in time order.
+    fn write(&mut self, registry: &Registry, decisions: &[Message]) -> std::io::Result<()>;
+    /// The service stops: flush.
+    fn finish(&mut self) -> std::io::Result<()>;
+}
+
+/// How `serve` runs.
+#[derive(Debug, Clone)]
+pub struct ServeOptions {
+    /// The broker.
+    pub broker: BrokerAddr,
+    /// The MQTT client id.
+    pub client_id: String,
+    /// Capacity of the input queue (decoded messages).
+    pub queue_capacity: usize,
+    /// Capacity of the MQTT client's request queue.
+    pub publish_capacity: usize,
+    /// Period of the health reports.
+    pub health_period: Duration,
+    /// How long to wait for the first connection.
+    pub connect_timeout: Duration,
+}
+
+/// What a finished `serve` did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ServeSummary {
+    /// The last health report (published at the end too).
+    pub health: HealthReport,
+    /// Decisions published.
+    pub num_decisions: u64,
+    /// Events published.
+    pub num_events: u64,
+}
+
+/// How long a stopping service waits for the broker to acknowledge its last publishes.
+const ACK_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The state the client thread and the session loop share: the counts behind the health reports.
+type SharedHealth = Arc<Mutex<Health>>;
+
+/// What the client thread tells the session loop besides the queue.
+#[derive(Default)]
+struct Shared {
+    /// Messages in the input queue (counted before they are queued).
+    in_queue: AtomicUsize,
+    /// The broker's acknowledgements of the service's publishes.
+    num_acked: AtomicU64,
+    /// A registry that found the input queue full.
+    pending_registry: Mutex<Option<Box<Registry>>>,
+}
+
+fn lock(health: &SharedHealth) -> std::sync::MutexGuard<'_, Health> {
+    // The counts stay usable after a panic elsewhere.
+    health.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Runs the live service until `stop` is set: connects to the broker, subscribes to the inputs,
+/// runs `session` on them, publishes its outputs (QoS 1), a health report every period and,
+/// at the end, the session's last decisions. `registry`, when given, starts the first session
+/// before any registry message arrives. Every batch of outputs goes to `log` (committed) before
+/// it is published, and to `sink`.
+pub fn serve(
+    options: &ServeOptions,
+    mut session: Session,
+    registry: Option<Registry>,
+    mut sink: Option<&mut dyn DecisionSink>,
+    mut log: Option<IdentityLog>,
+    stop: &AtomicBool,
+) -> Result<ServeSummary> {
+    let started = Instant::now();
+    let mut mqtt = MqttOptions::new(
+        options.client_id.clone(),
+        options.broker.host.clone(),
+        options.broker.port,
+    );
+    mqtt.set_max_packet_size(MAX_PAYLOAD_BYTES + 4096, MAX_PAYLOAD_BYTES + 4096);
+    mqtt.set_keep_alive(Duration::from_secs(10));
+    let (client, connection) = Client::new(mqtt, options.publish_capacity);
+    let health: SharedHealth = Arc::default();
+    let (queue_in, queue) = sync_channel(options.queue_capacity);
+    let (connected_tx, connected) = sync_channel(1);
+    let shared = Arc::new(Shared::default());
+    // Dropped when the client thread ends.
+    let (ended_tx, ended) = sync_channel::<()>(0);
+    let network = {
+        let shared = Arc::clone(&shared);
+        let client = client.clone();
+        let health = Arc::clone(&health);
+        std::thread::Builder::new()
+            .name("nomen-mqtt".to_owned())
+            .spawn(move || {
+                let _ended = ended_tx;
+                run_client(
+                    connection,
+                    &client,
+                    &health,
+                    &queue_in,
+                    &shared,
+                    &connected_tx,
+                )
+            })
+            .map_err(|e| LiveError::Io {
+                what: "cannot start the mqtt thread".to_owned(),
+                source: e,
+            })?
+    };
+    match connected.recv_timeout(options.connect_timeout) {
+        Ok(Ok(())) => {}
+        Ok(Err(why)) => {
+            return Err(LiveError::Mqtt {
+                what: format!("connect to {}", options.broker),
+                why,
+            });
+        }
+        Err(_) => {
+            return Err(LiveError::Mqtt {
+                what: format!("connect to {}", options.broker),
+                why: format!("no answer in {} s", options.connect_timeout.as_secs_f64()),
+            });
+        }
+    }
+    let mut out = Vec::new();
+    let mut publisher = Publisher {
+        client: &client,
+        num_decisions: 0,
+        num_events: 0,
+        num_sent: 0,
+        logged_session: 0,
+    };
+    if let Some(registry) = registry {
+        session.set_registry(registry, &mut out);
+        publisher.publish(&mut out, &session, &mut sink, &mut log, &health)?;
+    }
+    let mut last_message = Instant::now();
+    let mut next_health = started + options.health_period;
+    let mut result = Ok(());
+    while !stop.load(Ordering::Relaxed) {
+        let now = Instant::now();
+        let wait = next_health.saturating_duration_since(now).min(IDLE_TICK);
+        let pending = shared
+            .pending_registry
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take();
+        if let Some(registry) = pending {
+            session.set_registry(*registry, &mut out);
+        }
+        let input = queue.recv_timeout(wait);
+        if input.is_ok() {
+            shared.in_queue.fetch_sub(1, Ordering::Relaxed);
+        }
+        match input {
+            Ok(Input::Registry(registry)) => session.set_registry(*registry, &mut out),
+            Ok(Input::Message(m)) => {
+                last_message = Instant::now();
+                match session.push(&m, last_message, &mut out) {
+                    Ok(()) => {
+                        if let (Some(log), Message::Skeleton(s)) = (log.as_mut(), &m) {
+                            log.observe(s);
+                        }
+                    }
+                    Err(refusal) => {
+                        let mut h = lock(&health);
+                        match (refusal, input_source(&m)) {
+                            (Refusal::NoRegistry, _) => h.before_registry(),
+                            (Refusal::Engine(why), Some((kind, source))) => {
+                                h.rejected(kind, source, &why);
+                            }
+                            (Refusal::Engine(_), None) => {}
+                        }
+                    }
+                }
+            }
+            Err(RecvTimeoutError::Timeout) => {
+                if last_message.elapsed() >= IDLE_TICK {
+                    session.idle(Instant::now(), &mut out);
+                }
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                result = Err(LiveError::Mqtt {
+                    what: "client".to_owned(),
+                    why: "the mqtt thread stopped".to_owned(),
+                });
+                break;
+            }
+        }
+        if let Err(e) = publisher.publish(&mut out, &session, &mut sink, &mut log, &health) {
+            result = Err(e);
+            break;
+        }
+        if Instant::now() >= next_health {
+            next_health += options.health_period;
+            let report = report(
+                &health,
+                started,
+                &session,
+                &shared.in_queue,
+                options.queue_capacity,
+            );
+            publisher.health(&report)?;
+        }
+    }
+    // Stopped: take what is queued, then flush the engine.
+    while let Ok(input) = queue.try_recv() {
+        match input {
+            Input::Registry(registry) => session.set_registry(*registry, &mut out),
+            Input::Message(m) => {
+                let _ = session.push(&m, Instant::now(), &mut out);
+            }
+        }
+    }
+    session.finish(&mut out);
+    publisher.publish(&mut out, &session, &mut sink, &mut log, &health)?;
+    if let Some(sink) = sink {
+        sink.finish().map_err(|e| LiveError::Io {
+            what: "cannot write the decisions".to_owned(),
+            source: e,
+        })?;
+    }
+    let report = report(
+        &health,
+        started,
+        &session,
+        &shared.in_queue,
+        options.queue_capacity,
+    );
+    publisher.health(&report)?;
+    let summary = ServeSummary {
+        health: report,
+        num_decisions: publisher.num_decisions,
+        num_events: publisher.num_events,
+    };
+    // Wait for the broker's acknowledgements first: a socket closed with unread acks is reset,
+    // and a broker may then drop the last publishes it had not read yet.
+    let waiting = Instant::now();
+    while shared.num_acked.load(Ordering::Relaxed) < publisher.num_sent
+        && waiting.elapsed() < ACK_TIMEOUT
+    {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    // The disconnect goes after every publish queued before it; the client thread ends on it.
+    // With the broker gone it may never be sent: the thread is then left behind, not waited for.
+    let _ = client.try_disconnect();
+    drop(queue);
+    if ended.recv_timeout(Duration::from_secs(5)) == Err(RecvTimeoutError::Disconnected) {
+        let _ = network.join();
+    }
+    result.map(|()| summary)
+}
+
+fn report(
+    health: &SharedHealth,
+    started: Instant,
+    session: &Session,
+    in_queue: &AtomicUsize,
+    capacity: usize,
+) -> HealthReport {
+    lock(health).report(
+        started.elapsed().as_secs_f64(),
+        session.num_sessions(),
+        (in_queue.load(Ordering::Relaxed).min(capacity), capacity),
+    )
+}
+
+struct Publisher<'a> {
+    client: &'a Client,
+    num_decisions: u64,
+    num_events: u64,
+    /// Publishes handed to the client (each acknowledged by the broker, QoS 1).
+    num_sent: u64,
+    /// The session the log's rows go to (0: none yet).
+    logged_session: u64,
+}
+
+impl Publisher<'_> {
+    fn publish(
+        &mut self,
+        out: &mut Vec<Output>,
+        session: &Session,
+        sink: &mut Option<&mut dyn DecisionSink>,
+        log: &mut Option<IdentityLog>,
+        health: &SharedHealth,
+    ) -> Result<()> {
+        if !out.is_empty() {
+            if let Some(log) = log.as_mut() {
+                // Written and committed before anything is published.
+                log.write(out)?;
+            }
+            self.send_all(out, session, sink, health)?;
+        }
+        // A new session (after its predecessor's last outputs went to the old one).
+        if let (Some(log), Some(registry)) = (log.as_mut(), session.registry())
+            && session.num_sessions() != self.logged_session
+        {
+            let unix_ms = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| i64::try_from(d.as_millis()).unwrap_or(i64::MAX));
+            log.begin_session(registry, unix_ms)?;
+            self.logged_session = session.num_sessions();
+        }
+        Ok(())
+    }
+
+    fn send_all(
+        &mut self,
+        out: &mut Vec<Output>,
+        session: &Session,
+        sink: &mut Option<&mut dyn DecisionSink>,
+        health: &SharedHealth,
+    ) -> Result<()> {
+        let mut num_decisions = 0;
+        for o in out.iter() {
+            match o {
+                Output::Decision(m) => {
+                    let Some(topic) = output_topic(m) else {
+                        continue;
+                    };
+                    self.send(topic, to_json(m))?;
+                    num_decisions += 1;
+                }
+                Output::Event(e) => {
+                    self.send(EVENT_TOPIC.to_owned(), to_json(e))?;
+                    self.num_events += 1;
+                }
+            }
+        }
+        self.num_decisions += num_decisions;
+        lock(health).published(num_decisions);
+        if let (Some(sink), Some(registry)) = (sink.as_mut(), session.registry()) {
+            let decisions: Vec<Message> = out
+                .iter()
+                .filter_map(|o| match o {
+                    Output::Decision(m) => Some(m.clone()),
+                    Output::Event(_) => None,
+                })
+                .collect();
+            sink.write(registry, &decisions)
+                .map_err(|e| LiveError::Io {
+                    what: "cannot write the decisions".to_owned(),
+                    source: e,
+                })?;
+        }
+        out.clear();
+        Ok(())
+    }
+
+    fn health(&mut self, report: &HealthReport) -> Result<()> {
+        self.send(HEALTH_TOPIC.to_owned(), to_json(report))
+    }
+
+    fn send(&mut self, topic: String, payload: Vec<u8>) -> Result<()> {
+        self.num_sent += 1;
+        self.client
+            .publish(topic, QoS::AtLeastOnce, false, payload)
+            .map_err(|e| LiveError::Mqtt {
+                what: "publish".to_owned(),
+                why: e.to_string(),
+            })
+    }
+}
+
+fn to_json<T: serde::Serialize>(value: &T) -> Vec<u8> {
+    // Our own values always serialise (finite numbers, string keys).
+    serde_json::to_vec(value).unwrap_or_default()
+}
+
+/// The client thread: keeps the connection (rumqttc reconnects), subscribes on every connection,
+/// decodes what arrives into the bounded queue, and counts what it cannot use.
+fn run_client(
+    mut connection: Connection,
+    client: &Client,
+    health: &SharedHealth,
+    queue: &SyncSender<Input>,
+    shared: &Shared,
+    connected: &SyncSender<std::result::Result<(), String>>,
+) {
+    let mut is_first = true;
+    for event in connection.iter() {
+        match event {
+            Ok(Event::Incoming(Packet::ConnAck(_))) => {
+                // Never blocks: the request queue is drained by this very loop.
+                let _ = client.try_subscribe(INPUT_FILTER, QoS::AtLeastOnce);
+                if is_first {
+                    is_first = false;
+                    let _ = connected.try_send(Ok(()));
+                }
+            }
+            Ok(Event::Incoming(Packet::Publish(p))) => match decode(&p.topic, &p.payload) {
+                Ok(input) => {
+                    let source = match &input {
+                        Input::Message(m) => input_source(m).map(|(k, s)| (k, s.to_owned())),
+                        Input::Registry(_) => None,
+                    };
+                    if let Input::Message(m) = &input
+                        && let Some((kind, s)) = &source
+                    {
+                        lock(health).received(*kind, s, m.t().as_ns());
+                    }
+                    // Counted before it is sent, so that the consumer's count never goes
+                    // below zero; at most one more than the queue holds.
+                    shared.in_queue.fetch_add(1, Ordering::Relaxed);
+                    match queue.try_send(input) {
+                        Ok(()) => {}
+                        // Rare and never to be lost, but waiting here could deadlock with a
+                        // session loop waiting for this thread to send its outputs: the slot
+                        // of its own is taken at the session loop's next turn.
+                        Err(TrySendError::Full(Input::Registry(registry))) => {
+                            shared.in_queue.fetch_sub(1, Ordering::Relaxed);
+                            *shared
+                                .pending_registry
+                                .lock()
+                                .unwrap_or_else(PoisonError::into_inner) = Some(registry);
+                        }
+                        Err(TrySendError::Full(_)) => {
+                            shared.in_queue.fetch_sub(1, Ordering::Relaxed);
+                            if let Some((kind, s)) = &source {
+                                lock(health).dropped(*kind, s);
+                            }
+                        }
+                        Err(TrySendError::Disconnected(_)) => return,
+                    }
+                }
+                Err(reason) => lock(health).malformed(&p.topic, &reason),
+            },
+            Ok(Event::Incoming(Packet::PubAck(_))) => {
+                shared.num_acked.fetch_add(1, Ordering::Relaxed);
+            }
+            Ok(Event::Outgoing(Outgoing::Disconnect)) => return,
+            Ok(_) => {}
+            Err(e) => {
+                if is_first {
+                    let _ = connected.try_send(Err(e.to_string()));
+                    return;
+                }
+                lock(health).connection_error(&e.to_string());
+                // rumqttc reconnects on the next poll; do not spin while the broker is away.
+                std::thread::sleep(Duration::from_millis(500));
+            }
+        }
+    }
+}

@@ -1,0 +1,220 @@
+//! The session: one engine per registry, fed messages in arrival order, told when time passes
+//! without any, its decisions turned into outputs and events. Sans-IO: the wall clock comes in
+//! as an argument.
+
+use crate::events::{Event, Events};
+use nomen_core::{Message, Registry, SessionTime};
+use nomen_engine::Engine;
+use std::time::{Duration, Instant};
+
+/// Makes the engine of a session from its registry (the CLI's, shared with `nomen run`).
+pub type EngineFactory = Box<dyn FnMut(Registry) -> Result<Engine, String> + Send>;
+
+/// How long no message may arrive before the engine is told that time passes (as
+/// `nomen run --live` does).
+pub const IDLE_TICK: Duration = Duration::from_millis(100);
+
+/// Settings of a session.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SessionOptions {
+    /// The most session time an idle tick moves the clock past the newest message, ns: far
+    /// enough for every decision to come out, never a time jump (the CLI computes it from the
+    /// engine configuration, as for `nomen run --live`).
+    pub max_idle_ns: i64,
+    /// See [`crate::ServeConfig::lost_after_s`].
+    pub lost_after_s: f64,
+}
+
+/// What a session produces.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Output {
+    /// An engine output (identified skeleton or tag correction), in time order within a batch.
+    Decision(Message),
+    /// An event.
+    Event(Event),
+}
+
+/// Why a message was not taken.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Refusal {
+    /// No registry yet: no engine to take it.
+    NoRegistry,
+    /// The engine refused it; the engine's reason.
+    Engine(String),
+}
+
+struct Current {
+    registry: Registry,
+    engine: Engine,
+    events: Events,
+}
+
+/// The engine's session, with the state the live loop needs around it.
+pub struct Session {
+    make_engine: EngineFactory,
+    options: SessionOptions,
+    current: Option<Current>,
+    num_sessions: u64,
+    newest: Option<(SessionTime, Instant)>,
+    batch: Vec<Message>,
+    events: Vec<Event>,
+}
+
+impl Session {
+    /// A session that makes its engines with `make_engine`; it has no registry yet.
+    pub fn new(make_engine: EngineFactory, options: SessionOptions) -> Self {
+        Session {
+            make_engine,
+            options,
+            current: None,
+            num_sessions: 0,
+            newest: None,
+            batch: Vec::new(),
+            events: Vec::new(),
+        }
+    }
+
+    /// Sessions started so far (one per registry).
+    pub fn num_sessions(&self) -> u64 {
+        self.num_sessions
+    }
+
+    /// The current registry.
+    pub fn registry(&self) -> Option<&Registry> {
+        self.current.as_ref().map(|c| &c.registry)
+    }
+
+    /// The engine's statistics, when there is a session.
+    pub fn engine_stats(&self) -> Option<&nomen_engine::EngineStats> {
+        self.current.as_ref().map(|c| c.engine.stats())
+    }
+
+    /// A registry arrived. The same as the current one changes nothing; another finishes the
+    /// current session (its last decisions go to `out`) and starts a new one. A registry the
+    /// engine refuses leaves the current session as it was and is reported as a warning.
+    pub fn set_registry(&mut self, registry: Registry, out: &mut Vec<Output>) {
+        if self.registry() == Some(&registry) {
+            return;
+        }
+        let t_ns = self.newest.map_or(0, |(t, _)| t.as_ns());
+        match (self.make_engine)(registry.clone()) {
+            Ok(engine) => {
+                self.finish(out);
+                self.num_sessions += 1;
+                self.newest = None;
+                self.current = Some(Current {
+                    registry,
+                    engine,
+                    events: Events::new(self.options.lost_after_s),
+                });
+            }
+            Err(why) => out.push(Output::Event(Event::warning(
+                t_ns,
+                format!("registry refused, the session goes on with the one it had: {why}"),
+            ))),
+        }
+    }
+
+    /// A message arrived at wall time `now`: it goes to the engine, the decisions then final go
+    /// to `out`.
+    pub fn push(
+        &mut self,
+        msg: &Message,
+        now: Instant,
+        out: &mut Vec<Output>,
+    ) -> Result<(), Refusal> {
+        let Some(current) = self.current.as_mut() else {
+            return Err(Refusal::NoRegistry);
+        };
+        if self.newest.is_none_or(|(t, _)| msg.t() > t) {
+            self.newest = Some((msg.t(), now));
+        }
+        let pushed = current
+            .engine
+            .push(msg)
+            .map_err(|e| Refusal::Engine(e.to_string()));
+        self.poll(out);
+        pushed
+    }
+
+    /// No message arrived for a while (at least [`IDLE_TICK`]): the engine is told that the
+    /// session clock ran on with the wall clock since the newest message (at most
+    /// [`SessionOptions::max_idle_ns`]), and the decisions then final go to `out`.
+    pub fn idle(&mut self, now: Instant, out: &mut Vec<Output>) {
+        let (Some(current), Some((newest, at))) = (self.current.as_mut(), self.newest) else {
+            return;
+        };
+        let idle_ns =
+            i64::try_from(now.saturating_duration_since(at).as_nanos()).unwrap_or(i64::MAX);
+        let t = newest
+            .as_ns()
+            .saturating_add(idle_ns.min(self.options.max_idle_ns));
+        // Within the time-jump bound by construction; a refusal changes nothing.
+        let _ = current.engine.advance_to(SessionTime::from_ns(t));
+        self.poll(out);
+    }
+
+    /// Ends the session: every decision still held goes to `out`, then the engine's warnings.
+    /// The registry is kept, so later messages start a new engine with it.
+    pub fn finish(&mut self, out: &mut Vec<Output>) {
+        let Some(mut current) = self.current.take() else {
+            return;
+        };
+        current.engine.finish(&mut self.batch);
+        self.emit(&mut current, out);
+        let t_ns = self.newest.map_or(0, |(t, _)| t.as_ns());
+        let stats = current.engine.stats();
+        if let Some(why) = &stats.first_message_dropped {
+            out.push(Output::Event(Event::warning(
+                t_ns,
+                format!("the session's first message was dropped: {why}"),
+            )));
+        }
+        for (device, g) in stats.implausible_gravity() {
+            out.push(Output::Event(Event::warning(
+                t_ns,
+                format!(
+                    "imu {device} started from {g:.3} m/s² of gravity (about 9.81 expected): \
+                     are its accelerations in g or milli-g?"
+                ),
+            )));
+        }
+        // A finished engine takes nothing more: the next message needs a fresh one.
+        match (self.make_engine)(current.registry.clone()) {
+            Ok(engine) => {
+                self.current = Some(Current {
+                    registry: current.registry,
+                    engine,
+                    events: Events::new(self.options.lost_after_s),
+                });
+            }
+            Err(why) => out.push(Output::Event(Event::warning(t_ns, why))),
+        }
+    }
+
+    fn poll(&mut self, out: &mut Vec<Output>) {
+        let Some(mut current) = self.current.take() else {
+            return;
+        };
+        current.engine.poll(&mut self.batch);
+        self.emit(&mut current, out);
+        self.current = Some(current);
+    }
+
+    fn emit(&mut self, current: &mut Current, out: &mut Vec<Output>) {
+        if self.batch.is_empty() {
+            return;
+        }
+        self.batch.sort_by_key(|m| m.t());
+        let mut last_ns = i64::MIN;
+        for m in self.batch.drain(..) {
+            if let Message::Identified(d) = &m {
+                current.events.on_decision(d, &mut self.events);
+            }
+            last_ns = last_ns.max(m.t().as_ns());
+            out.push(Output::Decision(m));
+        }
+        current.events.on_time(last_ns, &mut self.events);
+        out.extend(self.events.drain(..).map(Output::Event));
+    }
+}
