@@ -501,6 +501,8 @@ fn after_kill_9_the_identity_log_holds_every_published_decision() {
         .lines()
         .map(|l| {
             let d: Value = serde_json::from_str(l).unwrap();
+            // Each logged decision says why: the engine's decision trace.
+            assert!(d["decision"]["rule"].is_string(), "{l}");
             (
                 d["camera"].as_str().unwrap().to_owned(),
                 d["track"].as_i64().unwrap(),

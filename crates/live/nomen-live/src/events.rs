@@ -177,6 +177,7 @@ mod tests {
             }),
             confidence: 0.9,
             evidence: Vec::new(),
+            decision: None,
             joints: Joints::new(),
         }
     }

@@ -31,7 +31,8 @@ CREATE TABLE IF NOT EXISTS decisions (
     subject TEXT,
     confidence REAL NOT NULL,
     x_m REAL, y_m REAL, z_m REAL,
-    evidence_json TEXT NOT NULL
+    evidence_json TEXT NOT NULL,
+    decision_json TEXT
 );
 CREATE INDEX IF NOT EXISTS decisions_by_subject ON decisions(subject, t_ns);
 CREATE INDEX IF NOT EXISTS decisions_by_time ON decisions(t_ns);
@@ -170,8 +171,8 @@ impl IdentityLog {
                     });
                     tx.execute(
                         "INSERT INTO decisions (session_id, t_ns, camera, track, subject, \
-                         confidence, x_m, y_m, z_m, evidence_json) \
-                         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
+                         confidence, x_m, y_m, z_m, evidence_json, decision_json) \
+                         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)",
                         params![
                             session,
                             d.t.as_ns(),
@@ -183,6 +184,9 @@ impl IdentityLog {
                             mean.map(|m| m[1]),
                             mean.map(|m| m[2]),
                             serde_json::to_string(&d.evidence).unwrap_or_default(),
+                            d.decision
+                                .as_ref()
+                                .and_then(|trace| serde_json::to_string(trace).ok()),
                         ],
                     )
                     .map_err(sql_error(&self.path))?;
@@ -273,6 +277,9 @@ pub struct LoggedDecision {
     pub position_m: Option<[f64; 3]>,
     /// The evidence behind the decision (modality, device, score), as JSON.
     pub evidence: serde_json::Value,
+    /// Why the identity was given (`nomen_core::DecisionTrace`: rule, decision time, named and
+    /// runner-up subjects with their scores), as JSON; null when the producer gave none.
+    pub decision: serde_json::Value,
 }
 
 /// The decisions in the log at `path` that `q` selects, in session and time order.
@@ -303,7 +310,7 @@ pub fn query(path: &Path, q: &Query) -> Result<Vec<LoggedDecision>> {
     let mut statement = connection
         .prepare(
             "SELECT session_id, t_ns, camera, track, subject, confidence, x_m, y_m, z_m, \
-             evidence_json FROM decisions \
+             evidence_json, decision_json FROM decisions \
              WHERE (?1 IS NULL OR (?1 = '' AND subject IS NULL) OR subject = ?1) \
              AND (?2 IS NULL OR camera = ?2) AND (?3 IS NULL OR t_ns >= ?3) \
              AND (?4 IS NULL OR t_ns <= ?4) AND (?5 IS NULL OR session_id = ?5) \
@@ -318,6 +325,7 @@ pub fn query(path: &Path, q: &Query) -> Result<Vec<LoggedDecision>> {
                 let y: Option<f64> = row.get(7)?;
                 let z: Option<f64> = row.get(8)?;
                 let evidence: String = row.get(9)?;
+                let decision: Option<String> = row.get(10)?;
                 Ok(LoggedDecision {
                     session: row.get(0)?,
                     t_ns: row.get(1)?,
@@ -330,6 +338,9 @@ pub fn query(path: &Path, q: &Query) -> Result<Vec<LoggedDecision>> {
                         _ => None,
                     },
                     evidence: serde_json::from_str(&evidence).unwrap_or_default(),
+                    decision: decision
+                        .and_then(|d| serde_json::from_str(&d).ok())
+                        .unwrap_or_default(),
                 })
             },
         )
@@ -364,6 +375,7 @@ mod tests {
                 Identity::Subject(SubjectId::new(s))
             }),
             confidence: 0.8,
+            decision: None,
             evidence: vec![Evidence {
                 modality: "imu".to_owned(),
                 device: DeviceId::new("w1"),

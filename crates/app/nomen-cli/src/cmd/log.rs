@@ -34,7 +34,8 @@ pub struct QueryArgs {
     /// Only this session (numbered from 1 in the log).
     #[arg(long)]
     pub session: Option<i64>,
-    /// JSON Lines: session, t_ns, camera, track, subject, confidence, position_m, evidence.
+    /// JSON Lines: session, t_ns, camera, track, subject, confidence, position_m, evidence,
+    /// decision (the decision trace).
     #[arg(long)]
     pub json: bool,
 }
@@ -57,7 +58,7 @@ pub fn run(command: LogCommand) -> Result<()> {
     if !args.json {
         writeln!(
             out,
-            "session\tt_s\tcamera\ttrack\tsubject\tconfidence\tposition_m (camera frame)\tevidence"
+            "session\tt_s\tcamera\ttrack\tsubject\tconfidence\trule\tposition_m (camera frame)\tevidence"
         )?;
     }
     for r in &rows {
@@ -87,13 +88,14 @@ pub fn run(command: LogCommand) -> Result<()> {
                 .unwrap_or_default();
             writeln!(
                 out,
-                "{}\t{:.3}\t{}\t{}\t{}\t{:.3}\t{}\t{}",
+                "{}\t{:.3}\t{}\t{}\t{}\t{:.3}\t{}\t{}\t{}",
                 r.session,
                 r.t_ns as f64 * 1e-9,
                 r.camera,
                 r.track,
                 r.subject.as_deref().unwrap_or("anonymous"),
                 r.confidence,
+                r.decision["rule"].as_str().unwrap_or("-"),
                 position,
                 evidence.join("; ")
             )?;
