@@ -5,6 +5,10 @@ use nomen_engine::EngineConfig;
 use serde::Deserialize;
 use std::path::PathBuf;
 
+/// The largest `queue_capacity` and `publish_capacity` taken: both queues are allocated up
+/// front.
+pub const MAX_CAPACITY: usize = 1_000_000;
+
 /// The live service's configuration.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -24,13 +28,15 @@ pub struct ServeConfig {
     pub client_id: String,
     /// Decoded messages the input queue holds before it drops (and counts) what comes next.
     /// Default 16,384: 2 s of 8 people with 5 IMUs each at 100 Hz and 2 cameras at 30 Hz, at
-    /// most 40 MB with full skeletons.
+    /// most 40 MB with full skeletons. At most [`MAX_CAPACITY`].
     pub queue_capacity: usize,
-    /// Outputs the MQTT client buffers before a publish waits. Default 4,096.
+    /// Outputs the MQTT client buffers before a publish waits. Default 4,096. At most
+    /// [`MAX_CAPACITY`].
     pub publish_capacity: usize,
-    /// Period of the health reports, s. Default 1.
+    /// Period of the health reports, s, within 0.01..=3600. Default 1.
     pub health_period_s: f64,
-    /// Session time without a decision naming a subject after which he is lost, s. Default 3.
+    /// Session time without a decision naming a subject after which he is lost, s, at most
+    /// 86,400. Default 3.
     pub lost_after_s: f64,
     /// The engine's configuration, as in `nomen run --config`.
     pub engine: EngineConfig,
@@ -72,14 +78,19 @@ impl ServeConfig {
                 why: why.to_owned(),
             })
         };
-        if self.queue_capacity == 0 || self.publish_capacity == 0 {
-            return bad("queue_capacity and publish_capacity must be at least 1");
+        if !(1..=MAX_CAPACITY).contains(&self.queue_capacity)
+            || !(1..=MAX_CAPACITY).contains(&self.publish_capacity)
+        {
+            return bad("queue_capacity and publish_capacity must be within 1..=1000000");
         }
-        if !(self.health_period_s.is_finite() && self.health_period_s >= 0.01) {
-            return bad("health_period_s must be at least 0.01");
+        if !(self.health_period_s.is_finite() && (0.01..=3600.0).contains(&self.health_period_s)) {
+            return bad("health_period_s must be within 0.01..=3600");
         }
-        if !(self.lost_after_s.is_finite() && self.lost_after_s > 0.0) {
-            return bad("lost_after_s must be positive");
+        if !(self.lost_after_s.is_finite()
+            && self.lost_after_s > 0.0
+            && self.lost_after_s <= 86_400.0)
+        {
+            return bad("lost_after_s must be positive and at most 86400");
         }
         self.engine.validate().map_err(|e| LiveError::Config {
             path: path.to_owned(),

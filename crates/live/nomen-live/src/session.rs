@@ -126,13 +126,15 @@ impl Session {
         let Some(current) = self.current.as_mut() else {
             return Err(Refusal::NoRegistry);
         };
-        if self.newest.is_none_or(|(t, _)| msg.t() > t) {
-            self.newest = Some((msg.t(), now));
-        }
         let pushed = current
             .engine
             .push(msg)
             .map_err(|e| Refusal::Engine(e.to_string()));
+        // Only a message the engine took moves the clock the idle path runs on: one refused
+        // for a time jump must not hold it hours ahead.
+        if pushed.is_ok() && self.newest.is_none_or(|(t, _)| msg.t() > t) {
+            self.newest = Some((msg.t(), now));
+        }
         self.poll(out);
         pushed
     }

@@ -143,7 +143,8 @@ pub struct DecisionTrace {
     pub rule: DecisionRule,
     /// Session time of the decision (the end of its evidence window).
     pub decided_at: SessionTime,
-    /// The named subject and its score, for a named track.
+    /// The named subject and its score, for a named track (for a name from elsewhere, its score
+    /// on the track or decision that gave it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub named: Option<Candidate>,
     /// The best other subject and its score (for an anonymous track, the best subject).
