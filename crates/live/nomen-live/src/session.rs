@@ -220,3 +220,61 @@ impl Session {
         out.extend(self.events.drain(..).map(Output::Event));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Point3;
+    use nomen_core::skeleton::Joints;
+    use nomen_core::{CameraId, Joint, JointObservation, SkeletonObservation, TrackId};
+    use nomen_engine::EngineConfig;
+
+    /// One person standing before camera `cam` at `t_s`.
+    fn skeleton(t_s: f64) -> Message {
+        let mut joints = Joints::new();
+        for (i, joint) in Joint::ALL.iter().enumerate() {
+            let position = Point3::new(1.0, 2.0, 0.1 * i as f64);
+            joints.insert(*joint, JointObservation::tracked(position));
+        }
+        Message::from(SkeletonObservation {
+            t: SessionTime::from_ns((t_s * 1e9) as i64),
+            camera: CameraId::new("cam"),
+            track: TrackId(1),
+            joints,
+        })
+    }
+
+    fn num_decisions(out: &[Output]) -> usize {
+        out.iter()
+            .filter(|o| matches!(o, Output::Decision(Message::Identified(_))))
+            .count()
+    }
+
+    #[test]
+    fn a_refused_time_jump_does_not_hold_the_idle_clock_ahead() {
+        let registry: Registry = serde_json::from_str(r#"{"cameras":[{"id":"cam"}]}"#).unwrap();
+        let factory: EngineFactory = Box::new(|registry| {
+            Engine::new(registry, EngineConfig::default()).map_err(|e| e.to_string())
+        });
+        let options = SessionOptions {
+            max_idle_ns: 10_000_000_000,
+            lost_after_s: 3.0,
+        };
+        let mut session = Session::new(factory, options);
+        let mut out = Vec::new();
+        session.set_registry(registry, &mut out);
+        let start = Instant::now();
+        let num_frames = 150;
+        for k in 0..num_frames {
+            let pushed = session.push(&skeleton(1.0 + f64::from(k) / 30.0), start, &mut out);
+            assert!(pushed.is_ok(), "{pushed:?}");
+        }
+        // A frame stamped two hours ahead is refused as a time jump.
+        assert!(session.push(&skeleton(7200.0), start, &mut out).is_err());
+        assert!(num_decisions(&out) < num_frames as usize);
+        // Ten seconds without a message: the clock runs on from the newest frame taken, and
+        // every frame is decided.
+        session.idle(start + Duration::from_secs(10), &mut out);
+        assert_eq!(num_decisions(&out), num_frames as usize);
+    }
+}
