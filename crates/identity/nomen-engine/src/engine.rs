@@ -633,10 +633,11 @@ struct Decided {
     end: i64,
 }
 
-/// The subject with the highest score (the lower index on a tie).
-fn best_of(scores: &BTreeMap<usize, f64>) -> Option<(usize, f64)> {
+/// The subject with the highest score other than `except` (the lower index on a tie).
+fn best_of(scores: &BTreeMap<usize, f64>, except: Option<usize>) -> Option<(usize, f64)> {
     scores
         .iter()
+        .filter(|(s, _)| except != Some(**s))
         .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
         .map(|(s, v)| (*s, *v))
 }
@@ -1797,16 +1798,10 @@ impl Engine {
         name: Option<(usize, f64)>,
         decided: Decided,
     ) -> (Identity, f64, Vec<Evidence>, Option<DecisionTrace>) {
-        let best = best_of(&tr.subject_scores);
         // The best subject other than the one named (for an anonymous track, the best).
-        let runner_up = tr
-            .subject_scores
-            .iter()
-            .filter(|(s, _)| name.is_none_or(|(n, _)| n != **s))
-            .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
-            .map(|(s, v)| (*s, *v));
+        let runner_up = best_of(&tr.subject_scores, name.map(|(s, _)| s));
         // The raw confidence (see `crate::confidence`), mapped to a probability.
-        let (identity, raw, shown) = match (name, best) {
+        let (identity, raw, shown) = match (name, runner_up) {
             (Some((s, score)), _) => {
                 let id = self
                     .subjects

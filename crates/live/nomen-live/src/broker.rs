@@ -19,6 +19,15 @@ pub struct BrokerAddr {
 }
 
 impl BrokerAddr {
+    /// The options of nomen's MQTT clients for this broker: `client_id`, packets up to a
+    /// payload's limit ([`MAX_PAYLOAD_BYTES`]) and its header, a 10-s keep-alive.
+    pub fn client_options(&self, client_id: &str) -> rumqttc::MqttOptions {
+        let mut mqtt = rumqttc::MqttOptions::new(client_id, self.host.clone(), self.port);
+        mqtt.set_max_packet_size(MAX_PAYLOAD_BYTES + 4096, MAX_PAYLOAD_BYTES + 4096);
+        mqtt.set_keep_alive(Duration::from_secs(10));
+        mqtt
+    }
+
     /// Reads `mqtt://host[:port]` (a `tcp://` scheme is taken too; the port defaults to 1883).
     pub fn parse(url: &str) -> Result<Self> {
         let bad = |why: &str| LiveError::BrokerUrl {

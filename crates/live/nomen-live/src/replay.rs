@@ -2,12 +2,11 @@
 //! its topic (`nomen/in/<kind>/<source>`), the header's registry first, retained.
 
 use crate::broker::BrokerAddr;
-use crate::decode::MAX_PAYLOAD_BYTES;
 use crate::topics::{REGISTRY_TOPIC, input_topic};
 use crate::{LiveError, Result};
 use nomen_core::SessionTime;
 use nomen_recording::RecordingReader;
-use rumqttc::{Client, Event, MqttOptions, Outgoing, Packet, QoS};
+use rumqttc::{Client, Event, Outgoing, Packet, QoS};
 use std::path::Path;
 use std::str::FromStr;
 use std::sync::Arc;
@@ -104,13 +103,7 @@ const ACK_TIMEOUT: Duration = Duration::from_secs(60);
 /// acknowledged them all. A bad line stops the replay with its error, after what came before it.
 pub fn replay(recording: &Path, options: &ReplayOptions) -> Result<ReplaySummary> {
     let mut reader = RecordingReader::open(recording)?;
-    let mut mqtt = MqttOptions::new(
-        options.client_id.clone(),
-        options.broker.host.clone(),
-        options.broker.port,
-    );
-    mqtt.set_max_packet_size(MAX_PAYLOAD_BYTES + 4096, MAX_PAYLOAD_BYTES + 4096);
-    mqtt.set_keep_alive(Duration::from_secs(10));
+    let mqtt = options.broker.client_options(&options.client_id);
     let (client, mut connection) = Client::new(mqtt, 1024);
     let num_acked = Arc::new(AtomicU64::new(0));
     let (connected_tx, connected) = sync_channel(1);

@@ -2,14 +2,14 @@
 //! and the session loop that feeds the engine and publishes what it makes.
 
 use crate::broker::BrokerAddr;
-use crate::decode::{Input, MAX_PAYLOAD_BYTES, decode};
+use crate::decode::{Input, decode};
 use crate::health::{Health, HealthReport};
 use crate::log::IdentityLog;
 use crate::session::{IDLE_TICK, Output, Refusal, Session};
 use crate::topics::{EVENT_TOPIC, HEALTH_TOPIC, INPUT_FILTER, input_source, output_topic};
 use crate::{LiveError, Result};
 use nomen_core::{Message, Registry};
-use rumqttc::{Client, Connection, Event, MqttOptions, Outgoing, Packet, QoS};
+use rumqttc::{Client, Connection, Event, Outgoing, Packet, QoS};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, SyncSender, TrySendError, sync_channel};
 use std::sync::{Arc, Mutex, PoisonError};
@@ -87,13 +87,7 @@ pub fn serve(
     stop: &AtomicBool,
 ) -> Result<ServeSummary> {
     let started = Instant::now();
-    let mut mqtt = MqttOptions::new(
-        options.client_id.clone(),
-        options.broker.host.clone(),
-        options.broker.port,
-    );
-    mqtt.set_max_packet_size(MAX_PAYLOAD_BYTES + 4096, MAX_PAYLOAD_BYTES + 4096);
-    mqtt.set_keep_alive(Duration::from_secs(10));
+    let mqtt = options.broker.client_options(&options.client_id);
     let (client, connection) = Client::new(mqtt, options.publish_capacity);
     let health: SharedHealth = Arc::default();
     let (queue_in, queue) = sync_channel(options.queue_capacity);

@@ -183,7 +183,7 @@ impl Engine {
                 }
                 // Why the track stays anonymous if it does: its best subject's gate, else
                 // a score below the threshold, else the subject went to another track.
-                let anonymous_rule = match best_of(&scores) {
+                let anonymous_rule = match best_of(&scores, None) {
                     None => DecisionRule::NoEvidence,
                     Some((s, _)) => match (gated.get(&s), row.get(s).copied().flatten()) {
                         (Some(rule), _) => *rule,
