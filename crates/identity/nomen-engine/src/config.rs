@@ -882,10 +882,7 @@ pub struct EngineConfig {
     /// / 89.47 %, 64-person crowds 79.38 / 79.96 %, full networks 98.33 / 98.19 %, 8 wrist IMUs
     /// 94.78 / 94.49 %, 32 wrist IMUs 91.57 / 91.40 %, UWB tags 99.65 / 99.71 %; frames of
     /// people wearing nothing named 24.6 / 12.7 % (intruders), 53.3 / 45.9 % (same motion),
-    /// 22.1 / 15.9 % (mixed rooms), 53.3 / 45.6 % (leave-and-return). Also blocking names
-    /// from elsewhere after a decision that gave the best subject to another track, or held
-    /// it back, named fewer people wearing nothing (12.1 / 42.7 / 13.9 %) but lost more
-    /// wearer frames (8 wrist IMUs 94.17 %, full networks 98.12 %).
+    /// 22.1 / 15.9 % (mixed rooms), 53.3 / 45.6 % (leave-and-return).
     pub names_against_own_evidence: bool,
     /// Two tracks of a camera closer than this across the line of sight are in a close
     /// encounter, after which their ids may have been swapped by the SDK (their evidence is
