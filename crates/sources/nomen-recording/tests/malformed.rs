@@ -210,6 +210,24 @@ fn unknown_ids_are_refused_per_kind() {
         error_of(&file(&[l])),
         "rec.jsonl:2: subject 'zoe' is not in the registry"
     );
+    // A decision trace names registered subjects only.
+    let mut traced: serde_json::Value = serde_json::from_str(&line(&identified)).unwrap();
+    traced["decision"] = serde_json::json!({
+        "rule": "below_threshold",
+        "decided_at": 2,
+        "runner_up": {"subject": "zoe", "score": 0.1},
+    });
+    assert_eq!(
+        error_of(&file(&[traced.to_string()])),
+        "rec.jsonl:2: decision subject 'zoe' is not in the registry"
+    );
+    // An unknown rule is a malformed message, named as such.
+    traced["decision"]["rule"] = "guessed".into();
+    assert!(
+        error_of(&file(&[traced.to_string()])).contains("unknown variant `guessed`"),
+        "{}",
+        error_of(&file(&[traced.to_string()]))
+    );
 }
 
 #[test]
