@@ -1817,6 +1817,25 @@ impl Engine {
         };
         let is_named = matches!(identity, Identity::Subject(_));
         let confidence = self.confidence_map.apply(is_named, raw);
+        // A name less likely to be right than the run accepts goes out anonymous, with the
+        // confidence of an anonymous frame whose best candidate is that subject.
+        let (identity, confidence, is_named, decided) =
+            if is_named && confidence < self.config.min_name_probability {
+                let raw = runner_up
+                    .into_iter()
+                    .chain(name)
+                    .map(|(_, v)| v)
+                    .fold(f64::NEG_INFINITY, f64::max);
+                let raw = (1.0 - raw).clamp(0.0, 1.0);
+                let decided = Decided {
+                    rule: DecisionRule::Improbable,
+                    ..decided
+                };
+                let confidence = self.confidence_map.apply(false, raw);
+                (Identity::Anonymous, confidence, false, decided)
+            } else {
+                (identity, confidence, is_named, decided)
+            };
         let evidence = shown
             .and_then(|s| self.subject_imus.get(s))
             .map(|imus| {
@@ -1840,6 +1859,11 @@ impl Engine {
             })
         };
         let named = name.filter(|_| is_named);
+        // A name withheld as improbable is shown as the runner-up.
+        let runner_up = match decided.rule {
+            DecisionRule::Improbable => name,
+            _ => runner_up,
+        };
         let decision = DecisionTrace {
             rule: decided.rule,
             decided_at: SessionTime::from_ns(decided.end),

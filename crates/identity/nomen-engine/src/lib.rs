@@ -189,6 +189,8 @@
 //!    holder (the exclusion rules above), unless [`EngineConfig::names_against_own_evidence`]
 //!    is set: the track's own evidence then speaks against a name, and an intruder's track
 //!    paired with a wrongly named view stays anonymous.
+//!    Where the name is sent, one last rule: a name whose calibrated probability of being
+//!    right is below [`EngineConfig::min_name_probability`] goes out anonymous (`improbable`).
 //!
 //! Every output carries a [`nomen_core::DecisionTrace`]: the rule that gave its identity
 //! ([`nomen_core::DecisionRule`]), the decision's window end, the named subject's pooled score

@@ -7,8 +7,8 @@ use common::{Person, accuracy, num_skeletons, recording, registry, world_from_ca
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use nomen_core::skeleton::{Joint, Joints};
 use nomen_core::{
-    CameraId, DeviceId, Identity, ImuSample, JointObservation, Message, Registry, RigidTransform,
-    SessionTime, SkeletonObservation, TrackId,
+    CameraId, DecisionRule, DeviceId, IdentifiedSkeleton, Identity, ImuSample, JointObservation,
+    Message, Registry, RigidTransform, SessionTime, SkeletonObservation, TrackId,
 };
 use nomen_engine::{
     Engine, EngineConfig, EngineError, EngineStats, GeometricConfig, ModelWeights, run_batch,
@@ -2923,4 +2923,66 @@ fn every_decision_carries_a_trace_that_agrees_with_its_identity() {
     )
     .unwrap();
     assert!(line.contains("\"decision\":{\"rule\":"), "{line}");
+}
+
+#[test]
+fn a_minimum_name_probability_withholds_exactly_the_names_below_it() {
+    // The gate acts where a frame's name is sent: the decisions stay the same, a name whose
+    // calibrated probability is below the minimum goes out anonymous (rule `improbable`, the
+    // name as the runner-up), and every other frame is unchanged.
+    let mut people = ana_and_her_look_alike(0.8);
+    people.push(Person::new(Some("ben"), 1.3, 2.5, 3));
+    let msgs = recording(&people, 20.0);
+    let reg = registry(&people);
+    let (plain, _) = run_batch(&reg, &msgs, &EngineConfig::default()).unwrap();
+    let identified = |out: &[Message]| -> Vec<IdentifiedSkeleton> {
+        out.iter()
+            .filter_map(|m| match m {
+                Message::Identified(id) => Some((**id).clone()),
+                _ => None,
+            })
+            .collect()
+    };
+    let plain = identified(&plain);
+    let named: Vec<f64> = plain
+        .iter()
+        .filter(|id| matches!(id.identity, Identity::Subject(_)))
+        .map(|id| id.confidence)
+        .collect();
+    let lowest = named.iter().copied().fold(f64::INFINITY, f64::min);
+    let highest = named.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    assert!(lowest < highest, "named confidences {lowest}..{highest}");
+    let minimum = 0.5 * (lowest + highest);
+    let config = EngineConfig {
+        min_name_probability: minimum,
+        ..EngineConfig::default()
+    };
+    let (gated, _) = run_batch(&reg, &msgs, &config).unwrap();
+    let gated = identified(&gated);
+    assert_eq!(plain.len(), gated.len());
+    let mut num_withheld = 0;
+    for (before, after) in plain.iter().zip(&gated) {
+        assert_eq!(
+            (before.t, &before.camera, before.track),
+            (after.t, &after.camera, after.track)
+        );
+        match &before.identity {
+            Identity::Subject(s) if before.confidence < minimum => {
+                num_withheld += 1;
+                assert_eq!(after.identity, Identity::Anonymous);
+                let d = after.decision.as_ref().unwrap();
+                assert_eq!(d.rule, DecisionRule::Improbable);
+                assert!(d.named.is_none());
+                assert_eq!(d.runner_up.as_ref().map(|c| &c.subject), Some(s));
+            }
+            _ => assert_eq!(before, after),
+        }
+    }
+    assert!(num_withheld > 0);
+    // A probability is in 0..=1.
+    let bad = EngineConfig {
+        min_name_probability: 1.5,
+        ..EngineConfig::default()
+    };
+    assert!(run_batch(&reg, &msgs, &bad).is_err());
 }

@@ -75,11 +75,14 @@ pub enum DecisionRule {
     HeldBack,
     /// Anonymous: no evidence about any subject yet.
     NoEvidence,
+    /// Anonymous: a rule gave a name whose calibrated probability of being right is below the
+    /// run's minimum (the engine's `min_name_probability`).
+    Improbable,
 }
 
 impl DecisionRule {
     /// Every rule, naming ones first.
-    pub const ALL: [DecisionRule; 12] = [
+    pub const ALL: [DecisionRule; 13] = [
         DecisionRule::Assigned,
         DecisionRule::SuccessiveTrack,
         DecisionRule::EarlierDecision,
@@ -92,6 +95,7 @@ impl DecisionRule {
         DecisionRule::HeldFarAway,
         DecisionRule::HeldBack,
         DecisionRule::NoEvidence,
+        DecisionRule::Improbable,
     ];
 
     /// The rule's name as recordings spell it (`assigned`, `held_far_away`, ...).
@@ -109,6 +113,7 @@ impl DecisionRule {
             DecisionRule::HeldFarAway => "held_far_away",
             DecisionRule::HeldBack => "held_back",
             DecisionRule::NoEvidence => "no_evidence",
+            DecisionRule::Improbable => "improbable",
         }
     }
 

@@ -221,5 +221,8 @@ fn rule_meaning(rule: DecisionRule) -> &'static str {
             "the name is withheld: the subject's clocks are unknown and another track scores almost as well"
         }
         DecisionRule::NoEvidence => "no evidence about any subject yet",
+        DecisionRule::Improbable => {
+            "the name (shown as the runner-up) is less likely to be right than the run's min_name_probability"
+        }
     }
 }
