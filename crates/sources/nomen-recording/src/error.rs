@@ -54,10 +54,10 @@ pub enum RecordingError {
         problem: String,
     },
     /// The line is longer than [`crate::ReadOptions::max_line_bytes`]: not a recording (a
-    /// binary file, a stream of zeros) or lines run together. Its bytes are read to its end
-    /// but not kept.
+    /// binary file, a stream of zeros) or lines run together. The reader stops inside it.
     #[error(
-        "{at}: line longer than {max_bytes} bytes (not a recording, or its newlines are missing)"
+        "{at}: the line is longer than {}, the longest line a recording may have (not a recording, or its newlines are missing)",
+        nomen_core::bounded::describe_bytes(*max_bytes as u64)
     )]
     LineTooLong {
         /// Where.

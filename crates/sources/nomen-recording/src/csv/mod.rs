@@ -19,17 +19,30 @@ pub use units::{AccelUnit, GyroUnit, LengthUnit, MagUnit, STANDARD_GRAVITY_MPS2,
 use crate::check::{Checker, DEFAULT_MAX_TIME_JUMP_NS};
 use crate::error::{Pos, RecordingError, Result};
 use csv::StringRecord;
-use nomen_core::{Message, SessionTime};
+use nomen_core::bounded::{BoundedReader, Limits, MIB_BYTES, describe_bytes, limit_error};
+use nomen_core::{CoreError, Message, SessionTime};
 use std::io::Read;
 use std::sync::Arc;
 
-/// A CSV file being imported: the reader, the source name and the column names.
 /// Most columns an imported table may have: a skeleton per row of 32 joints with positions,
 /// states and confidences has about 160.
 pub const MAX_COLUMNS: usize = 4096;
 
+/// The longest row an imported CSV file may have, bytes: 1 MiB. The longest row of the shared
+/// real data is 1.4 kB, a skeleton per row of 32 joints about 2 kB.
+pub const MAX_CSV_LINE_BYTES: u64 = MIB_BYTES;
+
+/// The most bytes an imported CSV file may have: 256 MiB, twenty times the largest real file
+/// of the shared data (12 MB of IMU samples). The import holds its messages in memory, about
+/// 2 to 3 bytes per byte of CSV.
+pub const MAX_CSV_BYTES: u64 = 256 * MIB_BYTES;
+
+/// The limits every CSV importer reads within.
+pub const CSV_LIMITS: Limits = Limits::text("a CSV file", MAX_CSV_LINE_BYTES, MAX_CSV_BYTES);
+
+/// A CSV file being imported: the reader, the source name and the column names.
 pub(crate) struct CsvInput<R> {
-    reader: csv::Reader<R>,
+    reader: csv::Reader<BoundedReader<R>>,
     pub(crate) file: Arc<str>,
     pub(crate) headers: Vec<String>,
     /// Validates imported messages and checks per-source time order.
@@ -44,7 +57,7 @@ impl<R: Read> CsvInput<R> {
         let file: Arc<str> = Arc::from(source);
         let mut reader = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
-            .from_reader(input);
+            .from_reader(BoundedReader::new(input, source, CSV_LIMITS));
         let headers = reader
             .headers()
             .map_err(|e| csv_error(&file, &e))?
@@ -272,7 +285,32 @@ fn csv_error(file: &Arc<str>, e: &csv::Error) -> RecordingError {
             format!("row has {len} fields, expected {expected_len}")
         }
         csv::ErrorKind::Utf8 { err, .. } => format!("invalid utf-8 ({err})"),
-        csv::ErrorKind::Io(err) => format!("i/o error: {err}"),
+        csv::ErrorKind::Io(err) => match limit_error(err) {
+            Some(CoreError::LineTooLong {
+                line,
+                max_line_bytes,
+                kind,
+                ..
+            }) => {
+                return error_at(
+                    file,
+                    *line,
+                    &format!(
+                        "the line is longer than {}, the longest line {kind} may have",
+                        describe_bytes(*max_line_bytes)
+                    ),
+                );
+            }
+            Some(CoreError::InputTooLarge {
+                max_input_bytes,
+                kind,
+                ..
+            }) => format!(
+                "the file holds more than {}, the most {kind} may have",
+                describe_bytes(*max_input_bytes)
+            ),
+            _ => format!("i/o error: {err}"),
+        },
         _ => e.to_string().to_lowercase(),
     };
     error_at(file, line, &detail)
