@@ -33,9 +33,13 @@ pub const MAX_COLUMNS: usize = 4096;
 pub const MAX_CSV_LINE_BYTES: u64 = MIB_BYTES;
 
 /// The most bytes an imported CSV file may have: 256 MiB, twenty times the largest real file
-/// of the shared data (12 MB of IMU samples). The import holds its messages in memory, about
-/// 2 to 3 bytes per byte of CSV.
+/// of the shared data (12 MB of IMU samples).
 pub const MAX_CSV_BYTES: u64 = 256 * MIB_BYTES;
+
+/// The most memory the messages of one CSV import may take, bytes: 512 MiB (3.3 million IMU
+/// samples, 200,000 skeletons). The import returns its messages in memory, 160 bytes a
+/// message and 2.4 kB more a skeleton, which short rows make up to 11 times the file's size.
+pub const MAX_CSV_MESSAGE_BYTES: u64 = 512 * MIB_BYTES;
 
 /// The limits every CSV importer reads within.
 pub const CSV_LIMITS: Limits = Limits::text("a CSV file", MAX_CSV_LINE_BYTES, MAX_CSV_BYTES);
@@ -50,6 +54,8 @@ pub(crate) struct CsvInput<R> {
     /// The last two messages accepted, (time, line), oldest first: to name a row that jumped
     /// ahead rather than the row after it.
     recent: [Option<(SessionTime, u64)>; 2],
+    /// The bytes the messages imported so far take in memory.
+    message_bytes: u64,
 }
 
 impl<R: Read> CsvInput<R> {
@@ -102,6 +108,7 @@ impl<R: Read> CsvInput<R> {
             headers,
             checker: Checker::new(None, i64::MAX),
             recent: [None; 2],
+            message_bytes: 0,
         })
     }
 
@@ -160,7 +167,7 @@ impl<R: Read> CsvInput<R> {
     pub(crate) fn check(&mut self, msg: &Message, line: u64) -> Result<()> {
         let Err(e) = self.checker.check(msg, &self.file, line) else {
             self.recent = [self.recent[1], Some((msg.t(), line))];
-            return Ok(());
+            return self.hold(msg, line);
         };
         if let RecordingError::SourceOrder { t, previous, .. } = &e
             && let [Some((before, before_line)), Some((last, jumped_line))] = self.recent
@@ -178,6 +185,29 @@ impl<R: Read> CsvInput<R> {
             ));
         }
         Err(e)
+    }
+
+    /// Counts the memory `msg` takes once imported, refusing the import past
+    /// [`MAX_CSV_MESSAGE_BYTES`].
+    fn hold(&mut self, msg: &Message, line: u64) -> Result<()> {
+        let boxed = match msg {
+            Message::Skeleton(_) | Message::Identified(_) | Message::TruthSkeleton(_) => {
+                std::mem::size_of::<nomen_core::SkeletonObservation>()
+            }
+            _ => 0,
+        };
+        self.message_bytes += (std::mem::size_of::<Message>() + boxed) as u64;
+        if self.message_bytes > MAX_CSV_MESSAGE_BYTES {
+            return Err(self.error(
+                line,
+                &format!(
+                    "the rows so far make more than {} of messages, the most a CSV import may \
+                     hold: split the file",
+                    describe_bytes(MAX_CSV_MESSAGE_BYTES)
+                ),
+            ));
+        }
+        Ok(())
     }
 
     pub(crate) fn error(&self, line: u64, detail: &str) -> RecordingError {
