@@ -1,33 +1,47 @@
 //! File handling shared by the subcommands: `-` means stdin/stdout, paths are named in errors.
 
 use anyhow::{Context, Result, bail};
+use nomen_core::bounded::{Limits, MIB_BYTES, read_to_end_bounded, read_to_string_bounded};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// Reads a whole text file.
-pub fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
+/// Reads a whole text file (`-` is standard input) as a stream within `limits`: a line or a
+/// file past them is an error naming the file, the line and the limit, whatever size the file
+/// system reports (0 for `/dev/zero` and pipes).
+pub fn read_text(path: &Path, limits: Limits) -> Result<String> {
+    let name = source_name(path);
+    if is_std_stream(path) {
+        return Ok(read_to_string_bounded(
+            std::io::stdin().lock(),
+            &name,
+            limits,
+        )?);
+    }
+    let file = File::open(path).with_context(|| format!("cannot read {name}"))?;
+    Ok(read_to_string_bounded(file, &name, limits)?)
 }
 
-/// The largest settings file read (a scenario, an engine configuration, a fitted model),
-/// bytes: 4 MiB. The library's scenarios are 20–60 kB; parsing TOML takes about a hundred times
-/// a file's size in memory.
-pub const MAX_SETTINGS_BYTES: u64 = 4 << 20;
+/// Reads a whole binary file (a model's weights) as a stream within `limits`.
+pub fn read_bytes(path: &Path, limits: Limits) -> Result<Vec<u8>> {
+    let name = source_name(path);
+    let file = File::open(path).with_context(|| format!("cannot read {name}"))?;
+    Ok(read_to_end_bounded(file, &name, limits)?)
+}
 
-/// [`read_text`] for a settings file: one larger than [`MAX_SETTINGS_BYTES`] is refused by name
-/// before it is read.
+/// The largest settings file read (a scenario, an engine configuration, a registry, an RSSI
+/// model, a CNN model's metadata), bytes: 4 MiB. The library's scenarios are 1–24 kB; parsing
+/// TOML takes about a hundred times a file's size in memory.
+pub const MAX_SETTINGS_BYTES: u64 = 4 * MIB_BYTES;
+
+/// The limits of a settings file: [`MAX_SETTINGS_BYTES`] in all, any line length within it
+/// (JSON may be written on one line).
+pub const SETTINGS_LIMITS: Limits =
+    Limits::text("a settings file", MAX_SETTINGS_BYTES, MAX_SETTINGS_BYTES);
+
+/// [`read_text`] for a settings file, within [`SETTINGS_LIMITS`].
 pub fn read_settings(path: &Path) -> Result<String> {
-    let len = std::fs::metadata(path)
-        .with_context(|| format!("cannot read {}", path.display()))?
-        .len();
-    if len > MAX_SETTINGS_BYTES {
-        bail!(
-            "{}: {len} bytes, more than the {MAX_SETTINGS_BYTES} a settings file may have",
-            path.display()
-        );
-    }
-    read_text(path)
+    read_text(path, SETTINGS_LIMITS)
 }
 
 /// Standard output, locked: `let mut stdout = crate::io::stdout(); writeln!(stdout, ...)?;`.

@@ -57,7 +57,7 @@ impl Limits {
 /// A byte count as people read it: `16 MiB`, `64 KiB`, `1000 bytes`.
 pub fn describe_bytes(num_bytes: u64) -> String {
     for (unit, name) in [(GIB_BYTES, "GiB"), (MIB_BYTES, "MiB"), (KIB_BYTES, "KiB")] {
-        if num_bytes >= unit && num_bytes % unit == 0 {
+        if num_bytes >= unit && num_bytes.is_multiple_of(unit) {
             return format!("{} {name}", num_bytes / unit);
         }
     }
@@ -117,6 +117,8 @@ pub struct BoundedReader<R> {
     line_bytes: u64,
     /// Bytes read in all.
     total_bytes: u64,
+    /// The limit a read passed, once one did.
+    exceeded: Option<CoreError>,
 }
 
 impl<R: Read> BoundedReader<R> {
@@ -129,6 +131,7 @@ impl<R: Read> BoundedReader<R> {
             line: 1,
             line_bytes: 0,
             total_bytes: 0,
+            exceeded: None,
         }
     }
 
@@ -140,6 +143,12 @@ impl<R: Read> BoundedReader<R> {
     /// Bytes read so far.
     pub fn num_bytes(&self) -> u64 {
         self.total_bytes
+    }
+
+    /// The limit a read passed, if one did: for parsers whose errors do not carry the
+    /// `io::Error` they met.
+    pub fn exceeded(&self) -> Option<&CoreError> {
+        self.exceeded.as_ref()
     }
 
     /// Counts `chunk` into the line and byte totals, or names the limit it passes.
@@ -185,8 +194,10 @@ impl<R: Read> Read for BoundedReader<R> {
         };
         let n = self.inner.read(buf)?;
         let chunk = buf.get(..n).unwrap_or_default();
-        self.account(chunk)
-            .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))?;
+        if let Err(e) = self.account(chunk) {
+            self.exceeded = Some(e.clone());
+            return Err(io::Error::new(io::ErrorKind::InvalidData, e));
+        }
         Ok(n)
     }
 }

@@ -251,9 +251,14 @@ fn stopped_reading(
     num_decisions: impl std::fmt::Display,
     out: &Path,
 ) -> anyhow::Error {
+    // A line past the limit ends the reading under either policy: no hint to skip it.
+    let hint = if matches!(e, nomen_recording::RecordingError::LineTooLong { .. }) {
+        ""
+    } else {
+        " (--skip-bad skips bad lines instead)"
+    };
     anyhow::Error::from(e).context(format!(
-        "stopped reading; the {num_decisions} decisions on what came before are in {} \
-         (--skip-bad skips bad lines instead)",
+        "stopped reading; the {num_decisions} decisions on what came before are in {}{hint}",
         crate::io::sink_name(out)
     ))
 }
