@@ -67,6 +67,26 @@ pub struct ReadOptions {
     /// error) as soon as its first `max_line_bytes + 1` bytes are read: a binary file or an
     /// endless stream without newlines costs at most this much memory and ends in an error.
     pub max_line_bytes: usize,
+    /// The most memory the messages yielded so far may take, bytes ([`held_bytes`]): a
+    /// reader whose messages are all kept (a whole recording read at once, [`read_file`])
+    /// ends with [`RecordingError::TooLarge`] past it. Default `u64::MAX`: a streaming
+    /// consumer keeps none of them; [`MAX_HELD_MESSAGE_BYTES`] for one that keeps them all.
+    pub max_held_bytes: u64,
+}
+
+/// The most memory the messages of a recording read whole may take, bytes: 2 GiB. A message
+/// takes 160 bytes, a skeleton 2.4 kB more: an hour of one camera on 8 people is 2 GiB.
+pub const MAX_HELD_MESSAGE_BYTES: u64 = 2 << 30;
+
+/// The memory a message takes once read: the message and, for a skeleton, its boxed joints.
+pub fn held_bytes(msg: &Message) -> u64 {
+    let boxed = match msg {
+        Message::Skeleton(_) => std::mem::size_of::<SkeletonObservation>(),
+        Message::Identified(_) => std::mem::size_of::<nomen_core::IdentifiedSkeleton>(),
+        Message::TruthSkeleton(_) => std::mem::size_of::<nomen_core::TruthSkeleton>(),
+        _ => 0,
+    };
+    (std::mem::size_of::<Message>() + boxed) as u64
 }
 
 /// The default [`ReadOptions::max_line_bytes`], bytes: 16 MiB. A recording's lines are a few hundred
@@ -84,6 +104,7 @@ impl Default for ReadOptions {
             max_time_jump_ns: DEFAULT_MAX_TIME_JUMP_NS,
             wall_clock: false,
             max_line_bytes: DEFAULT_MAX_LINE_BYTES,
+            max_held_bytes: u64::MAX,
         }
     }
 }
@@ -94,6 +115,15 @@ impl ReadOptions {
         Self {
             policy,
             ..Self::default()
+        }
+    }
+
+    /// These options for a consumer that keeps every message: at most
+    /// [`MAX_HELD_MESSAGE_BYTES`] of them.
+    pub fn holding_all(self) -> Self {
+        Self {
+            max_held_bytes: MAX_HELD_MESSAGE_BYTES,
+            ..self
         }
     }
 }
@@ -107,6 +137,8 @@ pub struct ReadStats {
     pub num_bytes: u64,
     /// Messages that passed every check and were yielded.
     pub num_accepted: u64,
+    /// The memory the messages yielded take, bytes ([`held_bytes`]).
+    pub held_bytes: u64,
     /// Skipped lines per error kind (only under [`ErrorPolicy::SkipAndCount`]).
     pub skipped: BTreeMap<ErrorKind, u64>,
     /// The first few errors, in file order (up to [`ReadOptions::max_errors_kept`]).
@@ -373,7 +405,19 @@ impl<R: BufRead> RecordingReader<R> {
                 self.queued.push_back(item);
             }
         }
-        self.queued.pop_front()
+        let item = self.queued.pop_front();
+        if let Some(Ok(msg)) = &item {
+            self.stats.held_bytes += held_bytes(msg);
+            if self.stats.held_bytes > self.options.max_held_bytes {
+                self.is_done = true;
+                self.queued.clear();
+                return Some(Err(RecordingError::TooLarge {
+                    at: Pos::new(&self.file, self.stats.num_lines),
+                    max_bytes: self.options.max_held_bytes,
+                }));
+            }
+        }
+        item
     }
 
     /// A good message after the held jump that follows on from it: checked in time order after
@@ -623,9 +667,11 @@ pub struct Recording {
     pub messages: Vec<Message>,
 }
 
-/// Reads a whole file (or stdin for `-`) into memory, stopping at the first error.
+/// Reads a whole file (or stdin for `-`) into memory, stopping at the first error; at most
+/// [`MAX_HELD_MESSAGE_BYTES`] of messages.
 pub fn read_file(path: impl AsRef<Path>) -> Result<Recording> {
-    let mut reader = RecordingReader::open(path)?;
+    let mut reader =
+        RecordingReader::open_with_options(path, ReadOptions::default().holding_all())?;
     let messages = reader.by_ref().collect::<Result<Vec<_>>>()?;
     Ok(Recording {
         header: reader.header,

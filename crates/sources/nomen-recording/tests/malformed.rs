@@ -920,3 +920,59 @@ fn an_endless_line_ends_the_stream_and_a_long_first_line_is_no_header() {
          have: not a nomen recording"
     );
 }
+
+/// A recording of endless good IMU lines, 10 ms apart.
+struct EndlessImu {
+    pending: Vec<u8>,
+    num_lines: i64,
+}
+
+impl std::io::Read for EndlessImu {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        while self.pending.len() < buf.len() {
+            let msg = imu(S + self.num_lines * (S / 100), "band1");
+            self.pending
+                .extend_from_slice(format!("{}\n", line(&msg)).as_bytes());
+            self.num_lines += 1;
+        }
+        let n = buf.len();
+        buf.copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(n)
+    }
+}
+
+#[test]
+fn a_reader_that_keeps_every_message_stops_at_its_memory_limit() {
+    let endless = || EndlessImu {
+        pending: format!("{}\n", header_line()).into_bytes(),
+        num_lines: 0,
+    };
+    let per_message = nomen_recording::held_bytes(&imu(S, "band1"));
+    let options = ReadOptions {
+        max_held_bytes: 1000 * per_message,
+        ..ReadOptions::default()
+    };
+    let reader =
+        RecordingReader::with_options(std::io::BufReader::new(endless()), "rec.jsonl", options)
+            .unwrap();
+    let items: Vec<_> = reader.collect();
+    // 1000 messages fit; the next, on line 1002, is refused and ends the stream.
+    assert_eq!(items.len(), 1001);
+    assert!(items[..1000].iter().all(Result::is_ok));
+    let Some(Err(e)) = items.last() else {
+        panic!("the stream did not end in an error");
+    };
+    let expected = format!(
+        "rec.jsonl:1002: the messages up to here take more than {} bytes in memory, the most a \
+         recording read whole may hold (nomen run and nomen validate stream it)",
+        1000 * per_message
+    );
+    assert_eq!(e.to_string(), expected);
+    // The default is a streaming reader's: no limit.
+    assert_eq!(ReadOptions::default().max_held_bytes, u64::MAX);
+    assert_eq!(
+        ReadOptions::default().holding_all().max_held_bytes,
+        nomen_recording::MAX_HELD_MESSAGE_BYTES
+    );
+}

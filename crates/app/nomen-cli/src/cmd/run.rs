@@ -272,8 +272,10 @@ pub fn run_baseline_file(
     baseline: &Baseline,
     skip: Option<SkipLimit>,
 ) -> Result<String> {
-    let mut reader =
-        RecordingReader::open_with_options(recording, ReadOptions::with_policy(read_policy(skip)))?;
+    let mut reader = RecordingReader::open_with_options(
+        recording,
+        ReadOptions::with_policy(read_policy(skip)).holding_all(),
+    )?;
     let Some(registry) = reader.header().registry.clone() else {
         bail!(
             "{}: the header carries no registry, so {} does not know who wears what",
