@@ -152,11 +152,24 @@ impl<R: Read> BoundedReader<R> {
     }
 
     /// Counts `chunk` into the line and byte totals, or names the limit it passes.
+    ///
+    /// Whichever limit the chunk passes first is named: its lines are checked up to the input
+    /// limit, then the input limit.
     fn account(&mut self, chunk: &[u8]) -> std::result::Result<(), CoreError> {
+        let allowed = self.limits.max_input_bytes.saturating_sub(self.total_bytes);
+        let within = chunk
+            .len()
+            .min(usize::try_from(allowed).unwrap_or(usize::MAX));
+        self.count_lines(chunk.get(..within).unwrap_or_default())?;
         self.total_bytes += chunk.len() as u64;
-        if self.total_bytes > self.limits.max_input_bytes {
+        if within < chunk.len() {
             return Err(too_large(&self.source_name, &self.limits));
         }
+        Ok(())
+    }
+
+    /// Counts `chunk` into the line totals, or names the line that passes its limit.
+    fn count_lines(&mut self, chunk: &[u8]) -> std::result::Result<(), CoreError> {
         let mut start = 0;
         for newline in chunk
             .iter()
@@ -219,13 +232,32 @@ pub fn read_error(error: &io::Error, source_name: &str) -> CoreError {
 }
 
 /// Reads all of `input` as a stream, within `limits` (lines included: a text's lines are
-/// checked as they arrive).
+/// checked as they arrive). The buffer grows by doubling up to one byte past the input limit,
+/// never beyond: an input past the limit costs at most the limit in memory.
 pub fn read_to_end_bounded(input: impl Read, source_name: &str, limits: Limits) -> Result<Vec<u8>> {
+    const FIRST_CHUNK_BYTES: usize = 8 << 10;
     let mut reader = BoundedReader::new(input, source_name, limits);
+    let most = usize::try_from(limits.max_input_bytes.saturating_add(1)).unwrap_or(usize::MAX);
     let mut bytes = Vec::new();
-    reader
-        .read_to_end(&mut bytes)
-        .map_err(|e| read_error(&e, source_name))?;
+    let mut len = 0;
+    loop {
+        if len == bytes.len() {
+            let grown = (len.saturating_mul(2)).max(FIRST_CHUNK_BYTES).min(most);
+            if grown == len {
+                // Unreachable: the reader fails the read past the limit first.
+                break;
+            }
+            bytes.resize(grown, 0);
+        }
+        let spare = bytes.get_mut(len..).unwrap_or_default();
+        match reader.read(spare) {
+            Ok(0) => break,
+            Ok(n) => len += n,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(read_error(&e, source_name)),
+        }
+    }
+    bytes.truncate(len);
     Ok(bytes)
 }
 
