@@ -232,32 +232,44 @@ pub fn read_error(error: &io::Error, source_name: &str) -> CoreError {
 }
 
 /// Reads all of `input` as a stream, within `limits` (lines included: a text's lines are
-/// checked as they arrive). The buffer grows by doubling up to one byte past the input limit,
-/// never beyond: an input past the limit costs at most the limit in memory.
+/// checked as they arrive). The bytes are read in chunks of at most 1 MiB and joined at the end,
+/// each chunk freed as it is copied: an input past the limit costs at most the limit (and a
+/// chunk) in memory, a whole input about its size.
 pub fn read_to_end_bounded(input: impl Read, source_name: &str, limits: Limits) -> Result<Vec<u8>> {
     const FIRST_CHUNK_BYTES: usize = 8 << 10;
+    const MAX_CHUNK_BYTES: usize = 1 << 20;
     let mut reader = BoundedReader::new(input, source_name, limits);
-    let most = usize::try_from(limits.max_input_bytes.saturating_add(1)).unwrap_or(usize::MAX);
-    let mut bytes = Vec::new();
-    let mut len = 0;
-    loop {
-        if len == bytes.len() {
-            let grown = (len.saturating_mul(2)).max(FIRST_CHUNK_BYTES).min(most);
-            if grown == len {
-                // Unreachable: the reader fails the read past the limit first.
-                break;
+    let mut chunks: Vec<Vec<u8>> = Vec::new();
+    let mut chunk_bytes = FIRST_CHUNK_BYTES;
+    let mut total = 0;
+    'read: loop {
+        let mut chunk = vec![0; chunk_bytes];
+        let mut len = 0;
+        while len < chunk.len() {
+            let spare = chunk.get_mut(len..).unwrap_or_default();
+            match reader.read(spare) {
+                Ok(0) => {
+                    chunk.truncate(len);
+                    total += len;
+                    chunks.push(chunk);
+                    break 'read;
+                }
+                Ok(n) => len += n,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(read_error(&e, source_name)),
             }
-            bytes.resize(grown, 0);
         }
-        let spare = bytes.get_mut(len..).unwrap_or_default();
-        match reader.read(spare) {
-            Ok(0) => break,
-            Ok(n) => len += n,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(read_error(&e, source_name)),
-        }
+        total += len;
+        chunks.push(chunk);
+        chunk_bytes = (chunk_bytes * 2).min(MAX_CHUNK_BYTES);
     }
-    bytes.truncate(len);
+    if chunks.len() == 1 {
+        return Ok(chunks.pop().unwrap_or_default());
+    }
+    let mut bytes = Vec::with_capacity(total);
+    for chunk in chunks {
+        bytes.extend_from_slice(&chunk);
+    }
     Ok(bytes)
 }
 
