@@ -72,6 +72,73 @@ pub fn create_write(path: &Path) -> Result<Box<dyn Write>> {
     Ok(Box::new(BufWriter::with_capacity(1 << 16, file)))
 }
 
+/// Creates `path` for buffered writing as [`create_write`] does, but through `PATH.partial`,
+/// renamed to `path` once everything is written and the writer dropped: a command killed before
+/// its end leaves `PATH.partial`, never a cut file under the final name, and the previous
+/// `path` stays whole until then. A `path` that exists and is not a regular file (`/dev/null`,
+/// a named pipe) is written directly, as is `-`.
+pub fn create_write_renamed(path: &Path) -> Result<Box<dyn Write>> {
+    if is_std_stream(path) || path.metadata().is_ok_and(|m| !m.is_file()) {
+        return create_write(path);
+    }
+    let partial = partial_path(path);
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("cannot create folder {}", parent.display()))?;
+    }
+    let file =
+        File::create(&partial).with_context(|| format!("cannot create {}", partial.display()))?;
+    Ok(Box::new(RenamedOnDrop {
+        inner: BufWriter::with_capacity(1 << 16, file),
+        partial,
+        path: path.to_path_buf(),
+    }))
+}
+
+/// `PATH.partial`: where [`create_write_renamed`] writes `path` until it is whole.
+pub fn partial_path(path: &Path) -> PathBuf {
+    let mut name = path.file_name().unwrap_or_default().to_owned();
+    name.push(".partial");
+    path.with_file_name(name)
+}
+
+/// A file written under a temporary name and renamed when dropped ([`create_write_renamed`]).
+/// The drop happens when the command returns, with a result or an error it reports; a kill
+/// skips it.
+struct RenamedOnDrop {
+    inner: BufWriter<File>,
+    partial: PathBuf,
+    path: PathBuf,
+}
+
+impl Write for RenamedOnDrop {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.inner.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+impl Drop for RenamedOnDrop {
+    fn drop(&mut self) {
+        // Every byte is in the file before it takes the final name; a failure leaves the
+        // partial name, and says so.
+        let renamed = self
+            .inner
+            .flush()
+            .and_then(|()| std::fs::rename(&self.partial, &self.path));
+        if let Err(e) = renamed {
+            eprintln!(
+                "error: cannot complete {} ({e}): what was written is in {}",
+                self.path.display(),
+                self.partial.display()
+            );
+        }
+    }
+}
+
 /// Refuses to run when an output would overwrite an input or another output: `nomen run
 /// rec.jsonl --out rec.jsonl` would truncate the recording before reading it. Paths are compared
 /// after following symbolic links; `-` (a standard stream) is never compared, nor are `None`s.

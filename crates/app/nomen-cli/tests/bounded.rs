@@ -216,3 +216,51 @@ fn point_pairs_meshes_and_model_weights_past_their_limits_are_refused() {
         assert_refused(&nomen(&args), &expected, &args.join(" "));
     }
 }
+
+#[test]
+fn a_run_killed_before_its_end_leaves_a_partial_file_and_the_previous_result_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("result.jsonl");
+    let partial = dir.path().join("result.jsonl.partial");
+    std::fs::write(&out, "the previous result\n").unwrap();
+    // A live run on a pipe that stays open: the run is under way until it is killed.
+    let mut child = nomen_command(&["run", "-", "--live", "--out", out.to_str().unwrap()])
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    stdin.write_all(format!("{HEADER}\n").as_bytes()).unwrap();
+    stdin.flush().unwrap();
+    // The run writes to the partial name once it has read the header.
+    while !partial.exists() {
+        assert!(child.try_wait().unwrap().is_none(), "the run ended early");
+        assert_eq!(
+            std::fs::read_to_string(&out).unwrap(),
+            "the previous result\n",
+            "the previous result was overwritten while the run was under way"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert_eq!(
+        std::fs::read_to_string(&out).unwrap(),
+        "the previous result\n"
+    );
+    assert!(partial.exists());
+    // Run to its end, the result takes the final name and no partial file is left.
+    std::fs::remove_file(&partial).unwrap();
+    let recording = dir.path().join("rec.jsonl");
+    std::fs::write(&recording, format!("{HEADER}\n")).unwrap();
+    let output = nomen(&[
+        "run",
+        recording.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let result = std::fs::read_to_string(&out).unwrap();
+    assert!(result.starts_with(r#"{"type":"header""#), "{result}");
+    assert!(!partial.exists());
+}

@@ -31,7 +31,9 @@ pub struct RunArgs {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Where to write the result (`-` for stdout). When reading stdin or writing stdout (a live
-    /// pipe), each batch of decisions is flushed as soon as the engine makes it.
+    /// pipe), each batch of decisions is flushed as soon as the engine makes it. A file is
+    /// written as `OUT.partial` and renamed to OUT when the run returns: a run killed before
+    /// then leaves OUT.partial and any previous OUT as it was.
     #[arg(long)]
     pub out: PathBuf,
     /// Skip malformed input lines (counted, and listed with file and line) instead of stopping.
@@ -232,7 +234,7 @@ fn open_writer(
     let header = Header::new(registry)
         .with_meta("generator", generator)
         .with_meta("input", crate::io::source_name(recording));
-    let sink = crate::io::create_write(out)?;
+    let sink = crate::io::create_write_renamed(out)?;
     Ok(RecordingWriter::with_options(
         sink,
         &crate::io::sink_name(out),
