@@ -1,33 +1,47 @@
 //! File handling shared by the subcommands: `-` means stdin/stdout, paths are named in errors.
 
 use anyhow::{Context, Result, bail};
+use nomen_core::bounded::{Limits, MIB_BYTES, read_to_end_bounded, read_to_string_bounded};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// Reads a whole text file.
-pub fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
+/// Reads a whole text file (`-` is standard input) as a stream within `limits`: a line or a
+/// file past them is an error naming the file, the line and the limit, whatever size the file
+/// system reports (0 for `/dev/zero` and pipes).
+pub fn read_text(path: &Path, limits: Limits) -> Result<String> {
+    let name = source_name(path);
+    if is_std_stream(path) {
+        return Ok(read_to_string_bounded(
+            std::io::stdin().lock(),
+            &name,
+            limits,
+        )?);
+    }
+    let file = File::open(path).with_context(|| format!("cannot read {name}"))?;
+    Ok(read_to_string_bounded(file, &name, limits)?)
 }
 
-/// The largest settings file read (a scenario, an engine configuration, a fitted model),
-/// bytes: 4 MiB. The library's scenarios are 20–60 kB; parsing TOML takes about a hundred times
-/// a file's size in memory.
-pub const MAX_SETTINGS_BYTES: u64 = 4 << 20;
+/// Reads a whole binary file (a model's weights) as a stream within `limits`.
+pub fn read_bytes(path: &Path, limits: Limits) -> Result<Vec<u8>> {
+    let name = source_name(path);
+    let file = File::open(path).with_context(|| format!("cannot read {name}"))?;
+    Ok(read_to_end_bounded(file, &name, limits)?)
+}
 
-/// [`read_text`] for a settings file: one larger than [`MAX_SETTINGS_BYTES`] is refused by name
-/// before it is read.
+/// The largest settings file read (a scenario, an engine configuration, a registry, an RSSI
+/// model, a CNN model's metadata), bytes: 4 MiB. The library's scenarios are 1–24 kB; parsing
+/// TOML takes about a hundred times a file's size in memory.
+pub const MAX_SETTINGS_BYTES: u64 = 4 * MIB_BYTES;
+
+/// The limits of a settings file: [`MAX_SETTINGS_BYTES`] in all, any line length within it
+/// (JSON may be written on one line).
+pub const SETTINGS_LIMITS: Limits =
+    Limits::text("a settings file", MAX_SETTINGS_BYTES, MAX_SETTINGS_BYTES);
+
+/// [`read_text`] for a settings file, within [`SETTINGS_LIMITS`].
 pub fn read_settings(path: &Path) -> Result<String> {
-    let len = std::fs::metadata(path)
-        .with_context(|| format!("cannot read {}", path.display()))?
-        .len();
-    if len > MAX_SETTINGS_BYTES {
-        bail!(
-            "{}: {len} bytes, more than the {MAX_SETTINGS_BYTES} a settings file may have",
-            path.display()
-        );
-    }
-    read_text(path)
+    read_text(path, SETTINGS_LIMITS)
 }
 
 /// Standard output, locked: `let mut stdout = crate::io::stdout(); writeln!(stdout, ...)?;`.
@@ -56,6 +70,73 @@ pub fn create_write(path: &Path) -> Result<Box<dyn Write>> {
     }
     let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
     Ok(Box::new(BufWriter::with_capacity(1 << 16, file)))
+}
+
+/// Creates `path` for buffered writing as [`create_write`] does, but through `PATH.partial`,
+/// renamed to `path` once everything is written and the writer dropped: a command killed before
+/// its end leaves `PATH.partial`, never a cut file under the final name, and the previous
+/// `path` stays whole until then. A `path` that exists and is not a regular file (`/dev/null`,
+/// a named pipe) is written directly, as is `-`.
+pub fn create_write_renamed(path: &Path) -> Result<Box<dyn Write>> {
+    if is_std_stream(path) || path.metadata().is_ok_and(|m| !m.is_file()) {
+        return create_write(path);
+    }
+    let partial = partial_path(path);
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("cannot create folder {}", parent.display()))?;
+    }
+    let file =
+        File::create(&partial).with_context(|| format!("cannot create {}", partial.display()))?;
+    Ok(Box::new(RenamedOnDrop {
+        inner: BufWriter::with_capacity(1 << 16, file),
+        partial,
+        path: path.to_path_buf(),
+    }))
+}
+
+/// `PATH.partial`: where [`create_write_renamed`] writes `path` until it is whole.
+pub fn partial_path(path: &Path) -> PathBuf {
+    let mut name = path.file_name().unwrap_or_default().to_owned();
+    name.push(".partial");
+    path.with_file_name(name)
+}
+
+/// A file written under a temporary name and renamed when dropped ([`create_write_renamed`]).
+/// The drop happens when the command returns, with a result or an error it reports; a kill
+/// skips it.
+struct RenamedOnDrop {
+    inner: BufWriter<File>,
+    partial: PathBuf,
+    path: PathBuf,
+}
+
+impl Write for RenamedOnDrop {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.inner.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+impl Drop for RenamedOnDrop {
+    fn drop(&mut self) {
+        // Every byte is in the file before it takes the final name; a failure leaves the
+        // partial name, and says so.
+        let renamed = self
+            .inner
+            .flush()
+            .and_then(|()| std::fs::rename(&self.partial, &self.path));
+        if let Err(e) = renamed {
+            eprintln!(
+                "error: cannot complete {} ({e}): what was written is in {}",
+                self.path.display(),
+                self.partial.display()
+            );
+        }
+    }
 }
 
 /// Refuses to run when an output would overwrite an input or another output: `nomen run

@@ -8,14 +8,15 @@
 //! Without a depth map in the recording the occlusion constraint is off; skeletal distance,
 //! range of motion and, with `--environment`, collisions with the room's meshes apply.
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use nalgebra::{Isometry3, Point3};
+use nomen_core::bounded::BoundedReader;
 use nomen_core::skeleton::{JointState, Joints};
 use nomen_core::{
     CameraId, IdentifiedSkeleton, JointObservation, Registry, SessionTime, SkeletonObservation,
     TrackId,
 };
-use nomen_occlusion::environment::{Environment, parse_obj, parse_ply};
+use nomen_occlusion::environment::{Environment, OBJ_LIMITS, PLY_LIMITS, parse_obj, parse_ply};
 use nomen_occlusion::{JointRefiner, RefinerConfig};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -142,15 +143,21 @@ impl Refinement {
 fn load_environment(path: &Path) -> Result<Environment> {
     let name = path.display().to_string();
     let file = std::fs::File::open(path).with_context(|| format!("{name}: cannot open"))?;
-    let mut reader = std::io::BufReader::new(file);
     let is_ply = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("ply"));
-    let meshes = if is_ply {
-        vec![parse_ply(&mut reader, &name)?]
+    let limits = if is_ply { PLY_LIMITS } else { OBJ_LIMITS };
+    let mut reader = std::io::BufReader::new(BoundedReader::new(file, &name, limits));
+    let parsed = if is_ply {
+        parse_ply(&mut reader, &name).map(|mesh| vec![mesh])
     } else {
-        parse_obj(&mut reader, &name)?
+        parse_obj(&mut reader, &name)
     };
+    // The mesh parsers do not pass on the read error that a limit raised: it is named here.
+    if let Some(limit) = reader.get_ref().exceeded() {
+        bail!("{limit}");
+    }
+    let meshes = parsed?;
     let placed: Vec<_> = meshes
         .into_iter()
         .map(|m| (m, Isometry3::identity()))

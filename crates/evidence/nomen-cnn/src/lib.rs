@@ -36,6 +36,6 @@ pub mod train;
 
 pub use dataset::{Example, PairRecorder, RecordedPair, TruthLabels, balance, label_pairs};
 pub use features::{InputSpec, PairFeatures, pair_features};
-pub use model::{CnnModel, CnnScorer, ModelMeta, TrainingInfo};
+pub use model::{CnnModel, CnnScorer, MAX_WEIGHTS_BYTES, ModelMeta, TrainingInfo, WEIGHTS_LIMITS};
 pub use network::{ModelSize, Network};
 pub use train::{TrainConfig, TrainEvent, data_digest, split_by_group};

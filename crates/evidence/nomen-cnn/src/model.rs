@@ -20,6 +20,7 @@ use crate::error::{CnnError, Result};
 use crate::features::{InputSpec, PairFeatures, pair_features};
 use crate::network::{ModelSize, Network};
 use candle_core::{Device, Tensor};
+use nomen_core::bounded::{Limits, MIB_BYTES};
 use nomen_core::skeleton::Joint;
 use nomen_evidence::{ImuWindow, PairScorer, SkeletonWindow};
 use serde::{Deserialize, Serialize};
@@ -33,6 +34,13 @@ pub const VERSION: u32 = 1;
 
 /// How a match probability `p` becomes a score, as written in metadata.
 pub const SCORE_MAPPING: &str = "2p-1";
+
+/// The most bytes a model's weights file may have: 256 MiB. The shipped small model's weights
+/// are 140 kB.
+pub const MAX_WEIGHTS_BYTES: u64 = 256 * MIB_BYTES;
+
+/// The limits a weights file (binary) is read within.
+pub const WEIGHTS_LIMITS: Limits = Limits::binary("a model's weights file", MAX_WEIGHTS_BYTES);
 
 /// What a model was trained on and how training went.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -36,4 +36,5 @@ pub mod ransac;
 pub mod recording;
 
 pub use fit::{FitKind, SimilarityTransform, fit_transform, kabsch};
+pub use points::POINTS_LIMITS;
 pub use ransac::{RansacConfig, RansacFit, fit_ransac};

@@ -8,6 +8,11 @@
 
 use crate::error::{CalibError, Result};
 use nalgebra::Point3;
+use nomen_core::bounded::{KIB_BYTES, Limits, MIB_BYTES};
+
+/// The limits a point-pair file is read within: lines of at most 64 KiB, 16 MiB in all
+/// (a pair is a line of six numbers; calibrations use 6 to 10 pairs).
+pub const POINTS_LIMITS: Limits = Limits::text("a point-pair file", 64 * KIB_BYTES, 16 * MIB_BYTES);
 
 /// A pair of the same physical point in two frames.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -38,6 +38,50 @@ pub enum CoreError {
     /// A structural problem, e.g. a quaternion of zero norm or a duplicated id.
     #[error("{0}")]
     Invalid(String),
+    /// A line of an input is longer than its kind of input allows ([`crate::bounded`]).
+    #[error(
+        "line {line} of {source_name} is longer than {}, the longest line {kind} may have",
+        crate::bounded::describe_bytes(*max_line_bytes)
+    )]
+    LineTooLong {
+        /// The input: a path, `<stdin>`.
+        source_name: String,
+        /// The 1-based line.
+        line: u64,
+        /// The longest line taken, bytes.
+        max_line_bytes: u64,
+        /// The kind of input: `a recording`.
+        kind: &'static str,
+    },
+    /// An input holds more bytes than its kind of input allows ([`crate::bounded`]).
+    #[error(
+        "{source_name} holds more than {}, the most {kind} may have",
+        crate::bounded::describe_bytes(*max_input_bytes)
+    )]
+    InputTooLarge {
+        /// The input: a path, `<stdin>`.
+        source_name: String,
+        /// The most bytes read, bytes.
+        max_input_bytes: u64,
+        /// The kind of input: `a settings file`.
+        kind: &'static str,
+    },
+    /// Reading an input failed.
+    #[error("cannot read {source_name}: {detail}")]
+    Read {
+        /// The input: a path, `<stdin>`.
+        source_name: String,
+        /// The operating system's error.
+        detail: String,
+    },
+    /// A text input holds bytes that are not UTF-8.
+    #[error("line {line} of {source_name} is not UTF-8 text")]
+    NotText {
+        /// The input: a path, `<stdin>`.
+        source_name: String,
+        /// The 1-based line of the first such byte.
+        line: u64,
+    },
 }
 
 /// Result alias of this crate.

@@ -6,8 +6,10 @@
 //! - transforms are named `target_from_source` (`world_from_camera * p_in_camera`);
 //! - angles are radians, rates rad/s, accelerations m/s², magnetic fields µT, RSSI dBm.
 //!
-//! Nothing in this crate reads files, sockets or clocks.
+//! Nothing in this crate opens files or sockets or reads clocks; [`bounded`] reads, within
+//! limits, the readers it is given.
 
+pub mod bounded;
 mod error;
 pub mod frame;
 pub mod ids;

@@ -12,6 +12,7 @@
 
 use crate::error::{OcclusionError, Result};
 use nalgebra::{Isometry3, Point3, Vector3};
+use nomen_core::bounded::{Limits, MIB_BYTES};
 use nomen_sim::geometry::BoxObstacle;
 use parry3d::math::Vector as PVec;
 use parry3d::query::{Ray, RayCast};
@@ -102,6 +103,13 @@ impl MeshData {
         }
     }
 }
+
+/// The limits an OBJ mesh file is read within: lines of at most 1 MiB, 256 MiB in all (a
+/// scanned room of a few million triangles).
+pub const OBJ_LIMITS: Limits = Limits::text("an OBJ mesh file", MIB_BYTES, 256 * MIB_BYTES);
+
+/// The limits a PLY mesh file (text or binary) is read within: 256 MiB in all.
+pub const PLY_LIMITS: Limits = Limits::binary("a PLY mesh file", 256 * MIB_BYTES);
 
 /// Reads every object of a Wavefront OBJ text (faces triangulated; materials ignored).
 ///

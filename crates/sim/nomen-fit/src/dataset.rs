@@ -15,14 +15,26 @@ use crate::uwb::{
 };
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nomen_core::bounded::{Limits, MIB_BYTES, read_to_string_bounded};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+/// The limits a sensor recording for fitting (CSV, text) is read within: lines of at most
+/// 1 MiB, 256 MiB in all (the largest shared file is 12 MB of IMU samples; the loaders hold
+/// their columns as `f64`s, about 2 bytes per byte of text).
+pub const DATASET_LIMITS: Limits =
+    Limits::text("a sensor recording to fit", MIB_BYTES, 256 * MIB_BYTES);
+
 fn read(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|source| FitError::Io {
+    let file = std::fs::File::open(path).map_err(|source| FitError::Io {
         path: path.display().to_string(),
         source,
-    })
+    })?;
+    Ok(read_to_string_bounded(
+        file,
+        &path.display().to_string(),
+        DATASET_LIMITS,
+    )?)
 }
 
 fn name(path: &Path) -> String {

@@ -34,6 +34,9 @@ pub enum FitError {
         /// The underlying error.
         source: std::io::Error,
     },
+    /// A file past a limit of [`nomen_core::bounded`] (a line or the file too long).
+    #[error(transparent)]
+    Limit(#[from] nomen_core::CoreError),
 }
 
 /// Result alias of this crate.

@@ -197,6 +197,7 @@ pub fn simulate(
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<SimOutput> {
     scenario.validate()?;
+    check_scene_size(scenario)?;
     let library = scenario.clip_library();
     let duration_s = scenario.duration_s;
 
@@ -248,6 +249,7 @@ pub fn simulate(
     let registry = build_registry(scenario)?;
     let mut recording = Vec::new();
     let mut truth = Vec::new();
+    let mut held = HeldBytes::default();
 
     // Cameras.
     let people: Vec<PersonInScene<'_>> = scenario
@@ -275,8 +277,10 @@ pub fn simulate(
             &mut rng,
             relabel_rng,
         )?;
+        held.add_skeletons(out.observations.len(), out.truths.len());
         recording.extend(out.observations.into_iter().map(Message::from));
         truth.extend(out.truths.into_iter().map(Message::from));
+        held.check(scenario, &recording, &truth)?;
         progress("cameras", (i + 1) as f64 / num_cameras as f64);
     }
 
@@ -473,6 +477,7 @@ pub fn simulate(
                 }
             }
             devices.push(dt);
+            held.check(scenario, &recording, &truth)?;
             done += 1;
             progress("wearables", done as f64 / num_wear as f64);
         }
@@ -499,6 +504,129 @@ pub fn simulate(
         obstacles_obj: obstacles_to_obj(&scenario.room.obstacles),
         scene,
     })
+}
+
+/// The most memory the messages of one simulated scene may take, bytes: 1 GiB. [`simulate`]
+/// holds a whole scene (recording and truth) before it is sorted and written. It refuses a
+/// scene up front when one camera's skeletons, or the wearables' messages, are estimated past
+/// this ([`CameraBytes`], [`wearable_message_bytes`]), and stops with the same error as soon as
+/// the messages it holds pass it (counted after each camera and each wearable). Its peak memory
+/// is this bound, plus one camera's skeletons or one wearable's messages, plus what the vectors
+/// that hold them reserve beyond their length (at most as much again).
+pub const MAX_SCENE_MESSAGE_BYTES: u64 = 1 << 30;
+
+/// An upper estimate of the bytes one camera's skeletons and their truth take for `scenario`:
+/// a skeleton message and its truth for every person at every frame.
+pub struct CameraBytes;
+
+impl CameraBytes {
+    /// The bytes of one skeleton and its truth: two messages and the boxed skeletons.
+    pub fn per_skeleton_pair() -> f64 {
+        (2 * std::mem::size_of::<Message>()
+            + std::mem::size_of::<nomen_core::SkeletonObservation>()
+            + std::mem::size_of::<nomen_core::TruthSkeleton>()) as f64
+    }
+
+    /// The estimate for the camera running at `fps_hz`.
+    pub fn estimate(scenario: &Scenario, fps_hz: f64) -> f64 {
+        scenario.duration_s * fps_hz * scenario.people.len() as f64 * Self::per_skeleton_pair()
+    }
+}
+
+/// An estimate of the bytes every wearable's messages take for `scenario`, at their rates
+/// over the whole duration: an IMU sample, a tag's fix and its truth and a raw range to every
+/// anchor, an RSSI read per antenna.
+pub fn wearable_message_bytes(scenario: &Scenario) -> f64 {
+    let s = &scenario.sensors;
+    let messages_hz: f64 = scenario
+        .people
+        .iter()
+        .flat_map(|p| &p.wears)
+        .map(|w| match w.kind {
+            DeviceKind::Imu => s.imu.rate_hz,
+            DeviceKind::UwbTag => {
+                2.0 * s.rtls.rate_hz
+                    + s.uwb_range
+                        .as_ref()
+                        .map_or(0.0, |r| r.rate_hz * scenario.anchors.len() as f64)
+            }
+            DeviceKind::RfidTag | DeviceKind::BleTag => {
+                s.rssi.read_rate_hz * scenario.antennas.len() as f64
+            }
+        })
+        .sum();
+    scenario.duration_s * messages_hz * std::mem::size_of::<Message>() as f64
+}
+
+/// Refuses, before anything is simulated, a scene of which one camera's skeletons or the
+/// wearables' messages are estimated past [`MAX_SCENE_MESSAGE_BYTES`].
+fn check_scene_size(scenario: &Scenario) -> Result<()> {
+    let largest_camera = scenario
+        .cameras
+        .iter()
+        .map(|c| CameraBytes::estimate(scenario, c.fps_hz))
+        .fold(0.0, f64::max);
+    let estimate = largest_camera.max(wearable_message_bytes(scenario));
+    if estimate <= MAX_SCENE_MESSAGE_BYTES as f64 {
+        return Ok(());
+    }
+    let what = if largest_camera >= estimate {
+        "one camera's skeletons"
+    } else {
+        "the wearables' messages"
+    };
+    Err(too_large(scenario, what, estimate))
+}
+
+/// The bytes of the messages a simulation holds so far.
+#[derive(Default)]
+struct HeldBytes {
+    num_skeletons: usize,
+    num_truth_skeletons: usize,
+}
+
+impl HeldBytes {
+    fn add_skeletons(&mut self, num_skeletons: usize, num_truth_skeletons: usize) {
+        self.num_skeletons += num_skeletons;
+        self.num_truth_skeletons += num_truth_skeletons;
+    }
+
+    /// Refuses the scene once `recording` and `truth` pass [`MAX_SCENE_MESSAGE_BYTES`].
+    fn check(&self, scenario: &Scenario, recording: &[Message], truth: &[Message]) -> Result<()> {
+        let bytes = ((recording.len() + truth.len()) * std::mem::size_of::<Message>()
+            + self.num_skeletons * std::mem::size_of::<nomen_core::SkeletonObservation>()
+            + self.num_truth_skeletons * std::mem::size_of::<nomen_core::TruthSkeleton>())
+            as f64;
+        if bytes <= MAX_SCENE_MESSAGE_BYTES as f64 {
+            return Ok(());
+        }
+        Err(too_large(scenario, "its messages so far", bytes))
+    }
+}
+
+/// [`SimError::TooLarge`]: `what` takes `bytes`. The duration that surely fits is the one at
+/// which every camera's estimate and the wearables' together are within the bound.
+fn too_large(scenario: &Scenario, what: &str, bytes: f64) -> SimError {
+    let num_wearables: usize = scenario.people.iter().map(|p| p.wears.len()).sum();
+    let max = MAX_SCENE_MESSAGE_BYTES as f64;
+    let upper: f64 = scenario
+        .cameras
+        .iter()
+        .map(|c| CameraBytes::estimate(scenario, c.fps_hz))
+        .sum::<f64>()
+        + wearable_message_bytes(scenario);
+    SimError::TooLarge {
+        what: what.to_owned(),
+        estimate_mib: bytes / (1 << 20) as f64,
+        max_mib: MAX_SCENE_MESSAGE_BYTES >> 20,
+        detail: format!(
+            "{} people for {} s, {} cameras, {num_wearables} wearables",
+            scenario.people.len(),
+            scenario.duration_s,
+            scenario.cameras.len(),
+        ),
+        max_duration_s: (scenario.duration_s * max / upper.max(bytes)).floor(),
+    }
 }
 
 /// What device `w` draws around its kind's model (see [`DeviceDraw`]), from its stream

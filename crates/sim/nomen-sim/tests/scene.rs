@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use nomen_core::Message;
-use nomen_sim::{Scenario, load_scenario_clips, simulate};
+use nomen_sim::{Scenario, SimError, load_scenario_clips, simulate};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -213,4 +213,41 @@ fn a_sensor_pair_read_along_one_chain_equals_the_whole_body_pose() {
             }
         }
     }
+}
+
+#[test]
+fn every_shipped_scenario_fits_in_memory_and_an_hour_of_eight_people_is_refused() {
+    use nomen_sim::scene::{CameraBytes, MAX_SCENE_MESSAGE_BYTES, wearable_message_bytes};
+    let path = repo().join("scenarios/imu_ban_8_long.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut scenario = Scenario::from_toml(&text, "imu_ban_8_long.toml").unwrap();
+    let largest_camera = |s: &Scenario| {
+        s.cameras
+            .iter()
+            .map(|c| CameraBytes::estimate(s, c.fps_hz))
+            .fold(0.0, f64::max)
+    };
+    // The largest shipped scene (8 people, full networks, 180 s) is within the bound ...
+    let max = MAX_SCENE_MESSAGE_BYTES as f64;
+    assert!(largest_camera(&scenario) < max && wearable_message_bytes(&scenario) < max);
+    // ... and the same people for an hour are refused before anything is simulated (the clips
+    // are not even loaded), with the longest duration that fits.
+    scenario.duration_s = 3600.0;
+    let err = simulate(&scenario, &BTreeMap::new(), 1, &mut |_, _| {}).unwrap_err();
+    let SimError::TooLarge { max_duration_s, .. } = &err else {
+        panic!("{err}");
+    };
+    let every_camera: f64 = scenario
+        .cameras
+        .iter()
+        .map(|c| CameraBytes::estimate(&scenario, c.fps_hz))
+        .sum();
+    let fits = max / (every_camera + wearable_message_bytes(&scenario)) * 3600.0;
+    assert_eq!(*max_duration_s, fits.floor());
+    assert!(*max_duration_s >= 180.0, "{err}");
+    assert!(
+        err.to_string()
+            .contains("more than the 1024 MiB a simulated scene may hold"),
+        "{err}"
+    );
 }

@@ -25,6 +25,11 @@ const MAX_DEPTH: usize = 256;
 /// megabytes with thousands of nodes and frames would otherwise take gigabytes.
 pub const MAX_JOINT_POSES: usize = 1 << 24;
 
+/// The longest hierarchy a BVH file may have (the bytes before its `MOTION` line), bytes:
+/// 4 MiB. CMU's 38-node hierarchies are about 10 kB; a hierarchy's tokens are held while it is
+/// parsed (24 bytes each), so a file whose `MOTION` never comes is refused here.
+pub const MAX_BVH_HIERARCHY_BYTES: usize = 4 << 20;
+
 /// Largest capacity reserved for the frame values before they are read, values (32 MB): the
 /// header's frame and channel counts are not trusted with more.
 const MAX_RESERVED_VALUES: usize = 1 << 22;
@@ -138,13 +143,29 @@ impl Bvh {
 pub fn parse_bvh(text: &str, source: &str) -> Result<Bvh> {
     // A byte-order mark (some Windows editors write one) is not part of the first keyword.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let lines: Vec<&str> = text.lines().collect();
-    let motion_line = lines
-        .iter()
-        .position(|l| l.split_whitespace().next() == Some("MOTION"));
-    let header_end = motion_line.unwrap_or(lines.len());
-    let tokens: Vec<(usize, &str)> = lines[..header_end]
-        .iter()
+    let num_lines = text.lines().count();
+    // The hierarchy's lines, up to MOTION, within MAX_BVH_HIERARCHY_BYTES: its tokens are
+    // kept (24 bytes each), the frames' are not.
+    let mut motion_line = None;
+    let mut header_bytes = 0;
+    for (i, l) in text.lines().enumerate() {
+        if l.split_whitespace().next() == Some("MOTION") {
+            motion_line = Some(i);
+            break;
+        }
+        header_bytes += l.len() + 1;
+        if header_bytes > MAX_BVH_HIERARCHY_BYTES {
+            return Err(MocapError::HierarchyTooLong {
+                file: source.to_owned(),
+                line: i + 1,
+                max_bytes: MAX_BVH_HIERARCHY_BYTES,
+            });
+        }
+    }
+    let header_end = motion_line.unwrap_or(num_lines);
+    let tokens: Vec<(usize, &str)> = text
+        .lines()
+        .take(header_end)
         .enumerate()
         .flat_map(|(i, l)| l.split_whitespace().map(move |t| (i + 1, t)))
         .collect();
@@ -153,7 +174,7 @@ pub fn parse_bvh(text: &str, source: &str) -> Result<Bvh> {
         tokens,
         pos: 0,
         // Where the hierarchy ends: the MOTION line, or the last line of the text.
-        end_line: motion_line.map_or(lines.len().max(1), |i| i + 1),
+        end_line: motion_line.map_or(num_lines.max(1), |i| i + 1),
         nodes: Vec::new(),
         num_channels: 0,
     };
@@ -161,12 +182,13 @@ pub fn parse_bvh(text: &str, source: &str) -> Result<Bvh> {
     let Some(motion_line) = motion_line else {
         return Err(MocapError::UnexpectedEof {
             file: source.to_owned(),
-            line: lines.len().max(1),
+            line: num_lines.max(1),
             expected: "MOTION".to_owned(),
         });
     };
     let (num_frames, frame_time_s, values) = parse_motion(
-        &lines,
+        text,
+        num_lines,
         motion_line + 1,
         (hp.num_channels, hp.nodes.len()),
         source,
@@ -393,14 +415,15 @@ pub(crate) fn parse_finite(tok: &str, file: &str, line: usize, what: &str) -> Re
 /// Reads `Frames:`, `Frame Time:` and the frame lines, starting at line index `start`
 /// (0-based: the line after `MOTION`).
 fn parse_motion(
-    lines: &[&str],
+    text: &str,
+    num_lines: usize,
     start: usize,
     (num_channels, num_nodes): (usize, usize),
     file: &str,
 ) -> Result<(usize, f64, Vec<f64>)> {
-    let last_line = lines.len().max(1);
-    let mut rest = lines
-        .iter()
+    let last_line = num_lines.max(1);
+    let mut rest = text
+        .lines()
         .enumerate()
         .skip(start)
         .filter(|(_, l)| !l.trim().is_empty());
@@ -440,7 +463,7 @@ fn parse_motion(
     // Cap the up-front reservation: the header's count is not trusted.
     let mut values = Vec::with_capacity(
         declared
-            .min(lines.len())
+            .min(num_lines)
             .saturating_mul(num_channels)
             .min(MAX_RESERVED_VALUES),
     );

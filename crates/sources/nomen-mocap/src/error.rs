@@ -27,6 +27,23 @@ pub enum MocapError {
         /// What the parser was looking for.
         expected: String,
     },
+    /// An input past a limit of [`nomen_core::bounded`]: a line or a file too long.
+    #[error(transparent)]
+    Limit(#[from] nomen_core::CoreError),
+    /// A BVH hierarchy longer than [`crate::bvh::MAX_BVH_HIERARCHY_BYTES`] (no `MOTION` line
+    /// in reach).
+    #[error(
+        "{file}:{line}: the hierarchy runs past {}, the longest a BVH hierarchy may have, without a MOTION line",
+        nomen_core::bounded::describe_bytes(*max_bytes as u64)
+    )]
+    HierarchyTooLong {
+        /// Source name (file name).
+        file: String,
+        /// The line that passes the limit.
+        line: usize,
+        /// The longest hierarchy taken, bytes.
+        max_bytes: usize,
+    },
     /// A token that does not fit the BVH grammar here.
     #[error("{file}:{line}: expected {expected}, found '{found}'")]
     Unexpected {

@@ -58,6 +58,8 @@ pub use error::{MocapError, Result};
 pub use fk::{JointPose, forward_kinematics};
 pub use mapping::{JointMapping, SkeletonVariant, map_joints};
 
+use nomen_core::bounded::{Limits, MIB_BYTES, read_to_string_bounded};
+use std::io::Read;
 use std::path::Path;
 
 /// Reads and parses a BVH file; errors name the file by its path.
@@ -75,12 +77,40 @@ pub fn read_asf_amc_files(asf_path: &Path, amc_path: &Path) -> Result<Bvh> {
     parse_amc(&amc_text, &asf, &amc_name)
 }
 
-/// The file's text and its path as errors name it.
-fn read_text(path: &Path) -> Result<(String, String)> {
+/// The longest line a motion-capture file (BVH, ASF, AMC) may have, bytes: 1 MiB. The longest
+/// line of the shared CMU files is 1.4 kB (a BVH frame of 38 joints).
+pub const MAX_MOCAP_LINE_BYTES: u64 = MIB_BYTES;
+
+/// The most bytes a motion-capture file may have: 64 MiB, about nine minutes of CMU's 120-Hz
+/// BVH and seventeen times the largest shared file (3.7 MB). Parsing holds the text and its
+/// frame values (8 bytes for every value, each at least 2 bytes of text): at most five times
+/// the file in memory.
+pub const MAX_MOCAP_BYTES: u64 = 64 * MIB_BYTES;
+
+/// The limits every motion-capture file is read within.
+pub const MOCAP_LIMITS: Limits = Limits::text(
+    "a motion-capture file",
+    MAX_MOCAP_LINE_BYTES,
+    MAX_MOCAP_BYTES,
+);
+
+/// The text of a motion-capture file, read within [`MOCAP_LIMITS`]; errors name it by `path`.
+pub fn read_mocap_text(path: &Path) -> Result<String> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|io| MocapError::Io {
+    let file = std::fs::File::open(path).map_err(|io| MocapError::Io {
         path: name.clone(),
         io,
     })?;
-    Ok((name, text))
+    read_mocap_stream(file, &name)
+}
+
+/// The text of a motion-capture stream, read within [`MOCAP_LIMITS`]; `source` names it in
+/// errors.
+pub fn read_mocap_stream(input: impl Read, source: &str) -> Result<String> {
+    Ok(read_to_string_bounded(input, source, MOCAP_LIMITS)?)
+}
+
+/// The file's text and its path as errors name it.
+fn read_text(path: &Path) -> Result<(String, String)> {
+    Ok((path.display().to_string(), read_mocap_text(path)?))
 }

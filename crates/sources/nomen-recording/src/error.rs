@@ -54,16 +54,28 @@ pub enum RecordingError {
         problem: String,
     },
     /// The line is longer than [`crate::ReadOptions::max_line_bytes`]: not a recording (a
-    /// binary file, a stream of zeros) or lines run together. Its bytes are read to its end
-    /// but not kept.
+    /// binary file, a stream of zeros) or lines run together. The reader stops inside it.
     #[error(
-        "{at}: line longer than {max_bytes} bytes (not a recording, or its newlines are missing)"
+        "{at}: the line is longer than {}, the longest line a recording may have (not a recording, or its newlines are missing)",
+        nomen_core::bounded::describe_bytes(*max_bytes as u64)
     )]
     LineTooLong {
         /// Where.
         at: Pos,
         /// The longest line the reader takes, bytes.
         max_bytes: usize,
+    },
+    /// The messages read so far take more memory than [`crate::ReadOptions::max_held_bytes`]
+    /// allows a reader whose messages are all kept.
+    #[error(
+        "{at}: the messages up to here take more than {} in memory, the most a recording read whole may hold (nomen run and nomen validate stream it)",
+        nomen_core::bounded::describe_bytes(*max_bytes)
+    )]
+    TooLarge {
+        /// Where: the line of the message past the limit.
+        at: Pos,
+        /// The limit, bytes.
+        max_bytes: u64,
     },
     /// The line is not valid JSON (includes `NaN` tokens and numbers out of `f64` range).
     #[error("{at}: invalid json: {detail}")]
@@ -266,6 +278,8 @@ pub enum ErrorKind {
     Header,
     /// [`RecordingError::LineTooLong`].
     LineTooLong,
+    /// [`RecordingError::TooLarge`].
+    TooLarge,
     /// [`RecordingError::Json`].
     Json,
     /// [`RecordingError::Truncated`].
@@ -301,6 +315,7 @@ impl ErrorKind {
             ErrorKind::Io => "i/o",
             ErrorKind::Header => "header",
             ErrorKind::LineTooLong => "line too long",
+            ErrorKind::TooLarge => "too large to hold",
             ErrorKind::Json => "invalid json",
             ErrorKind::Truncated => "truncated",
             ErrorKind::MissingType => "missing type",
@@ -331,6 +346,7 @@ impl RecordingError {
             RecordingError::Io { .. } => ErrorKind::Io,
             RecordingError::Header { .. } => ErrorKind::Header,
             RecordingError::LineTooLong { .. } => ErrorKind::LineTooLong,
+            RecordingError::TooLarge { .. } => ErrorKind::TooLarge,
             RecordingError::Json { .. } => ErrorKind::Json,
             RecordingError::Truncated { .. } => ErrorKind::Truncated,
             RecordingError::MissingType { .. } => ErrorKind::MissingType,
@@ -353,6 +369,7 @@ impl RecordingError {
             RecordingError::Io { at, .. }
             | RecordingError::Header { at, .. }
             | RecordingError::LineTooLong { at, .. }
+            | RecordingError::TooLarge { at, .. }
             | RecordingError::Json { at, .. }
             | RecordingError::Truncated { at }
             | RecordingError::MissingType { at }

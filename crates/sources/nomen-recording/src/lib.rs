@@ -46,7 +46,7 @@ pub use check::{DEFAULT_GLOBAL_TOLERANCE_NS, DEFAULT_MAX_TIME_JUMP_NS, IdCheck};
 pub use error::{ErrorKind, Pos, RecordingError, Result};
 pub use header::{FORMAT_NAME, FORMAT_VERSION, Header};
 pub use reader::{
-    DEFAULT_MAX_LINE_BYTES, ErrorPolicy, MESSAGE_TYPES, ReadOptions, ReadStats, Recording,
-    RecordingReader, read_file,
+    DEFAULT_MAX_LINE_BYTES, ErrorPolicy, MAX_HELD_MESSAGE_BYTES, MESSAGE_TYPES, ReadOptions,
+    ReadStats, Recording, RecordingReader, held_bytes, read_file,
 };
 pub use writer::{RecordingWriter, WriteOptions, sort_for_writing};

@@ -5,12 +5,13 @@ use crate::check::{
 };
 use crate::error::{ErrorKind, Pos, RecordingError, Result, json_detail};
 use crate::header::Header;
+use nomen_core::bounded::{LineRead, describe_bytes, read_line_bounded};
 use nomen_core::{Message, SessionTime, SkeletonObservation};
 use serde_json::Value;
 use std::collections::{BTreeMap, VecDeque};
 use std::fmt;
 use std::fs::File;
-use std::io::{self, BufRead, BufReader, Read};
+use std::io::{self, BufRead, BufReader};
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
@@ -61,14 +62,34 @@ pub struct ReadOptions {
     /// silent for a while). A corrupt timestamp further ahead than that still waits, and is
     /// refused as before. Default `false`: reading then depends on the input alone.
     pub wall_clock: bool,
-    /// The longest line taken, bytes ([`DEFAULT_MAX_LINE_BYTES`]). A longer one is read to its
-    /// end without being kept and refused ([`RecordingError::LineTooLong`]; as the header, a
-    /// header error), so a binary file or an endless stream without newlines cannot take all
-    /// the memory there is.
+    /// The longest line taken, bytes ([`DEFAULT_MAX_LINE_BYTES`]). A longer one ends the
+    /// stream under either policy ([`RecordingError::LineTooLong`]; as the header, a header
+    /// error) as soon as its first `max_line_bytes + 1` bytes are read: a binary file or an
+    /// endless stream without newlines costs at most this much memory and ends in an error.
     pub max_line_bytes: usize,
+    /// The most memory the messages yielded so far may take, bytes ([`held_bytes`]): a
+    /// reader whose messages are all kept (a whole recording read at once, [`read_file`])
+    /// ends with [`RecordingError::TooLarge`] past it. Default `u64::MAX`: a streaming
+    /// consumer keeps none of them; [`MAX_HELD_MESSAGE_BYTES`] for one that keeps them all.
+    pub max_held_bytes: u64,
 }
 
-/// The default [`ReadOptions::max_line_bytes`]: 16 MiB. A recording's lines are a few hundred
+/// The most memory the messages of a recording read whole may take, bytes: 2 GiB. A message
+/// takes 160 bytes, a skeleton 2.4 kB more: an hour of one camera on 8 people is 2 GiB.
+pub const MAX_HELD_MESSAGE_BYTES: u64 = 2 << 30;
+
+/// The memory a message takes once read: the message and, for a skeleton, its boxed joints.
+pub fn held_bytes(msg: &Message) -> u64 {
+    let boxed = match msg {
+        Message::Skeleton(_) => std::mem::size_of::<SkeletonObservation>(),
+        Message::Identified(_) => std::mem::size_of::<nomen_core::IdentifiedSkeleton>(),
+        Message::TruthSkeleton(_) => std::mem::size_of::<nomen_core::TruthSkeleton>(),
+        _ => 0,
+    };
+    (std::mem::size_of::<Message>() + boxed) as u64
+}
+
+/// The default [`ReadOptions::max_line_bytes`], bytes: 16 MiB. A recording's lines are a few hundred
 /// bytes to a few kilobytes (a skeleton of every joint), its header with the registry rarely
 /// more than a megabyte.
 pub const DEFAULT_MAX_LINE_BYTES: usize = 16 << 20;
@@ -83,6 +104,7 @@ impl Default for ReadOptions {
             max_time_jump_ns: DEFAULT_MAX_TIME_JUMP_NS,
             wall_clock: false,
             max_line_bytes: DEFAULT_MAX_LINE_BYTES,
+            max_held_bytes: u64::MAX,
         }
     }
 }
@@ -93,6 +115,15 @@ impl ReadOptions {
         Self {
             policy,
             ..Self::default()
+        }
+    }
+
+    /// These options for a consumer that keeps every message: at most
+    /// [`MAX_HELD_MESSAGE_BYTES`] of them.
+    pub fn holding_all(self) -> Self {
+        Self {
+            max_held_bytes: MAX_HELD_MESSAGE_BYTES,
+            ..self
         }
     }
 }
@@ -106,6 +137,8 @@ pub struct ReadStats {
     pub num_bytes: u64,
     /// Messages that passed every check and were yielded.
     pub num_accepted: u64,
+    /// The memory the messages yielded take, bytes ([`held_bytes`]).
+    pub held_bytes: u64,
     /// Skipped lines per error kind (only under [`ErrorPolicy::SkipAndCount`]).
     pub skipped: BTreeMap<ErrorKind, u64>,
     /// The first few errors, in file order (up to [`ReadOptions::max_errors_kept`]).
@@ -225,26 +258,32 @@ impl<R: BufRead> RecordingReader<R> {
         let file: Arc<str> = Arc::from(source);
         let mut buf = Vec::with_capacity(4096);
         let at = Pos::new(&file, 1);
-        let (n, is_too_long) = read_line_capped(&mut input, &mut buf, options.max_line_bytes)
-            .map_err(|source| RecordingError::Io {
-                at: at.clone(),
-                source,
+        let read =
+            read_line_bounded(&mut input, &mut buf, options.max_line_bytes).map_err(|source| {
+                RecordingError::Io {
+                    at: at.clone(),
+                    source,
+                }
             })?;
-        if is_too_long {
-            return Err(RecordingError::Header {
-                at,
-                problem: format!(
-                    "the first line is longer than {} bytes: not a nomen recording",
-                    options.max_line_bytes
-                ),
-            });
-        }
-        if n == 0 {
-            return Err(RecordingError::Header {
-                at,
-                problem: "empty file: expected a header line".to_owned(),
-            });
-        }
+        let n = match read {
+            LineRead::Line(n) => n,
+            LineRead::TooLong => {
+                return Err(RecordingError::Header {
+                    at,
+                    problem: format!(
+                        "the first line is longer than {}, the longest line a recording may \
+                         have: not a nomen recording",
+                        describe_bytes(options.max_line_bytes as u64)
+                    ),
+                });
+            }
+            LineRead::End => {
+                return Err(RecordingError::Header {
+                    at,
+                    problem: "empty file: expected a header line".to_owned(),
+                });
+            }
+        };
         // A byte-order mark, which some Windows editors put before the first line, is not
         // part of the header's JSON.
         let header_line = buf.strip_prefix(UTF8_BOM).unwrap_or(&buf);
@@ -302,39 +341,41 @@ impl<R: BufRead> RecordingReader<R> {
         while self.queued.is_empty() && !self.is_done {
             self.buf.clear();
             let line = self.stats.num_lines + 1;
-            let (n, is_too_long) =
-                match read_line_capped(&mut self.input, &mut self.buf, self.options.max_line_bytes)
-                {
-                    Ok(read) => read,
-                    Err(source) => {
-                        self.is_done = true;
-                        let err = RecordingError::Io {
-                            at: Pos::new(&self.file, line),
-                            source,
-                        };
-                        self.release_before(Err(err));
-                        break;
-                    }
-                };
-            if n == 0 {
-                self.is_done = true;
-                self.release_held(false);
-                break;
-            }
+            let read =
+                read_line_bounded(&mut self.input, &mut self.buf, self.options.max_line_bytes);
+            let n = match read {
+                Ok(LineRead::Line(n)) => n,
+                Ok(LineRead::End) => {
+                    self.is_done = true;
+                    self.release_held(false);
+                    break;
+                }
+                // Its end may never come (an endless stream without newlines): the stream
+                // ends here under either policy, with the line unread.
+                Ok(LineRead::TooLong) => {
+                    self.is_done = true;
+                    self.stats.num_lines = line;
+                    let err = RecordingError::LineTooLong {
+                        at: Pos::new(&self.file, line),
+                        max_bytes: self.options.max_line_bytes,
+                    };
+                    self.release_before(Err(err));
+                    break;
+                }
+                Err(source) => {
+                    self.is_done = true;
+                    let err = RecordingError::Io {
+                        at: Pos::new(&self.file, line),
+                        source,
+                    };
+                    self.release_before(Err(err));
+                    break;
+                }
+            };
             self.stats.num_lines = line;
             self.stats.num_bytes += n as u64;
             if self.options.wall_clock {
                 self.line_read_at = Some(Instant::now());
-            }
-            if is_too_long {
-                let err = RecordingError::LineTooLong {
-                    at: Pos::new(&self.file, line),
-                    max_bytes: self.options.max_line_bytes,
-                };
-                if let Some(item) = self.fail(err) {
-                    self.release_before(item);
-                }
-                continue;
             }
             if self.buf.iter().all(u8::is_ascii_whitespace) {
                 continue;
@@ -364,7 +405,19 @@ impl<R: BufRead> RecordingReader<R> {
                 self.queued.push_back(item);
             }
         }
-        self.queued.pop_front()
+        let item = self.queued.pop_front();
+        if let Some(Ok(msg)) = &item {
+            self.stats.held_bytes += held_bytes(msg);
+            if self.stats.held_bytes > self.options.max_held_bytes {
+                self.is_done = true;
+                self.queued.clear();
+                return Some(Err(RecordingError::TooLarge {
+                    at: Pos::new(&self.file, self.stats.num_lines),
+                    max_bytes: self.options.max_held_bytes,
+                }));
+            }
+        }
+        item
     }
 
     /// A good message after the held jump that follows on from it: checked in time order after
@@ -614,9 +667,11 @@ pub struct Recording {
     pub messages: Vec<Message>,
 }
 
-/// Reads a whole file (or stdin for `-`) into memory, stopping at the first error.
+/// Reads a whole file (or stdin for `-`) into memory, stopping at the first error; at most
+/// [`MAX_HELD_MESSAGE_BYTES`] of messages.
 pub fn read_file(path: impl AsRef<Path>) -> Result<Recording> {
-    let mut reader = RecordingReader::open(path)?;
+    let mut reader =
+        RecordingReader::open_with_options(path, ReadOptions::default().holding_all())?;
     let messages = reader.by_ref().collect::<Result<Vec<_>>>()?;
     Ok(Recording {
         header: reader.header,
@@ -668,41 +723,4 @@ pub const MESSAGE_TYPES: [&str; 9] = [
 
 fn is_message_type(name: &str) -> bool {
     MESSAGE_TYPES.contains(&name)
-}
-
-/// Reads one line of `input`, its newline included, onto `buf`, keeping at most `max_bytes`
-/// bytes of it before the newline. Returns the bytes consumed and whether the line was longer:
-/// then `buf` is left empty and the line is consumed to its end (or the input's) in the
-/// reader's own buffer, without keeping it.
-fn read_line_capped<R: BufRead>(
-    input: &mut R,
-    buf: &mut Vec<u8>,
-    max_bytes: usize,
-) -> io::Result<(usize, bool)> {
-    let limit = u64::try_from(max_bytes)
-        .unwrap_or(u64::MAX)
-        .saturating_add(1);
-    let start = buf.len();
-    let n = input.by_ref().take(limit).read_until(b'\n', buf)?;
-    if n <= max_bytes || buf.last() == Some(&b'\n') {
-        return Ok((n, false));
-    }
-    buf.truncate(start);
-    let mut consumed = n;
-    loop {
-        let (used, is_end) = match input.fill_buf() {
-            Ok([]) => return Ok((consumed, true)),
-            Ok(available) => match memchr::memchr(b'\n', available) {
-                Some(i) => (i + 1, true),
-                None => (available.len(), false),
-            },
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(e),
-        };
-        input.consume(used);
-        consumed += used;
-        if is_end {
-            return Ok((consumed, true));
-        }
-    }
 }

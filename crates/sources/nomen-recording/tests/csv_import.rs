@@ -111,16 +111,17 @@ fn imu_csv_errors_name_file_line_and_column() {
         "imu.csv:3: column 'accel_z_g': cannot read 'abc' as a number"
     );
 
-    // A header of a million columns (the importers sought each column among all of them).
+    // A header of a hundred thousand columns (the importers sought each column among all of
+    // them); a million would pass the longest line before the column count.
     let wide = format!(
         "{}{}\n0.00,0,0,1,0,0,0\n",
         head.trim_end(),
-        ",x".repeat(1_000_000)
+        ",x".repeat(100_000)
     );
     let err = import_imu_auto(wide.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
     assert_eq!(
         err.to_string(),
-        "imu.csv:1: 1000007 columns, more than the 4096 a table of samples may have"
+        "imu.csv:1: 100007 columns, more than the 4096 a table of samples may have"
     );
 
     let text = format!("{head}0.01,0,0,1,0,0,0\n0.01,0,0,1,0,0,0\n");
@@ -325,4 +326,104 @@ t (s),camera,track,left_shoulder_x (m),left_shoulder_y (m),left_shoulder_z (m),r
         panic!()
     };
     assert_eq!(second.position(Joint::Head).unwrap().y, 1.7);
+}
+
+/// `head` once, then `pattern` repeated for ever: an import without bounds never ends on it.
+struct Endless {
+    head: &'static [u8],
+    pattern: &'static [u8],
+    at: usize,
+}
+
+impl std::io::Read for Endless {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        for b in buf.iter_mut() {
+            *b = match self.head.get(self.at) {
+                Some(h) => *h,
+                None => self.pattern[(self.at - self.head.len()) % self.pattern.len()],
+            };
+            self.at += 1;
+        }
+        Ok(buf.len())
+    }
+}
+
+const IMU_HEAD: &[u8] = b"t_s,accel_x_g,accel_y_g,accel_z_g,gyro_x_dps,gyro_y_dps,gyro_z_dps\n";
+
+fn endless(pattern: &'static [u8]) -> Endless {
+    Endless {
+        head: IMU_HEAD,
+        pattern,
+        at: 0,
+    }
+}
+
+#[test]
+fn an_endless_row_is_refused_at_the_row_limit() {
+    let err = import_imu_auto(endless(b"0"), "imu.csv", DeviceId::new("d")).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "imu.csv:2: the line is longer than 1 MiB, the longest line a CSV file may have"
+    );
+    // Without a header line either.
+    let zeros = Endless {
+        head: b"",
+        pattern: b"\0",
+        at: 0,
+    };
+    let err = import_fixes(zeros, "z.csv", &FixCsvSpec::default()).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "z.csv:1: the line is longer than 1 MiB, the longest line a CSV file may have"
+    );
+}
+
+#[test]
+fn an_endless_file_is_refused_at_the_file_limit() {
+    // Blank lines make no rows: the file limit stops them.
+    let err = import_imu_auto(endless(b"\n"), "imu.csv", DeviceId::new("d")).unwrap_err();
+    assert!(
+        err.to_string()
+            .ends_with(": the file holds more than 256 MiB, the most a CSV file may have"),
+        "{err}"
+    );
+}
+
+/// An IMU table of endless good rows, 1 ms apart.
+struct EndlessRows {
+    pending: Vec<u8>,
+    row: u64,
+}
+
+impl std::io::Read for EndlessRows {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        while self.pending.len() < buf.len() {
+            let row = format!("{}.{:03},0,0,1,0,0,0\n", self.row / 1000, self.row % 1000);
+            self.pending.extend_from_slice(row.as_bytes());
+            self.row += 1;
+        }
+        let n = buf.len();
+        buf.copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(n)
+    }
+}
+
+#[test]
+fn endless_good_rows_are_refused_when_their_messages_pass_the_memory_limit() {
+    let rows = EndlessRows {
+        pending: IMU_HEAD.to_vec(),
+        row: 0,
+    };
+    let err = import_imu_auto(rows, "imu.csv", DeviceId::new("d")).unwrap_err();
+    let message_bytes = std::mem::size_of::<Message>() as u64;
+    // The first row past the limit: the header is line 1.
+    let line = nomen_recording::csv::MAX_CSV_MESSAGE_BYTES / message_bytes + 2;
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "imu.csv:{line}: the rows so far make more than 512 MiB of messages, the most a CSV \
+             import may hold: split the file"
+        )
+    );
 }

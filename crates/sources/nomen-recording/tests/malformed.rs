@@ -826,21 +826,44 @@ fn live_a_pause_the_wall_clock_vouches_for_is_taken_at_once_and_a_corrupt_jump_s
     }
 }
 
-/// `text` read with lines capped at `max_line_bytes`, through a 64-byte buffer (so a long
-/// line is skipped over many refills), skipping bad lines: the good messages and the counts.
-fn read_capped(text: &[u8], max_line_bytes: usize) -> (Vec<Message>, nomen_recording::ReadStats) {
+/// `input` read with lines capped at `max_line_bytes` under `policy`, through a 64-byte
+/// buffer (so a long line spans many refills): the good messages, the error that ended the
+/// stream and the counts.
+fn read_capped(
+    input: impl std::io::Read,
+    max_line_bytes: usize,
+    policy: ErrorPolicy,
+) -> (Vec<Message>, Option<String>, nomen_recording::ReadStats) {
     let options = ReadOptions {
         max_line_bytes,
-        ..skip_options()
+        policy,
+        ..ReadOptions::default()
     };
-    let input = std::io::BufReader::with_capacity(64, text);
+    let input = std::io::BufReader::with_capacity(64, input);
     let mut reader = RecordingReader::with_options(input, "rec.jsonl", options).unwrap();
-    let good = reader.by_ref().map(Result::unwrap).collect();
-    (good, reader.into_stats())
+    let mut good = Vec::new();
+    let mut err = None;
+    for item in reader.by_ref() {
+        match item {
+            Ok(msg) => good.push(msg),
+            Err(e) => err = Some(e.to_string()),
+        }
+    }
+    (good, err, reader.into_stats())
+}
+
+/// Endless bytes, none a newline: a reader that looks for the end of a line never finishes.
+struct Endless(u8);
+
+impl std::io::Read for Endless {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        buf.fill(self.0);
+        Ok(buf.len())
+    }
 }
 
 #[test]
-fn a_line_longer_than_the_cap_is_refused_by_line_and_the_next_lines_are_read() {
+fn a_line_longer_than_the_cap_ends_the_stream_under_either_policy() {
     let fits = line(&imu(2 * S, "band1"));
     // The longest good line, the header, exactly at the cap.
     let cap = header_line().len().max(fits.len());
@@ -852,51 +875,104 @@ fn a_line_longer_than_the_cap_is_refused_by_line_and_the_next_lines_are_read() {
         fits,
         line(&imu(3 * S, "band1")),
     ]);
-    let (good, stats) = read_capped(text.as_bytes(), cap);
-    assert_eq!(
-        good,
-        vec![imu(S, "band1"), imu(2 * S, "band1"), imu(3 * S, "band1")]
+    let expected = format!(
+        "rec.jsonl:3: the line is longer than {cap} bytes, the longest line a recording may \
+         have (not a recording, or its newlines are missing)"
     );
-    assert_eq!(stats.skipped.get(&ErrorKind::LineTooLong), Some(&1));
-    assert_eq!(stats.num_skipped(), 1);
-    assert_eq!(stats.num_bytes, text.len() as u64);
-    assert_eq!(
-        stats.first_errors[0].to_string(),
-        format!(
-            "rec.jsonl:3: line longer than {cap} bytes (not a recording, or its newlines are missing)"
-        )
-    );
-    // Stopping at it, the messages before it are delivered.
-    let options = ReadOptions {
-        max_line_bytes: cap,
-        ..ReadOptions::default()
-    };
-    let (good, err) = read_with(&text, options);
-    assert_eq!(good, vec![imu(S, "band1")]);
-    assert!(err.unwrap().starts_with("rec.jsonl:3: line longer than"));
+    for policy in [ErrorPolicy::Stop, ErrorPolicy::SkipAndCount] {
+        let (good, err, stats) = read_capped(text.as_bytes(), cap, policy);
+        assert_eq!(good, vec![imu(S, "band1")], "{policy:?}");
+        assert_eq!(err.as_deref(), Some(expected.as_str()), "{policy:?}");
+        assert_eq!(stats.num_lines, 3, "{policy:?}");
+        assert_eq!(stats.num_skipped(), 0, "{policy:?}");
+    }
 }
 
 #[test]
-fn an_endless_line_is_consumed_without_being_kept_and_a_long_first_line_is_no_header() {
-    // 10 MB without a newline after the header, the cap at 1 KiB: refused, every byte read.
-    let mut text = file(&[line(&imu(S, "band1"))]).into_bytes();
-    let header_len = text.len();
-    text.resize(header_len + 10_000_000, b'7');
-    let (good, stats) = read_capped(&text, 1024);
-    assert_eq!(good, vec![imu(S, "band1")]);
-    assert_eq!(stats.skipped.get(&ErrorKind::LineTooLong), Some(&1));
-    assert_eq!(stats.num_bytes, text.len() as u64);
-    // As the first line, it is no header.
-    let zeros = vec![0u8; 5_000];
+fn an_endless_line_ends_the_stream_and_a_long_first_line_is_no_header() {
+    // A header, a good line, then bytes without a newline for ever: refused at the cap (the
+    // test would never end if the reader looked for the line's end).
+    let text = file(&[line(&imu(S, "band1"))]).into_bytes();
+    for policy in [ErrorPolicy::Stop, ErrorPolicy::SkipAndCount] {
+        let input = std::io::Read::chain(&text[..], Endless(b'7'));
+        let (good, err, _) = read_capped(input, 1024, policy);
+        assert_eq!(good, vec![imu(S, "band1")]);
+        assert_eq!(
+            err.as_deref(),
+            Some(
+                "rec.jsonl:3: the line is longer than 1 KiB, the longest line a recording may \
+                 have (not a recording, or its newlines are missing)"
+            )
+        );
+    }
+    // As the first line, endless zeros are no header.
     let options = ReadOptions {
         max_line_bytes: 1024,
         ..ReadOptions::default()
     };
-    let Err(e) = RecordingReader::with_options(&zeros[..], "zeros.bin", options) else {
-        panic!("five thousand zeros taken for a header");
+    let input = std::io::BufReader::new(Endless(0));
+    let Err(e) = RecordingReader::with_options(input, "zeros.bin", options) else {
+        panic!("endless zeros taken for a header");
     };
     assert_eq!(
         e.to_string(),
-        "zeros.bin:1: the first line is longer than 1024 bytes: not a nomen recording"
+        "zeros.bin:1: the first line is longer than 1 KiB, the longest line a recording may \
+         have: not a nomen recording"
+    );
+}
+
+/// A recording of endless good IMU lines, 10 ms apart.
+struct EndlessImu {
+    pending: Vec<u8>,
+    num_lines: i64,
+}
+
+impl std::io::Read for EndlessImu {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        while self.pending.len() < buf.len() {
+            let msg = imu(S + self.num_lines * (S / 100), "band1");
+            self.pending
+                .extend_from_slice(format!("{}\n", line(&msg)).as_bytes());
+            self.num_lines += 1;
+        }
+        let n = buf.len();
+        buf.copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(n)
+    }
+}
+
+#[test]
+fn a_reader_that_keeps_every_message_stops_at_its_memory_limit() {
+    let endless = || EndlessImu {
+        pending: format!("{}\n", header_line()).into_bytes(),
+        num_lines: 0,
+    };
+    let per_message = nomen_recording::held_bytes(&imu(S, "band1"));
+    let options = ReadOptions {
+        max_held_bytes: 1000 * per_message,
+        ..ReadOptions::default()
+    };
+    let reader =
+        RecordingReader::with_options(std::io::BufReader::new(endless()), "rec.jsonl", options)
+            .unwrap();
+    let items: Vec<_> = reader.collect();
+    // 1000 messages fit; the next, on line 1002, is refused and ends the stream.
+    assert_eq!(items.len(), 1001);
+    assert!(items[..1000].iter().all(Result::is_ok));
+    let Some(Err(e)) = items.last() else {
+        panic!("the stream did not end in an error");
+    };
+    let expected = format!(
+        "rec.jsonl:1002: the messages up to here take more than {} bytes in memory, the most a \
+         recording read whole may hold (nomen run and nomen validate stream it)",
+        1000 * per_message
+    );
+    assert_eq!(e.to_string(), expected);
+    // The default is a streaming reader's: no limit.
+    assert_eq!(ReadOptions::default().max_held_bytes, u64::MAX);
+    assert_eq!(
+        ReadOptions::default().holding_all().max_held_bytes,
+        nomen_recording::MAX_HELD_MESSAGE_BYTES
     );
 }

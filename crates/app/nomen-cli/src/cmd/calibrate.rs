@@ -109,7 +109,7 @@ fn frames(args: &FramesArgs) -> Result<()> {
         FitKind::Rigid
     };
     let out = if let Some(path) = &args.points {
-        let text = crate::io::read_text(path)?;
+        let text = crate::io::read_text(path, nomen_calib::POINTS_LIMITS)?;
         let pairs = parse_point_pairs(&text, &crate::io::source_name(path))?;
         let source: Vec<_> = pairs.iter().map(|p| p.source_m).collect();
         let target: Vec<_> = pairs.iter().map(|p| p.target_m).collect();

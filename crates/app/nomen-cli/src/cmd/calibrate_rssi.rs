@@ -5,7 +5,7 @@
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use nomen_core::Message;
-use nomen_recording::RecordingReader;
+use nomen_recording::{ReadOptions, RecordingReader};
 use nomen_rssi::{CalibrationConfig, ModelKind, RssiUnit, TagPlacement, calibrate};
 use std::io::Write;
 use std::path::PathBuf;
@@ -50,7 +50,8 @@ pub fn run(args: CalibrateRssiArgs) -> Result<()> {
     crate::io::check_distinct(&[Some(&args.recording)], &[args.out.as_deref()])?;
     let name = crate::io::source_name(&args.recording);
     let reader =
-        RecordingReader::open(&args.recording).with_context(|| format!("reading {name}"))?;
+        RecordingReader::open_with_options(&args.recording, ReadOptions::default().holding_all())
+            .with_context(|| format!("reading {name}"))?;
     let Some(registry) = reader.header().registry.clone() else {
         bail!("{name}: the header carries no registry (antenna positions are needed)");
     };

@@ -13,7 +13,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use nomen_core::{IdentifiedSkeleton, Identity, Joint, Message};
 use nomen_eval::identity::{EvalConfig, EvalReport};
-use nomen_recording::{Header, RecordingReader};
+use nomen_recording::{Header, ReadOptions, RecordingReader};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -164,8 +164,9 @@ pub fn run(args: DemoArgs) -> Result<()> {
 /// Reads `recording`, labels every skeleton anonymous (the baseline that uses no evidence),
 /// writes the result to `result` and evaluates it against `truth`.
 fn anonymous_baseline(recording: &Path, truth: &Path, result_path: &Path) -> Result<EvalReport> {
-    let reader = RecordingReader::open(recording)
-        .with_context(|| format!("reading {}", recording.display()))?;
+    let reader =
+        RecordingReader::open_with_options(recording, ReadOptions::default().holding_all())
+            .with_context(|| format!("reading {}", recording.display()))?;
     let mut result = Vec::new();
     for m in reader {
         if let Message::Skeleton(s) = m? {

@@ -4,7 +4,8 @@ use crate::io::{read_text, source_name};
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use nomen_eval::mot::{
-    IouMatchConfig, MotChallengeConfig, MotMetrics, compare_to_groundtruth, parse_motchallenge,
+    IouMatchConfig, MOT_LIMITS, MotChallengeConfig, MotMetrics, compare_to_groundtruth,
+    parse_motchallenge,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -99,7 +100,7 @@ fn run_mot(args: &MotArgs) -> Result<()> {
 /// Loads two MOTChallenge files and computes py-motmetrics' metrics at the given IoU distance.
 pub fn evaluate_motchallenge(gt: &Path, test: &Path, iou: f64) -> Result<MotMetrics> {
     let loader = MotChallengeConfig::default();
-    let gt_rows = parse_motchallenge(&read_text(gt)?, &source_name(gt), &loader)?;
+    let gt_rows = parse_motchallenge(&read_text(gt, MOT_LIMITS)?, &source_name(gt), &loader)?;
     if gt_rows.is_empty() {
         // Every ratio would divide by zero (py-motmetrics prints -inf and NaN): a wrong file.
         bail!(
@@ -107,7 +108,7 @@ pub fn evaluate_motchallenge(gt: &Path, test: &Path, iou: f64) -> Result<MotMetr
             source_name(gt)
         );
     }
-    let test_rows = parse_motchallenge(&read_text(test)?, &source_name(test), &loader)?;
+    let test_rows = parse_motchallenge(&read_text(test, MOT_LIMITS)?, &source_name(test), &loader)?;
     let config = IouMatchConfig {
         max_iou_distance: iou,
         ..Default::default()

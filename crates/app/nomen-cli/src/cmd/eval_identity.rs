@@ -4,7 +4,7 @@ use anyhow::{Context, Result, bail};
 use nomen_core::Message;
 use nomen_eval::identity::{EvalConfig, EvalReport, SceneData, evaluate};
 use nomen_eval::plots::{PlotConfig, write_plots};
-use nomen_recording::RecordingReader;
+use nomen_recording::{ReadOptions, RecordingReader};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -101,8 +101,8 @@ struct Counts {
 }
 
 fn push_all(scene: &mut SceneData, path: &Path) -> Result<Counts> {
-    let reader =
-        RecordingReader::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let reader = RecordingReader::open_with_options(path, ReadOptions::default().holding_all())
+        .with_context(|| format!("reading {}", path.display()))?;
     let mut counts = Counts::default();
     for m in reader {
         let m = m?;

@@ -128,7 +128,7 @@ pub fn run(command: ImportCommand) -> Result<()> {
     };
     let header = match &common.registry {
         Some(path) => {
-            let registry: Registry = serde_json::from_str(&crate::io::read_text(path)?)
+            let registry: Registry = serde_json::from_str(&crate::io::read_settings(path)?)
                 .with_context(|| format!("{}: not a registry", path.display()))?;
             // The one id an IMU import takes from the command line, named as such.
             if let Some(device) = &device

@@ -31,7 +31,9 @@ pub struct RunArgs {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Where to write the result (`-` for stdout). When reading stdin or writing stdout (a live
-    /// pipe), each batch of decisions is flushed as soon as the engine makes it.
+    /// pipe), each batch of decisions is flushed as soon as the engine makes it. A file is
+    /// written as `OUT.partial` and renamed to OUT when the run returns: a run killed before
+    /// then leaves OUT.partial and any previous OUT as it was.
     #[arg(long)]
     pub out: PathBuf,
     /// Skip malformed input lines (counted, and listed with file and line) instead of stopping.
@@ -232,7 +234,7 @@ fn open_writer(
     let header = Header::new(registry)
         .with_meta("generator", generator)
         .with_meta("input", crate::io::source_name(recording));
-    let sink = crate::io::create_write(out)?;
+    let sink = crate::io::create_write_renamed(out)?;
     Ok(RecordingWriter::with_options(
         sink,
         &crate::io::sink_name(out),
@@ -251,9 +253,14 @@ fn stopped_reading(
     num_decisions: impl std::fmt::Display,
     out: &Path,
 ) -> anyhow::Error {
+    // A line past the limit ends the reading under either policy: no hint to skip it.
+    let hint = if matches!(e, nomen_recording::RecordingError::LineTooLong { .. }) {
+        ""
+    } else {
+        " (--skip-bad skips bad lines instead)"
+    };
     anyhow::Error::from(e).context(format!(
-        "stopped reading; the {num_decisions} decisions on what came before are in {} \
-         (--skip-bad skips bad lines instead)",
+        "stopped reading; the {num_decisions} decisions on what came before are in {}{hint}",
         crate::io::sink_name(out)
     ))
 }
@@ -267,8 +274,10 @@ pub fn run_baseline_file(
     baseline: &Baseline,
     skip: Option<SkipLimit>,
 ) -> Result<String> {
-    let mut reader =
-        RecordingReader::open_with_options(recording, ReadOptions::with_policy(read_policy(skip)))?;
+    let mut reader = RecordingReader::open_with_options(
+        recording,
+        ReadOptions::with_policy(read_policy(skip)).holding_all(),
+    )?;
     let Some(registry) = reader.header().registry.clone() else {
         bail!(
             "{}: the header carries no registry, so {} does not know who wears what",

@@ -46,8 +46,7 @@ pub fn simulate_scenario(
     let scenario = Scenario::from_toml(text, source)?;
     let data = crate::io::find_data(data)?;
     let clips = load_scenario_clips(&scenario, &mut |file| {
-        std::fs::read_to_string(data.join(file))
-            .map_err(|e| format!("{} ({e})", data.join(file).display()))
+        nomen_mocap::read_mocap_text(&data.join(file)).map_err(|e| e.to_string())
     })
     .with_context(|| format!("loading the clips of {source}"))?;
     let seed = seed.unwrap_or(scenario.seed);

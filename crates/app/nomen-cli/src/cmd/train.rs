@@ -251,9 +251,8 @@ fn write_model(model: &CnnModel, out: &Path) -> Result<(PathBuf, PathBuf)> {
 /// engine's pair scorer.
 pub fn load_scorer(model: &Path) -> Result<CnnScorer> {
     let (weights_path, meta_path) = model_paths(model);
-    let weights = std::fs::read(&weights_path)
-        .with_context(|| format!("cannot read {}", weights_path.display()))?;
-    let meta = crate::io::read_text(&meta_path)?;
+    let weights = crate::io::read_bytes(&weights_path, nomen_cnn::WEIGHTS_LIMITS)?;
+    let meta = crate::io::read_settings(&meta_path)?;
     let model = CnnModel::from_bytes(
         &weights,
         &weights_path.display().to_string(),

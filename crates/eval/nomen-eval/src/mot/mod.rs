@@ -41,6 +41,6 @@ pub use accumulator::{MotAccumulator, MotAccumulatorConfig, MotEvent, MotEventKi
 pub use distance::{BoundingBox, iou_distance_matrix};
 pub use metrics::{MOSTLY_LOST_RATIO, MOSTLY_TRACKED_RATIO, MotMetrics};
 pub use motchallenge::{
-    IouMatchConfig, MAX_FIELDS, MIN_FIELDS, MotChallengeConfig, MotChallengeRow,
-    compare_to_groundtruth, parse_motchallenge,
+    IouMatchConfig, MAX_FIELDS, MAX_MOT_BYTES, MAX_MOT_LINE_BYTES, MIN_FIELDS, MOT_LIMITS,
+    MotChallengeConfig, MotChallengeRow, compare_to_groundtruth, parse_motchallenge,
 };

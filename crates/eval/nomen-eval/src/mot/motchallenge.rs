@@ -4,6 +4,7 @@
 
 use std::collections::BTreeMap;
 
+use nomen_core::bounded::{KIB_BYTES, Limits, MIB_BYTES};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{EvalError, Result};
@@ -30,6 +31,19 @@ pub const MIN_FIELDS: usize = 7;
 
 /// Most fields a line may have.
 pub const MAX_FIELDS: usize = FIELD_NAMES.len();
+
+/// The longest line a MOTChallenge file may have, bytes: 64 KiB (a line of ten numbers is
+/// about 60 bytes).
+pub const MAX_MOT_LINE_BYTES: u64 = 64 * KIB_BYTES;
+
+/// The most bytes a MOTChallenge file may have: 128 MiB, about two million boxes, more than
+/// MOT20's largest ground truth. Parsing holds a row (80 bytes) for every line (at least 14
+/// bytes).
+pub const MAX_MOT_BYTES: u64 = 128 * MIB_BYTES;
+
+/// The limits a MOTChallenge file is read within.
+pub const MOT_LIMITS: Limits =
+    Limits::text("a MOTChallenge file", MAX_MOT_LINE_BYTES, MAX_MOT_BYTES);
 
 /// How MOTChallenge files are filtered.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -19,17 +19,34 @@ pub use units::{AccelUnit, GyroUnit, LengthUnit, MagUnit, STANDARD_GRAVITY_MPS2,
 use crate::check::{Checker, DEFAULT_MAX_TIME_JUMP_NS};
 use crate::error::{Pos, RecordingError, Result};
 use csv::StringRecord;
-use nomen_core::{Message, SessionTime};
+use nomen_core::bounded::{BoundedReader, Limits, MIB_BYTES, describe_bytes, limit_error};
+use nomen_core::{CoreError, Message, SessionTime};
 use std::io::Read;
 use std::sync::Arc;
 
-/// A CSV file being imported: the reader, the source name and the column names.
 /// Most columns an imported table may have: a skeleton per row of 32 joints with positions,
 /// states and confidences has about 160.
 pub const MAX_COLUMNS: usize = 4096;
 
+/// The longest row an imported CSV file may have, bytes: 1 MiB. The longest row of the shared
+/// real data is 1.4 kB, a skeleton per row of 32 joints about 2 kB.
+pub const MAX_CSV_LINE_BYTES: u64 = MIB_BYTES;
+
+/// The most bytes an imported CSV file may have: 256 MiB, twenty times the largest real file
+/// of the shared data (12 MB of IMU samples).
+pub const MAX_CSV_BYTES: u64 = 256 * MIB_BYTES;
+
+/// The most memory the messages of one CSV import may take, bytes: 512 MiB (3.3 million IMU
+/// samples, 200,000 skeletons). The import returns its messages in memory, 160 bytes a
+/// message and 2.4 kB more a skeleton, which short rows make up to 11 times the file's size.
+pub const MAX_CSV_MESSAGE_BYTES: u64 = 512 * MIB_BYTES;
+
+/// The limits every CSV importer reads within.
+pub const CSV_LIMITS: Limits = Limits::text("a CSV file", MAX_CSV_LINE_BYTES, MAX_CSV_BYTES);
+
+/// A CSV file being imported: the reader, the source name and the column names.
 pub(crate) struct CsvInput<R> {
-    reader: csv::Reader<R>,
+    reader: csv::Reader<BoundedReader<R>>,
     pub(crate) file: Arc<str>,
     pub(crate) headers: Vec<String>,
     /// Validates imported messages and checks per-source time order.
@@ -37,6 +54,8 @@ pub(crate) struct CsvInput<R> {
     /// The last two messages accepted, (time, line), oldest first: to name a row that jumped
     /// ahead rather than the row after it.
     recent: [Option<(SessionTime, u64)>; 2],
+    /// The bytes the messages imported so far take in memory.
+    message_bytes: u64,
 }
 
 impl<R: Read> CsvInput<R> {
@@ -44,7 +63,7 @@ impl<R: Read> CsvInput<R> {
         let file: Arc<str> = Arc::from(source);
         let mut reader = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
-            .from_reader(input);
+            .from_reader(BoundedReader::new(input, source, CSV_LIMITS));
         let headers = reader
             .headers()
             .map_err(|e| csv_error(&file, &e))?
@@ -89,6 +108,7 @@ impl<R: Read> CsvInput<R> {
             headers,
             checker: Checker::new(None, i64::MAX),
             recent: [None; 2],
+            message_bytes: 0,
         })
     }
 
@@ -147,7 +167,7 @@ impl<R: Read> CsvInput<R> {
     pub(crate) fn check(&mut self, msg: &Message, line: u64) -> Result<()> {
         let Err(e) = self.checker.check(msg, &self.file, line) else {
             self.recent = [self.recent[1], Some((msg.t(), line))];
-            return Ok(());
+            return self.hold(msg, line);
         };
         if let RecordingError::SourceOrder { t, previous, .. } = &e
             && let [Some((before, before_line)), Some((last, jumped_line))] = self.recent
@@ -165,6 +185,29 @@ impl<R: Read> CsvInput<R> {
             ));
         }
         Err(e)
+    }
+
+    /// Counts the memory `msg` takes once imported, refusing the import past
+    /// [`MAX_CSV_MESSAGE_BYTES`].
+    fn hold(&mut self, msg: &Message, line: u64) -> Result<()> {
+        let boxed = match msg {
+            Message::Skeleton(_) | Message::Identified(_) | Message::TruthSkeleton(_) => {
+                std::mem::size_of::<nomen_core::SkeletonObservation>()
+            }
+            _ => 0,
+        };
+        self.message_bytes += (std::mem::size_of::<Message>() + boxed) as u64;
+        if self.message_bytes > MAX_CSV_MESSAGE_BYTES {
+            return Err(self.error(
+                line,
+                &format!(
+                    "the rows so far make more than {} of messages, the most a CSV import may \
+                     hold: split the file",
+                    describe_bytes(MAX_CSV_MESSAGE_BYTES)
+                ),
+            ));
+        }
+        Ok(())
     }
 
     pub(crate) fn error(&self, line: u64, detail: &str) -> RecordingError {
@@ -272,7 +315,32 @@ fn csv_error(file: &Arc<str>, e: &csv::Error) -> RecordingError {
             format!("row has {len} fields, expected {expected_len}")
         }
         csv::ErrorKind::Utf8 { err, .. } => format!("invalid utf-8 ({err})"),
-        csv::ErrorKind::Io(err) => format!("i/o error: {err}"),
+        csv::ErrorKind::Io(err) => match limit_error(err) {
+            Some(CoreError::LineTooLong {
+                line,
+                max_line_bytes,
+                kind,
+                ..
+            }) => {
+                return error_at(
+                    file,
+                    *line,
+                    &format!(
+                        "the line is longer than {}, the longest line {kind} may have",
+                        describe_bytes(*max_line_bytes)
+                    ),
+                );
+            }
+            Some(CoreError::InputTooLarge {
+                max_input_bytes,
+                kind,
+                ..
+            }) => format!(
+                "the file holds more than {}, the most {kind} may have",
+                describe_bytes(*max_input_bytes)
+            ),
+            _ => format!("i/o error: {err}"),
+        },
         _ => e.to_string().to_lowercase(),
     };
     error_at(file, line, &detail)
