@@ -179,7 +179,7 @@ fn convert_frame(
                 continue;
             };
             // Millimetres in the depth camera frame; nomen's camera frame has the same axes.
-            let position_m = Point3::new(x, y, z) * 1e-3;
+            let position_m = Point3::new(x, y, z) / 1000.0;
             joints.insert(*joint, JointObservation::tracked(position_m));
         }
         let skeleton = SkeletonObservation {

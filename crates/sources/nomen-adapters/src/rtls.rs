@@ -117,7 +117,7 @@ fn pozyx_payload(
         let mut p_m = [0.0; 3];
         for (v, axis) in p_m.iter_mut().zip(["x", "y", "z"]) {
             // Pozyx coordinates are millimetres.
-            *v = json::number(json::required(coordinates, axis, &c_at)?, &c_at.at(axis))? * 1e-3;
+            *v = json::number(json::required(coordinates, axis, &c_at)?, &c_at.at(axis))? / 1000.0;
         }
         let fix = RtlsFix {
             t: shift(ns, config.time_offset_ns, &t_at)?,
