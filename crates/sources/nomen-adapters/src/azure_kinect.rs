@@ -76,9 +76,10 @@ pub fn read_azure_kinect(
 ) -> Result<Decoded> {
     let source: Arc<str> = Arc::from(source);
     let at = Place::new(&source);
-    let mut limited = input.take(MAX_DOCUMENT_BYTES + 1);
+    // serde_json reads byte by byte: buffered here, whatever the caller passes.
+    let mut limited = std::io::BufReader::new(input.take(MAX_DOCUMENT_BYTES + 1));
     let document: Document = serde_json::from_reader(&mut limited).map_err(|e| {
-        if limited.limit() == 0 {
+        if limited.get_ref().limit() == 0 {
             AdapterError::TooLarge {
                 at: at.clone(),
                 what: "document",

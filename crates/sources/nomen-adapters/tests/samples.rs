@@ -654,3 +654,27 @@ fn zebra_malformed_events_name_line_and_field() {
         "",
     );
 }
+
+#[test]
+fn tracker_date_times_need_no_unit_and_are_utc() {
+    let line = br#"{"time":"2024-05-14 09:30:00.250","track":4,"x":1.0,"y":2.0,"z":1.6}"#;
+    let config = TrackerConfig {
+        scale_m_per_unit: 1.0,
+        ..tracker()
+    };
+    let d = decode_tracker(line, &config).unwrap();
+    let s = skeletons(&d);
+    assert_eq!(s[0].t.as_ns(), BASE_NS + 250_000_000);
+    assert!(close(s[0].position(Joint::Head).unwrap().z, 1.6));
+}
+
+#[test]
+fn a_payload_beyond_the_limit_is_refused_naming_the_limit() {
+    let mut payload = b"[".to_vec();
+    payload.resize(nomen_adapters::MAX_LINE_BYTES + 1, b' ');
+    assert_error(
+        decode_pozyx(&payload, &RtlsConfig::default()),
+        "payload: payload is longer than 1048576 bytes",
+        "",
+    );
+}
