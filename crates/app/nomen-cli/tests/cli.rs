@@ -468,6 +468,141 @@ fn csv_imports_convert_units_and_reject_bad_rows_by_line() {
 }
 
 #[test]
+fn vendor_samples_import_into_recordings_that_validate() {
+    let tmp = tempfile::tempdir().unwrap();
+    let samples = common::repo().join("docs/adapters");
+    // (format, sample, extra flags, message type, messages the sample holds)
+    let cases: [(&str, &str, &[&str], &str, usize); 6] = [
+        (
+            "azure-kinect",
+            "azure_kinect_offline.json",
+            &["--camera", "kinect"],
+            "skeleton",
+            4,
+        ),
+        (
+            "tracker",
+            "tracker_overhead.csv",
+            &["--camera", "counter", "--scale", "0.0153", "--z-m", "1.7"],
+            "skeleton",
+            6,
+        ),
+        ("pozyx", "pozyx_tags.jsonl", &[], "rtls_fix", 4),
+        (
+            "sewio",
+            "sewio_feed.jsonl",
+            &["--z-m", "1.3"],
+            "rtls_fix",
+            3,
+        ),
+        (
+            "impinj",
+            "impinj_speedway.jsonl",
+            &["--reader", "dock"],
+            "rssi",
+            3,
+        ),
+        (
+            "zebra",
+            "zebra_iotc.jsonl",
+            &["--reader", "dock"],
+            "rssi",
+            3,
+        ),
+    ];
+    for (format, file, flags, kind, expected) in cases {
+        let out = tmp.path().join(format!("{format}.jsonl"));
+        let input = samples.join(file);
+        let mut args = vec!["import", format, input.to_str().unwrap()];
+        args.extend_from_slice(flags);
+        args.extend_from_slice(&["--out", out.to_str().unwrap()]);
+        let o = nomen(&args);
+        assert!(o.status.success(), "{format}: {}", text(&o.stderr));
+        assert_eq!(count(&out, kind), expected, "{format}");
+        let v = nomen(&["validate", out.to_str().unwrap()]);
+        assert!(v.status.success(), "{format}: {}", text(&v.stderr));
+        assert!(
+            text(&v.stdout).contains(&format!("{expected} messages accepted")),
+            "{format}: {}",
+            text(&v.stdout)
+        );
+    }
+    // What a reader skips on purpose is said.
+    let o = nomen(&[
+        "import",
+        "pozyx",
+        samples.join("pozyx_tags.jsonl").to_str().unwrap(),
+        "--out",
+        tmp.path().join("p.jsonl").to_str().unwrap(),
+    ]);
+    assert!(
+        text(&o.stderr).contains("skipped 1 unsuccessful fixes (success = false)"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+#[test]
+fn vendor_import_checks_ids_against_the_registry_and_names_bad_lines() {
+    let tmp = tempfile::tempdir().unwrap();
+    let samples = common::repo().join("docs/adapters");
+    let registry = tmp.path().join("reg.json");
+    std::fs::write(
+        &registry,
+        r#"{"subjects":[{"id":"ana","wears":[{"device":"E28011606000020528F904FA","kind":"rfid_tag","site":"chest"},{"device":"E28011606000020528F95002","kind":"rfid_tag","site":"chest"}]}],"cameras":[],"antennas":[{"id":"dock/1","position_m":[0.0,0.0,1.0]},{"id":"dock/3","position_m":[2.0,0.0,1.0]}]}"#,
+    )
+    .unwrap();
+    let import = |reader: &str| {
+        let out = tmp.path().join("zebra.jsonl");
+        let o = nomen(&[
+            "import",
+            "zebra",
+            samples.join("zebra_iotc.jsonl").to_str().unwrap(),
+            "--reader",
+            reader,
+            "--registry",
+            registry.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        (o, out)
+    };
+    let (o, out) = import("dock");
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let v = nomen(&["validate", out.to_str().unwrap()]);
+    assert!(v.status.success(), "{}", text(&v.stderr));
+    // Another reader name gives antennas the registry does not list.
+    let (o, _) = import("gate");
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("'gate/1' is not in the registry"),
+        "{}",
+        text(&o.stderr)
+    );
+    // A report cut short: the line is named, nothing is written.
+    let broken = tmp.path().join("broken.jsonl");
+    let sample = std::fs::read_to_string(samples.join("impinj_speedway.jsonl")).unwrap();
+    std::fs::write(&broken, &sample[..sample.len() - 30]).unwrap();
+    let out = tmp.path().join("broken_out.jsonl");
+    let o = nomen(&[
+        "import",
+        "impinj",
+        broken.to_str().unwrap(),
+        "--reader",
+        "dock",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("broken.jsonl:4: invalid json"),
+        "{}",
+        text(&o.stderr)
+    );
+    assert!(!out.exists());
+}
+
+#[test]
 fn calibrate_confidence_fits_a_map_that_a_run_takes_and_eval_scores() {
     let Some((tmp, scene)) = simulated_scene("belmonte_one_without_band.toml") else {
         return;

@@ -1,8 +1,13 @@
-//! Input payloads: one recording message as JSON (`nomen-recording`'s FORMAT.md), or the
-//! registry, checked against the topic they came on.
+//! Input payloads: one recording message as JSON (`nomen-recording`'s FORMAT.md), the
+//! registry, or a vendor's payload (`docs/adapters.md`), checked against the topic they came
+//! on.
 
-use crate::topics::{InputTopic, input_source, parse_input_topic};
-use nomen_core::{Message, Registry};
+use crate::topics::{InputTopic, VendorFormat, input_source, parse_input_topic};
+use nomen_adapters::{
+    AzureKinectConfig, RfidConfig, RtlsConfig, decode_azure_kinect_frame, decode_impinj,
+    decode_pozyx, decode_sewio, decode_zebra,
+};
+use nomen_core::{CameraId, Message, Registry};
 
 /// The most bytes a payload may have: a skeleton with every joint's covariance is about 6 kB of
 /// JSON, a registry of a hundred people a few tens of kB.
@@ -17,8 +22,39 @@ pub enum Input {
     Message(Message),
 }
 
-/// Decodes the payload of an input `topic`; the error is the reason to report, without the
-/// topic (the health report pairs them).
+/// Decodes the payload of any input `topic`: one input for nomen's own topics, the messages of a
+/// vendor payload (`nomen/in/vendor/<format>/<source>`) in its order. The error is the reason to
+/// report, without the topic.
+pub fn decode_all(topic: &str, payload: &[u8]) -> Result<Vec<Input>, String> {
+    let Ok(InputTopic::Vendor { format, source }) = parse_input_topic(topic) else {
+        return decode(topic, payload).map(|input| vec![input]);
+    };
+    // Times are the vendor's (Unix epoch for RTLS and RFID, device time for the Kinect); 2D
+    // fixes lie at z = 0.
+    let rtls = RtlsConfig::default();
+    let rfid = RfidConfig {
+        reader: source.to_owned(),
+        time_offset_ns: 0,
+    };
+    let decoded = match format {
+        VendorFormat::AzureKinect => decode_azure_kinect_frame(
+            payload,
+            &AzureKinectConfig {
+                camera: CameraId::new(source),
+                time_offset_ns: 0,
+            },
+        ),
+        VendorFormat::Pozyx => decode_pozyx(payload, &rtls),
+        VendorFormat::Sewio => decode_sewio(payload, &rtls),
+        VendorFormat::Impinj => decode_impinj(payload, &rfid),
+        VendorFormat::Zebra => decode_zebra(payload, &rfid),
+    }
+    .map_err(|e| e.to_string())?;
+    Ok(decoded.messages.into_iter().map(Input::Message).collect())
+}
+
+/// Decodes the payload of an input `topic` of nomen's own (one message or the registry); the
+/// error is the reason to report, without the topic (the health report pairs them).
 pub fn decode(topic: &str, payload: &[u8]) -> Result<Input, String> {
     if payload.len() > MAX_PAYLOAD_BYTES {
         return Err(format!(
@@ -58,6 +94,9 @@ pub fn decode(topic: &str, payload: &[u8]) -> Result<Input, String> {
             msg.validate().map_err(|e| e.to_string())?;
             Ok(Input::Message(msg))
         }
+        InputTopic::Vendor { .. } => {
+            Err("a vendor payload holds several messages: decode it with decode_all".to_owned())
+        }
     }
 }
 
@@ -88,6 +127,38 @@ mod tests {
         assert!(decode("nomen/in/imu/w1", b"{\"type\":").is_err());
         let nan = IMU.replace("9.81", "1e999");
         assert!(decode("nomen/in/imu/w1", nan.as_bytes()).is_err());
+    }
+
+    #[test]
+    fn a_vendor_payload_decodes_into_its_messages() {
+        let payload = br#"[{"tagId":"30331","timestamp":1715679000.1,"success":true,"data":{"coordinates":{"x":2510,"y":1804,"z":1290}}},{"tagId":"41022","timestamp":1715679000.2,"success":false}]"#;
+        let inputs = decode_all("nomen/in/vendor/pozyx/hall", payload).unwrap();
+        assert_eq!(inputs.len(), 1, "the unsuccessful update makes no fix");
+        let Input::Message(Message::RtlsFix(fix)) = &inputs[0] else {
+            panic!("a fix");
+        };
+        assert_eq!(fix.tag.as_str(), "30331");
+        assert_eq!(fix.position_m.x, 2.51);
+        let zebra = br#"{"data":{"idHex":"e280","antenna":2,"peakRssi":-60},"timestamp":"2024-05-14T09:30:00.108+0000","type":"SIMPLE"}"#;
+        let inputs = decode_all("nomen/in/vendor/zebra/dock", zebra).unwrap();
+        let [Input::Message(Message::Rssi(read))] = inputs.as_slice() else {
+            panic!("one read");
+        };
+        assert_eq!(read.antenna.as_str(), "dock/2");
+        let e = decode_all(
+            "nomen/in/vendor/zebra/dock",
+            br#"{"data":{"idHex":"e280"}}"#,
+        )
+        .unwrap_err();
+        assert!(
+            e.starts_with("payload: data: missing field 'antenna'"),
+            "{e}"
+        );
+        // nomen's own topics decode as before.
+        assert_eq!(
+            decode_all("nomen/in/imu/w1", IMU.as_bytes()).unwrap().len(),
+            1
+        );
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! and the session loop that feeds the engine and publishes what it makes.
 
 use crate::broker::BrokerAddr;
-use crate::decode::{Input, decode};
+use crate::decode::{Input, decode_all};
 use crate::health::{Health, HealthReport};
 use crate::log::IdentityLog;
 use crate::session::{IDLE_TICK, Output, Refusal, Session};
@@ -398,39 +398,41 @@ fn run_client(
                     let _ = connected.try_send(Ok(()));
                 }
             }
-            Ok(Event::Incoming(Packet::Publish(p))) => match decode(&p.topic, &p.payload) {
-                Ok(input) => {
-                    let source = match &input {
-                        Input::Message(m) => input_source(m).map(|(k, s)| (k, s.to_owned())),
-                        Input::Registry(_) => None,
-                    };
-                    if let Input::Message(m) = &input
-                        && let Some((kind, s)) = &source
-                    {
-                        lock(health).received(*kind, s, m.t().as_ns());
-                    }
-                    // Counted before it is sent, so that the consumer's count never goes
-                    // below zero; at most one more than the queue holds.
-                    shared.in_queue.fetch_add(1, Ordering::Relaxed);
-                    match queue.try_send(input) {
-                        Ok(()) => {}
-                        // Rare and never to be lost, but waiting here could deadlock with a
-                        // session loop waiting for this thread to send its outputs: the slot
-                        // of its own is taken at the session loop's next turn.
-                        Err(TrySendError::Full(Input::Registry(registry))) => {
-                            shared.in_queue.fetch_sub(1, Ordering::Relaxed);
-                            *shared
-                                .pending_registry
-                                .lock()
-                                .unwrap_or_else(PoisonError::into_inner) = Some(registry);
+            Ok(Event::Incoming(Packet::Publish(p))) => match decode_all(&p.topic, &p.payload) {
+                Ok(inputs) => {
+                    for input in inputs {
+                        let source = match &input {
+                            Input::Message(m) => input_source(m).map(|(k, s)| (k, s.to_owned())),
+                            Input::Registry(_) => None,
+                        };
+                        if let Input::Message(m) = &input
+                            && let Some((kind, s)) = &source
+                        {
+                            lock(health).received(*kind, s, m.t().as_ns());
                         }
-                        Err(TrySendError::Full(_)) => {
-                            shared.in_queue.fetch_sub(1, Ordering::Relaxed);
-                            if let Some((kind, s)) = &source {
-                                lock(health).dropped(*kind, s);
+                        // Counted before it is sent, so that the consumer's count never goes
+                        // below zero; at most one more than the queue holds.
+                        shared.in_queue.fetch_add(1, Ordering::Relaxed);
+                        match queue.try_send(input) {
+                            Ok(()) => {}
+                            // Rare and never to be lost, but waiting here could deadlock with a
+                            // session loop waiting for this thread to send its outputs: the slot
+                            // of its own is taken at the session loop's next turn.
+                            Err(TrySendError::Full(Input::Registry(registry))) => {
+                                shared.in_queue.fetch_sub(1, Ordering::Relaxed);
+                                *shared
+                                    .pending_registry
+                                    .lock()
+                                    .unwrap_or_else(PoisonError::into_inner) = Some(registry);
                             }
+                            Err(TrySendError::Full(_)) => {
+                                shared.in_queue.fetch_sub(1, Ordering::Relaxed);
+                                if let Some((kind, s)) = &source {
+                                    lock(health).dropped(*kind, s);
+                                }
+                            }
+                            Err(TrySendError::Disconnected(_)) => return,
                         }
-                        Err(TrySendError::Disconnected(_)) => return,
                     }
                 }
                 Err(reason) => lock(health).malformed(&p.topic, &reason),

@@ -17,6 +17,51 @@ pub const IDENTIFIED_PREFIX: &str = "nomen/out/identified/";
 pub const TAG_CORRECTION_PREFIX: &str = "nomen/out/tag_correction/";
 
 const INPUT_PREFIX: &str = "nomen/in/";
+/// Prefix of vendor payload topics (`nomen/in/vendor/<format>/<source>`).
+pub const VENDOR_PREFIX: &str = "nomen/in/vendor/";
+
+/// The vendor formats `nomen serve` decodes (`docs/adapters.md`), each named as in
+/// `nomen import`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VendorFormat {
+    /// One frame of Azure Kinect body tracking (`frames[i]` of the offline processor's JSON);
+    /// the source is the camera.
+    AzureKinect,
+    /// A Pozyx MQTT positioning payload; the source names the Pozyx system.
+    Pozyx,
+    /// A Sewio WebSocket or UDP message; the source names the Sewio system.
+    Sewio,
+    /// An Impinj Speedway Connect report; the source is the reader.
+    Impinj,
+    /// A Zebra IoT Connector data event; the source is the reader.
+    Zebra,
+}
+
+impl VendorFormat {
+    /// Every vendor format.
+    pub const ALL: [VendorFormat; 5] = [
+        VendorFormat::AzureKinect,
+        VendorFormat::Pozyx,
+        VendorFormat::Sewio,
+        VendorFormat::Impinj,
+        VendorFormat::Zebra,
+    ];
+
+    /// The format's name: the topic's fourth level.
+    pub fn name(self) -> &'static str {
+        match self {
+            VendorFormat::AzureKinect => "azure-kinect",
+            VendorFormat::Pozyx => "pozyx",
+            VendorFormat::Sewio => "sewio",
+            VendorFormat::Impinj => "impinj",
+            VendorFormat::Zebra => "zebra",
+        }
+    }
+
+    fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.name() == name)
+    }
+}
 
 /// The kinds of input message, as their `type` tag in the recording format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -71,12 +116,37 @@ pub enum InputTopic<'a> {
         /// The camera, device or tag id (may contain `/`).
         source: &'a str,
     },
+    /// `nomen/in/vendor/<format>/<source>`: a vendor's payload, several messages.
+    Vendor {
+        /// The vendor format.
+        format: VendorFormat,
+        /// The camera, reader or system it comes from (may contain `/`).
+        source: &'a str,
+    },
 }
 
 /// Reads an input topic; the error says what is wrong with it.
 pub fn parse_input_topic(topic: &str) -> Result<InputTopic<'_>, String> {
     if topic == REGISTRY_TOPIC {
         return Ok(InputTopic::Registry);
+    }
+    if let Some(rest) = topic.strip_prefix(VENDOR_PREFIX) {
+        let Some((format, source)) = rest.split_once('/') else {
+            return Err(
+                "no source id: vendor inputs are nomen/in/vendor/<format>/<source id>".to_owned(),
+            );
+        };
+        let Some(format) = VendorFormat::from_name(format) else {
+            let names: Vec<&str> = VendorFormat::ALL.iter().map(|f| f.name()).collect();
+            return Err(format!(
+                "unknown vendor format '{format}' ({})",
+                names.join(", ")
+            ));
+        };
+        if source.is_empty() {
+            return Err("empty source id".to_owned());
+        }
+        return Ok(InputTopic::Vendor { format, source });
     }
     let Some(rest) = topic.strip_prefix(INPUT_PREFIX) else {
         return Err(format!(
@@ -173,6 +243,27 @@ mod tests {
             parse_input_topic("other/imu/x")
                 .unwrap_err()
                 .contains("not an input topic")
+        );
+    }
+
+    #[test]
+    fn vendor_topics_name_format_and_source() {
+        assert_eq!(
+            parse_input_topic("nomen/in/vendor/zebra/dock/fx9600"),
+            Ok(InputTopic::Vendor {
+                format: VendorFormat::Zebra,
+                source: "dock/fx9600"
+            })
+        );
+        assert!(
+            parse_input_topic("nomen/in/vendor/quuppa/x")
+                .unwrap_err()
+                .contains("unknown vendor format 'quuppa'")
+        );
+        assert!(
+            parse_input_topic("nomen/in/vendor/pozyx")
+                .unwrap_err()
+                .contains("no source id")
         );
     }
 

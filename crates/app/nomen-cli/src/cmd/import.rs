@@ -1,12 +1,18 @@
-//! `nomen import`: CSV files → a nomen recording, with units read from the column names.
+//! `nomen import`: CSV files and vendor formats → a nomen recording. CSV units come from the
+//! column names; vendor formats are read by `nomen_adapters` (`docs/adapters.md`).
 
 use super::mocap::write_recording;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
+use nomen_adapters::{
+    AzureKinectConfig, Decoded, RfidConfig, RtlsConfig, TrackerConfig, read_azure_kinect,
+    read_impinj, read_pozyx, read_sewio, read_tracker, read_zebra,
+};
 use nomen_core::skeleton::sets::JointSet;
-use nomen_core::{DeviceId, Registry};
+use nomen_core::{CameraId, DeviceId, Joint, Message, Registry};
 use nomen_recording::csv::{
-    FixCsvSpec, SkeletonCsvSpec, SkeletonLayout, import_fixes, import_imu_auto, import_skeletons,
+    FixCsvSpec, SkeletonCsvSpec, SkeletonLayout, TimeUnit, import_fixes, import_imu_auto,
+    import_skeletons,
 };
 use nomen_recording::{Header, sort_for_writing};
 use std::path::{Path, PathBuf};
@@ -22,12 +28,27 @@ pub enum ImportCommand {
     /// Camera skeletons, one joint per row (`t, camera, track, joint, x, y, z [, confidence,
     /// state]`) or one skeleton per row (`t, camera, track, <joint>_x, ...`).
     Skeletons(SkeletonArgs),
+    /// Azure Kinect Body Tracking JSON as Microsoft's offline processor writes it: skeletons in
+    /// millimetres in the depth camera's frame, at device time.
+    AzureKinect(KinectArgs),
+    /// A position-only tracker (an overhead people counter): CSV or JSON lines with `t`
+    /// (`t_ms`, ...), `track`, `x`, `y` [, `z`, `confidence`] in the tracker's units; each
+    /// point becomes a one-joint skeleton.
+    Tracker(TrackerArgs),
+    /// Pozyx MQTT positioning stream, one payload per line (millimetres, epoch seconds).
+    Pozyx(RtlsArgs),
+    /// Sewio RTLS WebSocket or UDP feed, one message per line (metres, UTC date-times).
+    Sewio(RtlsArgs),
+    /// Impinj Speedway Connect JSON tag reports, one per line: RSSI per reader port.
+    Impinj(RfidArgs),
+    /// Zebra FX IoT Connector tag data events, one per line: RSSI (and phase) per reader port.
+    Zebra(RfidArgs),
 }
 
 /// Options shared by every import.
 #[derive(Debug, Args)]
 pub struct CommonArgs {
-    /// The CSV file.
+    /// The input file: CSV, or the vendor's format.
     pub file: PathBuf,
     /// Output recording (`-` for stdout).
     #[arg(long)]
@@ -75,17 +96,103 @@ pub struct SkeletonArgs {
     joint_set: Option<SetName>,
 }
 
+/// Arguments of `nomen import azure-kinect`.
+#[derive(Debug, Args)]
+pub struct KinectArgs {
+    #[command(flatten)]
+    common: CommonArgs,
+    /// The camera's id (as in the registry).
+    #[arg(long)]
+    camera: String,
+    /// Added to every device time to give session time, ns.
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    time_offset_ns: i64,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum TimeUnitName {
+    S,
+    Ms,
+    Us,
+    Ns,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum PointJoint {
+    /// A head tracker (overhead people counters).
+    Head,
+    /// A centroid tracker.
+    Pelvis,
+}
+
+/// Arguments of `nomen import tracker`.
+#[derive(Debug, Args)]
+pub struct TrackerArgs {
+    #[command(flatten)]
+    common: CommonArgs,
+    /// The tracker's id (a camera of the registry).
+    #[arg(long)]
+    camera: String,
+    /// Metres per tracker unit: 1 for metres, 0.001 for millimetres, or a fitted scale.
+    #[arg(long)]
+    scale: f64,
+    /// Unit of a time column named plain `t` (a named unit, `t_ms`, wins).
+    #[arg(long, value_enum)]
+    time_unit: Option<TimeUnitName>,
+    /// The joint the point stands for.
+    #[arg(long, value_enum, default_value_t = PointJoint::Head)]
+    joint: PointJoint,
+    /// z of 2D points in the tracker's frame, m.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    z_m: f64,
+    /// Added to every time to give session time, ns.
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    time_offset_ns: i64,
+}
+
+/// Arguments of `nomen import pozyx` and `nomen import sewio`.
+#[derive(Debug, Args)]
+pub struct RtlsArgs {
+    #[command(flatten)]
+    common: CommonArgs,
+    /// z of fixes the system gives in 2D, m.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    z_m: f64,
+    /// Added to every Unix-epoch time to give session time, ns.
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    time_offset_ns: i64,
+}
+
+/// Arguments of `nomen import impinj` and `nomen import zebra`.
+#[derive(Debug, Args)]
+pub struct RfidArgs {
+    #[command(flatten)]
+    common: CommonArgs,
+    /// The reader's name: antennas are `<reader>/<port>` (as in the registry).
+    #[arg(long)]
+    reader: String,
+    /// Added to every Unix-epoch time to give session time, ns.
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    time_offset_ns: i64,
+}
+
 /// Runs `nomen import ...`.
 pub fn run(command: ImportCommand) -> Result<()> {
     let common = match &command {
         ImportCommand::Imu(a) => &a.common,
         ImportCommand::Fixes(c) => c,
         ImportCommand::Skeletons(a) => &a.common,
+        ImportCommand::AzureKinect(a) => &a.common,
+        ImportCommand::Tracker(a) => &a.common,
+        ImportCommand::Pozyx(a) | ImportCommand::Sewio(a) => &a.common,
+        ImportCommand::Impinj(a) | ImportCommand::Zebra(a) => &a.common,
     };
     crate::io::check_distinct(
         &[Some(&common.file), common.registry.as_deref()],
         &[Some(&common.out)],
     )?;
+    let is_pozyx = matches!(command, ImportCommand::Pozyx(_));
+    let is_impinj = matches!(command, ImportCommand::Impinj(_));
     let device = match &command {
         ImportCommand::Imu(a) => Some(DeviceId::new(a.device.clone())),
         _ => None,
@@ -123,6 +230,66 @@ pub fn run(command: ImportCommand) -> Result<()> {
                 ..Default::default()
             };
             let msgs = import_skeletons(open(&a.common.file)?, &name(&a.common.file), &spec)?;
+            (a.common, msgs)
+        }
+        ImportCommand::AzureKinect(a) => {
+            let config = AzureKinectConfig {
+                camera: CameraId::new(a.camera),
+                time_offset_ns: a.time_offset_ns,
+            };
+            let file = &a.common.file;
+            let decoded = read_azure_kinect(reader(file)?, &name(file), &config)?;
+            let msgs = report(decoded, file);
+            (a.common, msgs)
+        }
+        ImportCommand::Tracker(a) => {
+            let config = TrackerConfig {
+                camera: CameraId::new(a.camera),
+                scale_m_per_unit: a.scale,
+                time_unit: a.time_unit.map(|u| match u {
+                    TimeUnitName::S => TimeUnit::Seconds,
+                    TimeUnitName::Ms => TimeUnit::Milliseconds,
+                    TimeUnitName::Us => TimeUnit::Microseconds,
+                    TimeUnitName::Ns => TimeUnit::Nanoseconds,
+                }),
+                joint: match a.joint {
+                    PointJoint::Head => Joint::Head,
+                    PointJoint::Pelvis => Joint::Pelvis,
+                },
+                z_m: a.z_m,
+                time_offset_ns: a.time_offset_ns,
+            };
+            let file = &a.common.file;
+            let decoded = read_tracker(reader(file)?, &name(file), &config)?;
+            let msgs = report(decoded, file);
+            (a.common, msgs)
+        }
+        ImportCommand::Pozyx(a) | ImportCommand::Sewio(a) => {
+            let config = RtlsConfig {
+                time_offset_ns: a.time_offset_ns,
+                z_m: a.z_m,
+            };
+            let file = &a.common.file;
+            let decoded = if is_pozyx {
+                read_pozyx(reader(file)?, &name(file), &config)?
+            } else {
+                read_sewio(reader(file)?, &name(file), &config)?
+            };
+            let msgs = report(decoded, file);
+            (a.common, msgs)
+        }
+        ImportCommand::Impinj(a) | ImportCommand::Zebra(a) => {
+            let config = RfidConfig {
+                reader: a.reader,
+                time_offset_ns: a.time_offset_ns,
+            };
+            let file = &a.common.file;
+            let decoded = if is_impinj {
+                read_impinj(reader(file)?, &name(file), &config)?
+            } else {
+                read_zebra(reader(file)?, &name(file), &config)?
+            };
+            let msgs = report(decoded, file);
             (a.common, msgs)
         }
     };
@@ -164,6 +331,18 @@ pub fn run(command: ImportCommand) -> Result<()> {
 
 fn open(path: &Path) -> Result<std::fs::File> {
     std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))
+}
+
+fn reader(path: &Path) -> Result<std::io::BufReader<std::fs::File>> {
+    open(path).map(std::io::BufReader::new)
+}
+
+/// The messages of a vendor import, after saying on stderr what was skipped on purpose.
+fn report(decoded: Decoded, file: &Path) -> Vec<Message> {
+    if decoded.skipped.total() > 0 {
+        eprintln!("{}: {}", name(file), decoded.skipped);
+    }
+    decoded.messages
 }
 
 fn name(path: &Path) -> String {
