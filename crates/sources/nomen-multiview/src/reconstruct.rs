@@ -15,7 +15,8 @@ pub struct ReconstructionConfig {
     pub association: AssociationConfig,
     /// Per-joint triangulation.
     pub triangulation: TriangulationConfig,
-    /// Fewest triangulated joints a skeleton needs to be kept (0 keeps every associated person).
+    /// Fewest triangulated joints a skeleton needs to be kept: below three, neither the bone
+    /// check nor the joints' median can tell a wrong joint.
     pub min_joints: usize,
     /// The tallest person expected, metres: bones longer than this stature allows (with a
     /// margin, see [`BONES`]) make a skeleton implausible. 2.1 m is taller than 99.9 % of
@@ -28,7 +29,7 @@ impl Default for ReconstructionConfig {
         Self {
             association: AssociationConfig::default(),
             triangulation: TriangulationConfig::default(),
-            min_joints: 0,
+            min_joints: 3,
             max_stature_m: 2.1,
         }
     }

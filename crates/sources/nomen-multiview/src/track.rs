@@ -164,14 +164,29 @@ impl Tracker {
 
 /// A triangulated skeleton's joints as observations (world positions, tracked), with the pelvis
 /// and neck derived as the midpoints of the hips and shoulders (inferred) where they were not
-/// triangulated themselves (COCO-17 has neither).
+/// triangulated themselves (COCO-17 has neither). A joint beyond
+/// [`nomen_core::skeleton::MAX_COORDINATE_M`] (rays that meet kilometres away) is left out, so
+/// every message is valid.
 pub fn joint_observations(skeleton: &TriangulatedSkeleton) -> Joints<JointObservation> {
-    let mut joints = skeleton.joints.map(|_, t| JointObservation {
-        position_m: t.position_m,
-        confidence: t.confidence,
-        state: JointState::Tracked,
-        covariance_m2: None,
-    });
+    let mut joints = Joints::new();
+    for (joint, t) in skeleton.joints.iter() {
+        let is_in_range = t
+            .position_m
+            .coords
+            .iter()
+            .all(|c| c.is_finite() && c.abs() <= nomen_core::skeleton::MAX_COORDINATE_M);
+        if is_in_range {
+            joints.insert(
+                joint,
+                JointObservation {
+                    position_m: t.position_m,
+                    confidence: t.confidence,
+                    state: JointState::Tracked,
+                    covariance_m2: None,
+                },
+            );
+        }
+    }
     for (target, a, b) in [
         (Joint::Pelvis, Joint::LeftHip, Joint::RightHip),
         (Joint::Neck, Joint::LeftShoulder, Joint::RightShoulder),
@@ -258,6 +273,23 @@ mod tests {
         let third = tracker.push(frame(2), &[skeleton_at(0.04)]);
         assert_eq!(third.len(), 1);
         assert_eq!(third[0].track.0, 1);
+    }
+
+    #[test]
+    fn a_joint_kilometres_away_is_left_out_of_the_message() {
+        let mut far = skeleton_at(1.0);
+        far.joints.insert(
+            Joint::Head,
+            TriangulatedJoint {
+                position_m: Point3::new(3e4, 0.0, 1.6),
+                confidence: 0.1,
+                num_views: 2,
+                rms_reprojection_px: 3.0,
+            },
+        );
+        let obs = joint_observations(&far);
+        assert!(obs.get(Joint::Head).is_none());
+        assert!(obs.get(Joint::LeftHip).is_some());
     }
 
     #[test]
