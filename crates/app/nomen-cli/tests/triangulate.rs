@@ -183,3 +183,29 @@ fn a_malformed_keypoint_file_is_named_with_its_position() {
         text(&o.stderr)
     );
 }
+
+/// The second goal: the engine names triangulated skeletons within a point of the
+/// accuracy it reaches on the scene's own 3D skeletons (imu_wrist_3, 1 px, three views). Needs
+/// `../shared/data`; skipped with a message without it.
+#[test]
+fn identity_on_triangulated_skeletons_is_within_a_point_of_3d_skeletons() {
+    let Some(data) = common::data_dir() else {
+        return;
+    };
+    let o = nomen(&[
+        "experiment",
+        "triangulation",
+        "--identity",
+        "--seeds",
+        "1",
+        "--json",
+        "--data",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let a3d = v["identity"]["accuracy_3d"].as_f64().unwrap();
+    let tri = v["identity"]["accuracy_triangulated"].as_f64().unwrap();
+    assert!(a3d > 0.9, "3D accuracy {a3d}");
+    assert!(tri >= a3d - 0.01, "triangulated {tri} vs 3D {a3d}");
+}

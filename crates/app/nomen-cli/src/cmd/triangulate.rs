@@ -10,7 +10,7 @@ use nomen_core::skeleton::Joints;
 use nomen_core::{Camera, CameraId, Message, Registry, RigidTransform, SessionTime};
 use nomen_multiview::keypoints::last_number;
 use nomen_multiview::synth::{
-    DetectionNoise, JointErrors, measure, room_camera_intrinsics, room_rig, walkers_scene,
+    DetectionNoise, JointErrors, detect, measure, room_camera_intrinsics, room_rig, walkers_scene,
 };
 use nomen_multiview::{
     CameraFile, Detection, KeypointLimits, ReconstructionConfig, Tracker, TrackerConfig,
@@ -282,6 +282,11 @@ pub struct TriangulationExperimentArgs {
     /// without it, synthetic walkers stand in for the motion capture.
     #[arg(long)]
     data: Option<PathBuf>,
+    /// Also compare the engine's identification accuracy on a simulated scene (imu_wrist_3)
+    /// with its 3D skeletons and with skeletons triangulated from three cameras at 1 px (needs
+    /// the shared data).
+    #[arg(long)]
+    identity: bool,
 }
 
 /// Virtual room: cameras 2.8 m high in the corners of an 8 m × 8 m room.
@@ -426,9 +431,21 @@ pub fn run_experiment(args: TriangulationExperimentArgs) -> Result<()> {
         false_people_per_view: args.false_people,
         cells,
     };
+    let identity = if args.identity {
+        let noise = DetectionNoise {
+            pixel_noise_px: 1.0,
+            miss_rate: args.miss_rate,
+            false_joint_rate: args.false_joint_rate,
+            false_people_per_view: args.false_people,
+        };
+        Some(identity_comparison(&args, &noise)?)
+    } else {
+        None
+    };
     let mut out = std::io::stdout().lock();
     if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&table)?)?;
+        let both = serde_json::json!({ "accuracy": table, "identity": identity });
+        writeln!(out, "{}", serde_json::to_string_pretty(&both)?)?;
         return Ok(());
     }
     writeln!(
@@ -461,5 +478,184 @@ pub fn run_experiment(args: TriangulationExperimentArgs) -> Result<()> {
             c.false_skeletons_per_frame
         )?;
     }
+    if let Some(c) = identity {
+        writeln!(
+            out,
+            "\nidentification accuracy, {} (seed {}): {} with its 3D skeletons, {} with skeletons \
+             triangulated from 3 views at {} px ({} skeletons, {} tracks)",
+            c.scenario,
+            c.seed,
+            super::experiment::fmt_pct(c.accuracy_3d),
+            super::experiment::fmt_pct(c.accuracy_triangulated),
+            c.pixel_noise_px,
+            c.num_triangulated_skeletons,
+            c.num_triangulated_tracks
+        )?;
+    }
     Ok(())
+}
+
+/// The scene of the identity comparison: three people walking loops, one wrist IMU each.
+const IDENTITY_SCENE: (&str, &str) = (
+    "imu_wrist_3.toml",
+    include_str!("../../../../../scenarios/imu_wrist_3.toml"),
+);
+
+/// Identification accuracy of the engine on a simulated scene's own 3D skeletons and on
+/// skeletons triangulated from 2D keypoints of its people in three corner cameras.
+#[derive(Debug, Serialize)]
+struct IdentityComparison {
+    scenario: String,
+    seed: u64,
+    pixel_noise_px: f64,
+    accuracy_3d: Option<f64>,
+    accuracy_triangulated: Option<f64>,
+    num_triangulated_skeletons: usize,
+    num_triangulated_tracks: usize,
+}
+
+/// Simulates `IDENTITY_SCENE`, runs the engine on it, then replaces its skeletons by ones
+/// triangulated from the true joints projected into three cameras around the room (with
+/// `noise`), gives them the truth of the nearest true person, and runs the engine again.
+fn identity_comparison(
+    args: &TriangulationExperimentArgs,
+    noise: &DetectionNoise,
+) -> Result<IdentityComparison> {
+    let (name, text) = IDENTITY_SCENE;
+    let (scenario, sim, seed) =
+        super::experiment::simulate_for_experiment(text, name, 1, args.data.as_deref())?;
+    let config = nomen_engine::EngineConfig::default();
+    let eval = nomen_eval::identity::EvalConfig::default();
+    let (result, _) = nomen_engine::run_batch(&sim.scene.registry, &sim.recording, &config)?;
+    let scene = nomen_eval::identity::SceneData::from_messages(&scenario.name, &sim.truth, &result);
+    let accuracy_3d = nomen_eval::identity::evaluate(&[scene], &eval)?
+        .overall
+        .id_accuracy;
+
+    // The true people at every instant a camera saw someone, by person.
+    type Person = (Option<nomen_core::SubjectId>, Joints<Point3<f64>>);
+    let mut truth_frames: BTreeMap<SessionTime, BTreeMap<String, Person>> = BTreeMap::new();
+    for m in &sim.truth {
+        if let Message::TruthSkeleton(s) = m
+            && !s.joints_world_m.is_empty()
+        {
+            truth_frames.entry(s.t).or_default().insert(
+                s.person.clone(),
+                (s.subject.clone(), s.joints_world_m.clone()),
+            );
+        }
+    }
+    let pelvises: Vec<Point3<f64>> = truth_frames
+        .values()
+        .flat_map(|people| people.values())
+        .filter_map(|(_, joints)| joints.get(nomen_core::Joint::Pelvis).copied())
+        .collect();
+    if pelvises.is_empty() {
+        bail!("{name}: the truth has no joints");
+    }
+    let mean = pelvises
+        .iter()
+        .map(|p| p.coords)
+        .sum::<nalgebra::Vector3<f64>>()
+        / pelvises.len() as f64;
+    let centre = Point3::new(mean.x, mean.y, 0.0);
+    let half_side_m = pelvises
+        .iter()
+        .map(|p| (p.x - centre.x).abs().max((p.y - centre.y).abs()))
+        .fold(0.0, f64::max)
+        + 2.0;
+    let Some(cameras) = room_rig(
+        3,
+        centre,
+        half_side_m,
+        CAMERA_HEIGHT_M,
+        room_camera_intrinsics(),
+    ) else {
+        bail!("no rig");
+    };
+    let camera_id = CameraId::new("multiview");
+    let mut tracker = Tracker::new(camera_id.clone(), TrackerConfig::default())?;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut skeletons: Vec<Message> = Vec::new();
+    let mut truth: Vec<Message> = sim
+        .truth
+        .iter()
+        .filter(|m| !matches!(m, Message::TruthSkeleton(_)))
+        .cloned()
+        .collect();
+    for (t, people) in &truth_frames {
+        let joints: Vec<Joints<Point3<f64>>> = people.values().map(|(_, j)| j.clone()).collect();
+        let views = detect(&cameras, &joints, noise, half_side_m, &mut rng);
+        let frame = reconstruct_frame(&cameras, &views, &ReconstructionConfig::default());
+        for s in tracker.push(*t, &frame.skeletons) {
+            let Some(at) = s
+                .position(nomen_core::Joint::Pelvis)
+                .or_else(|| s.joint_centroid_m())
+            else {
+                continue;
+            };
+            let nearest = people
+                .iter()
+                .filter_map(|(person, (subject, j))| {
+                    let d = (j.get(nomen_core::Joint::Pelvis)? - at).norm();
+                    Some((d, person, subject, j))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((d, person, subject, j)) = nearest
+                && d <= nomen_multiview::synth::MATCH_DISTANCE_M
+            {
+                truth.push(Message::TruthSkeleton(Box::new(
+                    nomen_core::TruthSkeleton {
+                        t: *t,
+                        camera: camera_id.clone(),
+                        track: s.track,
+                        person: person.clone(),
+                        subject: subject.clone(),
+                        joints_world_m: j.clone(),
+                    },
+                )));
+            }
+            skeletons.push(Message::Skeleton(Box::new(s)));
+        }
+    }
+    let num_triangulated_skeletons = skeletons.len();
+    let num_triangulated_tracks = skeletons
+        .iter()
+        .filter_map(|m| match m {
+            Message::Skeleton(s) => Some(s.track),
+            _ => None,
+        })
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    let mut recording: Vec<Message> = sim
+        .recording
+        .iter()
+        .filter(|m| !matches!(m, Message::Skeleton(_)))
+        .cloned()
+        .chain(skeletons)
+        .collect();
+    sort_for_writing(&mut recording);
+    sort_for_writing(&mut truth);
+    let mut registry = sim.scene.registry.clone();
+    registry.cameras.push(Camera {
+        id: camera_id,
+        world_from_camera: RigidTransform::IDENTITY,
+        intrinsics: None,
+        fps_hz: None,
+        clock: Default::default(),
+    });
+    let (result, _) = nomen_engine::run_batch(&registry, &recording, &config)?;
+    let scene = nomen_eval::identity::SceneData::from_messages(&scenario.name, &truth, &result);
+    let accuracy_triangulated = nomen_eval::identity::evaluate(&[scene], &eval)?
+        .overall
+        .id_accuracy;
+    Ok(IdentityComparison {
+        scenario: scenario.name,
+        seed,
+        pixel_noise_px: noise.pixel_noise_px,
+        accuracy_3d,
+        accuracy_triangulated,
+        num_triangulated_skeletons,
+        num_triangulated_tracks,
+    })
 }
