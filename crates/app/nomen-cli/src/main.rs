@@ -40,6 +40,9 @@ enum Command {
     /// Import CSV files (IMU, tag fixes, skeletons) into a recording.
     #[command(subcommand)]
     Import(cmd::import::ImportCommand),
+    /// Triangulate 2D keypoints (OpenPose, COCO, MMPose) of calibrated cameras into a recording
+    /// of world-frame skeletons with track ids.
+    Triangulate(cmd::triangulate::TriangulateArgs),
     /// Check a recording line by line and summarise it.
     Validate(cmd::validate::ValidateArgs),
     /// Evaluate an engine result against ground truth (or MOTChallenge files with `eval mot`).
@@ -82,6 +85,7 @@ fn main() -> ExitCode {
         Command::Run(a) => cmd::run::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Import(c) => cmd::import::run(c),
+        Command::Triangulate(a) => cmd::triangulate::run(a),
         Command::Validate(a) => cmd::validate::run(a),
         Command::Eval(a) => cmd::eval::run(a),
         Command::Explain(a) => cmd::explain::run(a),

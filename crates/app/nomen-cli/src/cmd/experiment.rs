@@ -32,6 +32,10 @@ pub enum ExperimentCommand {
     /// association, standard vs directional model (calibrated from the calibration sequence),
     /// and the engine.
     Crosswalk(super::crosswalk::CrosswalkArgs),
+    /// Triangulation from calibrated cameras: median and p95 joint error for 2, 3, 4 views at
+    /// 1, 2, 4 px, motion capture projected into virtual cameras with missed joints and false
+    /// detections.
+    Triangulation(super::triangulate::TriangulationExperimentArgs),
 }
 
 /// Arguments of `nomen experiment belmonte`.
@@ -211,6 +215,7 @@ pub fn run(command: ExperimentCommand) -> Result<()> {
         ExperimentCommand::Ghosting(args) => super::ghosting::run(&args),
         ExperimentCommand::Belmonte(args) => belmonte_episodes(&args),
         ExperimentCommand::Crosswalk(args) => super::crosswalk::run(&args),
+        ExperimentCommand::Triangulation(args) => super::triangulate::run_experiment(args),
     }
 }
 

@@ -22,4 +22,5 @@ pub mod scenes;
 pub mod serve;
 pub mod simulate;
 pub mod train;
+pub mod triangulate;
 pub mod validate;
