@@ -4,6 +4,8 @@
 //! vendor documents its stamps as UTC without saying so in the string (Sewio's `at`), is read as
 //! UTC.
 
+use nomen_core::time::{days_from_civil, days_in_month};
+
 /// Nanoseconds since the Unix epoch of a date-time `YYYY-MM-DD[T| ]hh:mm:ss[.fraction][zone]`,
 /// where the zone is `Z`, `±hh:mm`, `±hhmm`, `±hh` or absent (UTC). Up to nine fraction digits
 /// are kept (more are cut). `None` if the text is not such a date-time or the date does not
@@ -87,31 +89,6 @@ pub fn parse_datetime_ns(text: &str) -> Option<i64> {
 pub fn epoch_secs_to_ns(secs: f64) -> Option<i64> {
     let ns = (secs * 1e9).round();
     (ns.is_finite() && ns.abs() < 9.2e18).then_some(ns as i64)
-}
-
-fn is_leap(year: i64) -> bool {
-    (year % 4 == 0 && year % 100 != 0) || year % 400 == 0
-}
-
-fn days_in_month(year: i64, month: i64) -> i64 {
-    match month {
-        2 if is_leap(year) => 29,
-        2 => 28,
-        4 | 6 | 9 | 11 => 30,
-        _ => 31,
-    }
-}
-
-/// Days since 1970-01-01 of a proleptic Gregorian date (Howard Hinnant's `days_from_civil`,
-/// <https://howardhinnant.github.io/date_algorithms.html#days_from_civil>).
-fn days_from_civil(year: i64, month: i64, day: i64) -> i64 {
-    let y = if month <= 2 { year - 1 } else { year };
-    let era = y.div_euclid(400);
-    let yoe = y - era * 400;
-    let mp = (month + 9) % 12;
-    let doy = (153 * mp + 2) / 5 + day - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    era * 146_097 + doe - 719_468
 }
 
 #[cfg(test)]

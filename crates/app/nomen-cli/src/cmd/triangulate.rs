@@ -6,6 +6,7 @@ use super::mocap::write_recording;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use nalgebra::Point3;
+use nomen_core::bounded::Limits;
 use nomen_core::skeleton::Joints;
 use nomen_core::{Camera, CameraId, Message, Registry, RigidTransform, SessionTime};
 use nomen_multiview::keypoints::last_number;
@@ -60,7 +61,7 @@ pub fn run(args: TriangulateArgs) -> Result<()> {
         &[Some(&args.out)],
     )?;
     let rig = parse_camera_file(
-        &crate::io::read_text(&args.cameras)?,
+        &crate::io::read_settings(&args.cameras)?,
         &args.cameras.display().to_string(),
     )?;
     let mut config = ReconstructionConfig::default();
@@ -109,7 +110,7 @@ pub fn run(args: TriangulateArgs) -> Result<()> {
         );
     }
     let mut registry = match &args.registry {
-        Some(path) => serde_json::from_str::<Registry>(&crate::io::read_text(path)?)
+        Some(path) => serde_json::from_str::<Registry>(&crate::io::read_settings(path)?)
             .with_context(|| format!("{}: not a registry", path.display()))?,
         None => Registry::default(),
     };
@@ -231,22 +232,21 @@ fn read_view(path: &Path, limits: &KeypointLimits) -> Result<BTreeMap<u64, Vec<D
     };
     let mut out: BTreeMap<u64, Vec<Detection>> = BTreeMap::new();
     for (position, file) in files.iter().enumerate() {
-        let size = std::fs::metadata(file)
-            .with_context(|| format!("cannot read {}", file.display()))?
-            .len();
-        if size > limits.max_bytes as u64 {
-            bail!(
-                "{}: {size} bytes, more than the {} a keypoint file may have",
-                file.display(),
-                limits.max_bytes
-            );
-        }
         let name = file.display().to_string();
         let frame_of_file = file
             .file_name()
             .and_then(|n| last_number(&n.to_string_lossy()))
             .unwrap_or(position as u64);
-        let doc = parse_keypoints(&crate::io::read_text(file)?, &name, frame_of_file, limits)?;
+        // Read as a stream within the document limit, whatever size the file system reports.
+        let text = crate::io::read_text(
+            file,
+            Limits::text(
+                "a keypoint file",
+                limits.max_bytes as u64,
+                limits.max_bytes as u64,
+            ),
+        )?;
+        let doc = parse_keypoints(&text, &name, frame_of_file, limits)?;
         for frame in doc.frames {
             if out.insert(frame.frame, frame.detections).is_some() {
                 bail!(

@@ -3,6 +3,7 @@
 use crate::error::{FitError, Result};
 use crate::table::CsvText;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nomen_core::time::{days_from_civil, days_in_month};
 use serde::{Deserialize, Serialize};
 
 /// Layout of a headerless UWB range table: a time column then `num_anchors × num_tags` ranges,
@@ -67,27 +68,6 @@ impl UwbRecording {
             .get(anchor * self.num_tags + tag)
             .copied()
             .flatten()
-    }
-}
-
-/// Days from 1970-01-01 to the civil date `y-m-d` (proleptic Gregorian).
-fn days_from_civil(y: i64, m: i64, d: i64) -> i64 {
-    let y = if m <= 2 { y - 1 } else { y };
-    let era = y.div_euclid(400);
-    let yoe = y - era * 400;
-    let mp = (m + 9) % 12;
-    let doy = (153 * mp + 2) / 5 + d - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    era * 146_097 + doe - 719_468
-}
-
-/// Days in month `m` (1–12) of year `y` (proleptic Gregorian).
-fn days_in_month(y: i64, m: i64) -> i64 {
-    match m {
-        2 if y % 4 == 0 && (y % 100 != 0 || y % 400 == 0) => 29,
-        2 => 28,
-        4 | 6 | 9 | 11 => 30,
-        _ => 31,
     }
 }
 
