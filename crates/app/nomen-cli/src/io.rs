@@ -73,13 +73,13 @@ pub fn create_write(path: &Path) -> Result<Box<dyn Write>> {
 }
 
 /// Creates `path` for buffered writing as [`create_write`] does, but through `PATH.partial`,
-/// renamed to `path` once everything is written and the writer dropped: a command killed before
-/// its end leaves `PATH.partial`, never a cut file under the final name, and the previous
-/// `path` stays whole until then. A `path` that exists and is not a regular file (`/dev/null`,
-/// a named pipe) is written directly, as is `-`.
-pub fn create_write_renamed(path: &Path) -> Result<Box<dyn Write>> {
+/// renamed to `path` by [`OutFile::commit`] once everything is written: a command killed or
+/// stopped by an error before then leaves `PATH.partial`, never a cut file under the final
+/// name, and the previous `path` stays whole. A `path` that exists and is not a regular file
+/// (`/dev/null`, a named pipe) is written directly, as is `-`.
+pub fn create_write_renamed(path: &Path) -> Result<OutFile> {
     if is_std_stream(path) || path.metadata().is_ok_and(|m| !m.is_file()) {
-        return create_write(path);
+        return Ok(OutFile::Direct(create_write(path)?));
     }
     let partial = partial_path(path);
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
@@ -88,11 +88,11 @@ pub fn create_write_renamed(path: &Path) -> Result<Box<dyn Write>> {
     }
     let file =
         File::create(&partial).with_context(|| format!("cannot create {}", partial.display()))?;
-    Ok(Box::new(RenamedOnDrop {
+    Ok(OutFile::Partial {
         inner: BufWriter::with_capacity(1 << 16, file),
         partial,
         path: path.to_path_buf(),
-    }))
+    })
 }
 
 /// `PATH.partial`: where [`create_write_renamed`] writes `path` until it is whole.
@@ -102,39 +102,61 @@ pub fn partial_path(path: &Path) -> PathBuf {
     path.with_file_name(name)
 }
 
-/// A file written under a temporary name and renamed when dropped ([`create_write_renamed`]).
-/// The drop happens when the command returns, with a result or an error it reports; a kill
-/// skips it.
-struct RenamedOnDrop {
-    inner: BufWriter<File>,
-    partial: PathBuf,
-    path: PathBuf,
+/// An output written directly, or under `PATH.partial` until [`OutFile::commit`] gives it its
+/// name ([`create_write_renamed`]).
+pub enum OutFile {
+    /// A standard stream or a file that is not a regular one.
+    Direct(Box<dyn Write>),
+    /// A regular file written under a temporary name.
+    Partial {
+        /// The open `partial` file.
+        inner: BufWriter<File>,
+        /// `PATH.partial`.
+        partial: PathBuf,
+        /// The final name.
+        path: PathBuf,
+    },
 }
 
-impl Write for RenamedOnDrop {
+impl OutFile {
+    /// Flushes everything and gives the file its final name; dropped without this, the
+    /// output keeps its partial name.
+    pub fn commit(self) -> Result<()> {
+        match self {
+            OutFile::Direct(mut out) => Ok(out.flush()?),
+            OutFile::Partial {
+                mut inner,
+                partial,
+                path,
+            } => {
+                inner
+                    .flush()
+                    .with_context(|| format!("cannot write {}", partial.display()))?;
+                drop(inner);
+                std::fs::rename(&partial, &path).with_context(|| {
+                    format!(
+                        "cannot give {} its name {}: what was written is in it",
+                        partial.display(),
+                        path.display()
+                    )
+                })
+            }
+        }
+    }
+}
+
+impl Write for OutFile {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.inner.write(buf)
+        match self {
+            OutFile::Direct(out) => out.write(buf),
+            OutFile::Partial { inner, .. } => inner.write(buf),
+        }
     }
 
     fn flush(&mut self) -> std::io::Result<()> {
-        self.inner.flush()
-    }
-}
-
-impl Drop for RenamedOnDrop {
-    fn drop(&mut self) {
-        // Every byte is in the file before it takes the final name; a failure leaves the
-        // partial name, and says so.
-        let renamed = self
-            .inner
-            .flush()
-            .and_then(|()| std::fs::rename(&self.partial, &self.path));
-        if let Err(e) = renamed {
-            eprintln!(
-                "error: cannot complete {} ({e}): what was written is in {}",
-                self.path.display(),
-                self.partial.display()
-            );
+        match self {
+            OutFile::Direct(out) => out.flush(),
+            OutFile::Partial { inner, .. } => inner.flush(),
         }
     }
 }

@@ -223,15 +223,26 @@ fn a_run_killed_before_its_end_leaves_a_partial_file_and_the_previous_result_who
     let out = dir.path().join("result.jsonl");
     let partial = dir.path().join("result.jsonl.partial");
     std::fs::write(&out, "the previous result\n").unwrap();
-    // A live run on a pipe that stays open: the run is under way until it is killed.
-    let mut child = nomen_command(&["run", "-", "--live", "--out", out.to_str().unwrap()])
-        .stdin(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
+    // A recording on a named pipe that stays open: the run is under way until it is killed.
+    let fifo = dir.path().join("rec.fifo");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
         .unwrap();
-    let mut stdin = child.stdin.take().unwrap();
-    stdin.write_all(format!("{HEADER}\n").as_bytes()).unwrap();
-    stdin.flush().unwrap();
+    assert!(made.success());
+    let mut child = nomen_command(&[
+        "run",
+        fifo.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ])
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    // Opening the pipe for writing waits for the run to open it for reading.
+    let mut feed = std::fs::OpenOptions::new().write(true).open(&fifo).unwrap();
+    feed.write_all(format!("{HEADER}\n").as_bytes()).unwrap();
+    feed.flush().unwrap();
     // The run writes to the partial name once it has read the header.
     while !partial.exists() {
         assert!(child.try_wait().unwrap().is_none(), "the run ended early");
@@ -244,11 +255,25 @@ fn a_run_killed_before_its_end_leaves_a_partial_file_and_the_previous_result_who
     }
     child.kill().unwrap();
     child.wait().unwrap();
+    drop(feed);
     assert_eq!(
         std::fs::read_to_string(&out).unwrap(),
         "the previous result\n"
     );
     assert!(partial.exists());
+    // The partial file cannot be the input of a run writing its final name.
+    let output = nomen(&[
+        "run",
+        partial.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!output.status.success());
+    assert!(
+        text(&output.stderr).contains("would destroy what is to be read"),
+        "{}",
+        text(&output.stderr)
+    );
     // Run to its end, the result takes the final name and no partial file is left.
     std::fs::remove_file(&partial).unwrap();
     let recording = dir.path().join("rec.jsonl");
@@ -263,4 +288,26 @@ fn a_run_killed_before_its_end_leaves_a_partial_file_and_the_previous_result_who
     let result = std::fs::read_to_string(&out).unwrap();
     assert!(result.starts_with(r#"{"type":"header""#), "{result}");
     assert!(!partial.exists());
+}
+
+#[test]
+fn a_live_run_writes_under_the_final_name_as_it_goes() {
+    // Whoever follows a live session's result reads the file it named.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("live.jsonl");
+    let mut child = nomen_command(&["run", "-", "--live", "--out", out.to_str().unwrap()])
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    stdin.write_all(format!("{HEADER}\n").as_bytes()).unwrap();
+    stdin.flush().unwrap();
+    while !out.exists() {
+        assert!(child.try_wait().unwrap().is_none(), "the run ended early");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert!(!dir.path().join("live.jsonl.partial").exists());
+    child.kill().unwrap();
+    child.wait().unwrap();
 }

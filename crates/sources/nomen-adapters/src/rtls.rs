@@ -114,10 +114,14 @@ fn pozyx_payload(
         let data = json::object(json::required(update, "data", &at)?, &data_at)?;
         let c_at = data_at.at("coordinates");
         let coordinates = json::object(json::required(data, "coordinates", &data_at)?, &c_at)?;
-        let mut p_m = [0.0; 3];
+        let mut p_m = [0.0, 0.0, config.z_m];
         for (v, axis) in p_m.iter_mut().zip(["x", "y", "z"]) {
-            // Pozyx coordinates are millimetres.
-            *v = json::number(json::required(coordinates, axis, &c_at)?, &c_at.at(axis))? / 1000.0;
+            // Pozyx coordinates are millimetres; a 2D setup's update may leave z out.
+            let value = match (axis, coordinates.get(axis)) {
+                ("z", None | Some(Value::Null)) => continue,
+                _ => json::required(coordinates, axis, &c_at)?,
+            };
+            *v = json::number(value, &c_at.at(axis))? / 1000.0;
         }
         let fix = RtlsFix {
             t: shift(ns, config.time_offset_ns, &t_at)?,

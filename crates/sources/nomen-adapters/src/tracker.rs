@@ -65,6 +65,8 @@ pub fn read_tracker(input: impl BufRead, source: &str, config: &TrackerConfig) -
     let mut csv_header: Option<(Vec<String>, char)> = None;
     let mut is_json: Option<bool> = None;
     for_each_line(input, &source, |text, at| {
+        // A byte-order mark (as spreadsheet programs write) is not part of the first name.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let is_json = *is_json.get_or_insert_with(|| text.starts_with('{'));
         if is_json {
             let value = json::parse(text.as_bytes(), at)?;
@@ -137,33 +139,36 @@ fn split(line: &str, sep: char) -> impl Iterator<Item = &str> {
     })
 }
 
-/// The key of `row` whose name is one of `names`, with the unit its name carries
-/// (`t_ms`, `t (ms)`, `t [ms]`).
+/// The key of `row` whose name is one of [`TIME_NAMES`], with the unit its name carries
+/// (`t_ms`, `t (ms)`, `t [ms]`); the names are tried in their order.
 fn find_time(row: &Map<String, Value>) -> Option<(&str, Option<&str>)> {
-    row.keys().find_map(|k| {
-        let k = k.as_str();
-        let key = k.trim();
-        if TIME_NAMES.contains(&key.to_lowercase().as_str()) {
-            return Some((k, None));
-        }
-        let (base, unit) = if let Some(rest) = key.strip_suffix(')') {
-            rest.rsplit_once('(')?
-        } else if let Some(rest) = key.strip_suffix(']') {
-            rest.rsplit_once('[')?
-        } else {
-            key.rsplit_once('_')?
-        };
-        let unit = unit.trim();
-        (TIME_NAMES.contains(&base.trim().to_lowercase().as_str())
-            && TimeUnit::parse(unit).is_some())
-        .then_some((k, Some(unit)))
+    TIME_NAMES.iter().find_map(|name| {
+        row.keys().find_map(|k| {
+            let key = k.trim();
+            if key.to_lowercase() == *name {
+                return Some((k.as_str(), None));
+            }
+            let (base, unit) = if let Some(rest) = key.strip_suffix(')') {
+                rest.rsplit_once('(')?
+            } else if let Some(rest) = key.strip_suffix(']') {
+                rest.rsplit_once('[')?
+            } else {
+                key.rsplit_once('_')?
+            };
+            let unit = unit.trim();
+            (base.trim().to_lowercase() == *name && TimeUnit::parse(unit).is_some())
+                .then_some((k.as_str(), Some(unit)))
+        })
     })
 }
 
+/// The key of `row` (and its value) named by the first of `names` that it has.
 fn find<'a>(row: &'a Map<String, Value>, names: &[&str]) -> Option<(&'a str, &'a Value)> {
-    row.iter()
-        .find(|(k, _)| names.contains(&k.trim().to_lowercase().as_str()))
-        .map(|(k, v)| (k.as_str(), v))
+    names.iter().find_map(|name| {
+        row.iter()
+            .find(|(k, _)| k.trim().to_lowercase() == *name)
+            .map(|(k, v)| (k.as_str(), v))
+    })
 }
 
 fn require<'a>(

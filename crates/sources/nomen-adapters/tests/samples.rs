@@ -414,12 +414,28 @@ fn pozyx_sample_reads_fixes_in_metres_and_counts_unsuccessful_updates() {
 #[test]
 fn pozyx_malformed_updates_name_line_and_field() {
     let config = RtlsConfig::default();
-    let text = sample("pozyx_tags.jsonl").replacen(",\"z\":1185", "", 1);
+    let text = sample("pozyx_tags.jsonl").replacen(",\"y\":4102", "", 1);
     assert_error(
         read_pozyx(text.as_bytes(), "tags.jsonl", &config),
-        "tags.jsonl:2: [0].data.coordinates: missing field 'z'",
+        "tags.jsonl:2: [0].data.coordinates: missing field 'y'",
         "",
     );
+    // A 2D setup's update without z takes the configured height.
+    let text = sample("pozyx_tags.jsonl").replacen(",\"z\":1185", "", 1);
+    let two_d = RtlsConfig {
+        z_m: 1.5,
+        ..RtlsConfig::default()
+    };
+    let d = read_pozyx(text.as_bytes(), "tags.jsonl", &two_d).unwrap();
+    let zs: Vec<f64> = d
+        .messages
+        .iter()
+        .filter_map(|m| match m {
+            Message::RtlsFix(f) => Some(f.position_m.z),
+            _ => None,
+        })
+        .collect();
+    assert!(zs.iter().filter(|z| close(**z, 1.5)).count() == 1, "{zs:?}");
     let text = sample("pozyx_tags.jsonl").replacen("\"x\":-805", "\"x\":\"far\"", 1);
     assert_error(
         read_pozyx(text.as_bytes(), "tags.jsonl", &config),
@@ -676,5 +692,20 @@ fn a_payload_beyond_the_limit_is_refused_naming_the_limit() {
         decode_pozyx(&payload, &RtlsConfig::default()),
         "payload: payload is longer than 1048576 bytes",
         "",
+    );
+}
+
+#[test]
+fn tracker_columns_are_taken_in_the_documented_order_and_a_byte_order_mark_is_skipped() {
+    // `id` (a row number here) is the last of the track's names: the column named first in the
+    // documented order wins, whatever order the file gives them.
+    let text = "\u{feff}id,track_id,t_ms,x,y\n1,7,0,100,200\n2,9,250,110,210\n";
+    let d = read_tracker(text.as_bytes(), "bom.csv", &tracker()).unwrap();
+    let s = skeletons(&d);
+    assert_eq!(
+        s.iter()
+            .map(|s| (s.t.as_ns(), s.track.0))
+            .collect::<Vec<_>>(),
+        [(0, 7), (250_000_000, 9)]
     );
 }

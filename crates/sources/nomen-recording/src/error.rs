@@ -68,7 +68,7 @@ pub enum RecordingError {
     /// The messages read so far take more memory than [`crate::ReadOptions::max_held_bytes`]
     /// allows a reader whose messages are all kept.
     #[error(
-        "{at}: the messages up to here take more than {} in memory, the most a recording read whole may hold (nomen run and nomen validate stream it)",
+        "{at}: the messages up to here take more than {} in memory, the most a recording read whole may hold (nomen run with the engine and nomen validate stream it)",
         nomen_core::bounded::describe_bytes(*max_bytes)
     )]
     TooLarge {

@@ -333,8 +333,26 @@ fn open(path: &Path) -> Result<std::fs::File> {
     std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))
 }
 
-fn reader(path: &Path) -> Result<std::io::BufReader<std::fs::File>> {
-    open(path).map(std::io::BufReader::new)
+/// The most a vendor file may hold, bytes: 256 MiB, as a CSV file (`docs/limits.md`).
+const MAX_VENDOR_FILE_BYTES: u64 = 256 * nomen_core::bounded::MIB_BYTES;
+
+/// A vendor file read as a stream of at most [`MAX_VENDOR_FILE_BYTES`] (whatever size the file
+/// system reports); each reader also bounds its lines.
+fn reader(
+    path: &Path,
+) -> Result<std::io::BufReader<nomen_core::bounded::BoundedReader<std::fs::File>>> {
+    let limits = nomen_core::bounded::Limits::text(
+        "a vendor file",
+        MAX_VENDOR_FILE_BYTES,
+        MAX_VENDOR_FILE_BYTES,
+    );
+    open(path).map(|file| {
+        std::io::BufReader::new(nomen_core::bounded::BoundedReader::new(
+            file,
+            &name(path),
+            limits,
+        ))
+    })
 }
 
 /// The messages of a vendor import, after saying on stderr what was skipped on purpose.

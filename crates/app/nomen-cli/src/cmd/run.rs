@@ -31,9 +31,11 @@ pub struct RunArgs {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Where to write the result (`-` for stdout). When reading stdin or writing stdout (a live
-    /// pipe), each batch of decisions is flushed as soon as the engine makes it. A file is
-    /// written as `OUT.partial` and renamed to OUT when the run returns: a run killed before
-    /// then leaves OUT.partial and any previous OUT as it was.
+    /// pipe, or `--live`), each batch of decisions is flushed as soon as the engine makes it,
+    /// under OUT's own name. Otherwise a file is written as `OUT.partial` and renamed to OUT
+    /// once the run has written its last decision (also when it stops at a bad line, with the
+    /// decisions on what came before it): a run killed or stopped by an error before then
+    /// leaves OUT.partial and any previous OUT as it was.
     #[arg(long)]
     pub out: PathBuf,
     /// Skip malformed input lines (counted, and listed with file and line) instead of stopping.
@@ -131,7 +133,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             args.rssi_model.as_deref(),
             args.environment.as_deref(),
         ],
-        &[Some(&args.out)],
+        &[Some(&args.out), Some(&crate::io::partial_path(&args.out))],
     )?;
     // Without `--skip-bad` the reading stops at the first bad line.
     let skip = args.skip_bad.then_some(args.max_skipped);
@@ -230,11 +232,16 @@ fn open_writer(
     recording: &Path,
     registry: Registry,
     generator: &str,
-) -> Result<RecordingWriter<Box<dyn std::io::Write>>> {
+    is_followed: bool,
+) -> Result<RecordingWriter<crate::io::OutFile>> {
     let header = Header::new(registry)
         .with_meta("generator", generator)
         .with_meta("input", crate::io::source_name(recording));
-    let sink = crate::io::create_write_renamed(out)?;
+    let sink = if is_followed {
+        crate::io::OutFile::Direct(crate::io::create_write(out)?)
+    } else {
+        crate::io::create_write_renamed(out)?
+    };
     Ok(RecordingWriter::with_options(
         sink,
         &crate::io::sink_name(out),
@@ -335,11 +342,12 @@ pub fn run_baseline_file(
         recording,
         registry,
         &format!("nomen run --method {}", baseline.name()),
+        false,
     )?;
     for m in &decided {
         writer.write(m)?;
     }
-    writer.finish()?;
+    writer.finish()?.commit()?;
     if let Some(e) = read_error {
         return Err(stopped_reading(e, decided.len(), out));
     }
@@ -603,7 +611,9 @@ pub fn run_file(
     } else {
         None
     };
-    let mut writer = open_writer(out, recording, registry, "nomen run")?;
+    // A live session's file is followed as it grows: it is written under its own name.
+    let is_followed = extras.live || crate::io::is_std_stream(recording);
+    let mut writer = open_writer(out, recording, registry, "nomen run", is_followed)?;
     // Live (reading stdin or writing stdout): each batch of decisions goes out as soon as it is
     // decided, instead of when the output buffer fills, so a consumer's wait is the engine's
     // latency alone, also while the input pauses.
@@ -727,7 +737,7 @@ pub fn run_file(
     bar.finish_and_clear();
     engine.finish(&mut batch);
     write_batch(&mut batch, &mut writer, &mut refinement, &mut retracker)?;
-    writer.finish()?;
+    writer.finish()?.commit()?;
     // The session's first message, dropped once the next showed its stamp was far ahead.
     if let Some(why) = &engine.stats().first_message_dropped {
         num_rejected += 1;
