@@ -965,7 +965,7 @@ fn a_reader_that_keeps_every_message_stops_at_its_memory_limit() {
     };
     let expected = format!(
         "rec.jsonl:1002: the messages up to here take more than {} bytes in memory, the most a \
-         recording read whole may hold (nomen run and nomen validate stream it)",
+         recording read whole may hold (nomen run with the engine and nomen validate stream it)",
         1000 * per_message
     );
     assert_eq!(e.to_string(), expected);
