@@ -34,7 +34,8 @@ pub enum FitError {
         /// The underlying error.
         source: std::io::Error,
     },
-    /// A file past a limit of [`nomen_core::bounded`] (a line or the file too long).
+    /// A file read through [`nomen_core::bounded`] that passed one of its limits (a line or the
+    /// file too long), could not be read, or is not text.
     #[error(transparent)]
     Limit(#[from] nomen_core::CoreError),
 }

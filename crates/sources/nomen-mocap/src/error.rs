@@ -27,7 +27,8 @@ pub enum MocapError {
         /// What the parser was looking for.
         expected: String,
     },
-    /// An input past a limit of [`nomen_core::bounded`]: a line or a file too long.
+    /// An input read through [`nomen_core::bounded`] that passed one of its limits (a line or
+    /// the file too long), could not be read, or is not text.
     #[error(transparent)]
     Limit(#[from] nomen_core::CoreError),
     /// A BVH hierarchy longer than [`crate::bvh::MAX_BVH_HIERARCHY_BYTES`] (no `MOTION` line

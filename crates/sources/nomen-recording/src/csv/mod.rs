@@ -190,13 +190,7 @@ impl<R: Read> CsvInput<R> {
     /// Counts the memory `msg` takes once imported, refusing the import past
     /// [`MAX_CSV_MESSAGE_BYTES`].
     fn hold(&mut self, msg: &Message, line: u64) -> Result<()> {
-        let boxed = match msg {
-            Message::Skeleton(_) | Message::Identified(_) | Message::TruthSkeleton(_) => {
-                std::mem::size_of::<nomen_core::SkeletonObservation>()
-            }
-            _ => 0,
-        };
-        self.message_bytes += (std::mem::size_of::<Message>() + boxed) as u64;
+        self.message_bytes += crate::held_bytes(msg);
         if self.message_bytes > MAX_CSV_MESSAGE_BYTES {
             return Err(self.error(
                 line,
