@@ -9,9 +9,10 @@ use nomen_adapters::{
 };
 use nomen_core::{CameraId, Message, Registry};
 
-/// The most bytes a payload may have: a skeleton with every joint's covariance is about 6 kB of
-/// JSON, a registry of a hundred people a few tens of kB.
-pub const MAX_PAYLOAD_BYTES: usize = 1 << 20;
+/// The most bytes a payload may have, nomen's own or a vendor's (the vendor readers' line
+/// limit, [`nomen_adapters::MAX_LINE_BYTES`]): a skeleton with every joint's covariance is about
+/// 6 kB of JSON, a registry of a hundred people a few tens of kB.
+pub const MAX_PAYLOAD_BYTES: usize = nomen_adapters::MAX_LINE_BYTES;
 
 /// A decoded input.
 #[derive(Debug, Clone, PartialEq)]
