@@ -9,13 +9,18 @@
 //! when the recording is replayed at its own pace into one core (p99 per camera frame: its wait
 //! behind earlier work included); then the engine time of the last minute of the 180-s variant
 //! (`scenarios/imu_ban_8_long.toml`), offsets searched from scratch, with and without settling
-//! confirmed offsets (`offset_settle_passes`). Needs `../shared/data` for the motion capture.
+//! confirmed offsets (`offset_settle_passes`); last, the crowds: one scene per crowd size (8,
+//! 16, 32, 64 and 128 people, one wrist IMU each, 60 s; `benches/crowd.toml` drawn with the
+//! validation split's clips), one run each, with its ratio to real time, to the 8-person time,
+//! and the cost's growth exponent between sizes (`NOMEN_BENCH_CROWD=8,64`
+//! chooses the sizes, `NOMEN_BENCH_ONLY=crowd` runs the crowds alone). Needs `../shared/data`
+//! for the motion capture.
 //! It allocates through mimalloc, as the `nomen` binary does (the engine library leaves the
 //! allocator to the program): on `nomen run` of this scene mimalloc took 7 % less time than
 //! the system allocator.
 //!
-//! With `NOMEN_BENCH_ONCE=searched` (or `known`, every clock offset given) it runs the engine
-//! once on the scene instead and prints that run's time and a digest of its output, for an
+//! With `NOMEN_BENCH_ONCE=searched` (or `known`, every clock offset given, or `crowd:N`, the
+//! crowd of N) it runs the engine once on the scene instead and prints that run's time and a digest of its output, for an
 //! instruction count that compares builds exactly (the engine README quotes these):
 //! ```text
 //! cargo bench -p nomen-engine --no-run   # prints the bench binary's path
@@ -33,6 +38,7 @@
 
 use nomen_core::Message;
 use nomen_engine::{Engine, EngineConfig, run_batch};
+use nomen_sim::family::{BenchSplit, FamilyDef, generate};
 use nomen_sim::{Scenario, SimOutput, load_scenario_clips, simulate};
 use std::hash::{Hash, Hasher};
 use std::path::Path;
@@ -49,19 +55,99 @@ const SCENARIO: &str = "scenarios/imu_ban_8.toml";
 const LONG_SCENARIO: &str = "scenarios/imu_ban_8_long.toml";
 /// Simulation seed.
 const SEED: u64 = 1;
+/// The crowds' family (one wrist IMU each), drawn at each of [`CROWD_SIZES`].
+const CROWD_FAMILY: &str = "crates/identity/nomen-engine/benches/crowd.toml";
+/// The benchmark's splits: the crowds use the validation split's clips.
+const SPLITS: &str = "scenarios/families/splits.toml";
+/// Crowd sizes (`NOMEN_BENCH_CROWD=8,16,...` chooses others; `NOMEN_BENCH_CROWD=` none).
+const CROWD_SIZES: [u32; 5] = [8, 16, 32, 64, 128];
+/// The crowds' draw and simulation seed.
+const CROWD_SEED: u64 = 5000;
 
 /// The scenario at `path` (relative to the repository) simulated at [`SEED`], its recording in
 /// time order.
 fn simulate_sorted(repo: &Path, data: &Path, path: &str) -> (Scenario, SimOutput) {
     let text = std::fs::read_to_string(repo.join(path)).expect("scenario");
-    let scenario = Scenario::from_toml(&text, path).expect("valid scenario");
+    simulate_text(data, &text, path, SEED)
+}
+
+/// The scenario `text` (named `source` in errors) simulated at `seed`, its recording in time
+/// order.
+fn simulate_text(data: &Path, text: &str, source: &str, seed: u64) -> (Scenario, SimOutput) {
+    let scenario = Scenario::from_toml(text, source).expect("valid scenario");
     let clips = load_scenario_clips(&scenario, &mut |file| {
         std::fs::read_to_string(data.join(file)).map_err(|e| e.to_string())
     })
     .expect("clips load");
-    let mut sim = simulate(&scenario, &clips, SEED, &mut |_, _| {}).expect("simulates");
+    let mut sim = simulate(&scenario, &clips, seed, &mut |_, _| {}).expect("simulates");
     sim.recording.sort_by_key(Message::t);
     (scenario, sim)
+}
+
+/// The crowd of `people` ([`CROWD_FAMILY`] with that many people, the validation split's clips,
+/// [`CROWD_SEED`]), simulated, its recording in time order.
+fn simulate_crowd(repo: &Path, data: &Path, people: u32) -> (Scenario, SimOutput) {
+    let text = std::fs::read_to_string(repo.join(CROWD_FAMILY)).expect("crowd family");
+    let mut family = FamilyDef::from_toml(&text, CROWD_FAMILY).expect("valid family");
+    family.people = [people, people];
+    #[derive(serde::Deserialize)]
+    struct Splits {
+        validation: BenchSplit,
+    }
+    let splits: Splits =
+        toml::from_str(&std::fs::read_to_string(repo.join(SPLITS)).expect("splits"))
+            .expect("valid splits");
+    let scene = generate(&family, &splits.validation.clips, 0, CROWD_SEED).expect("draws");
+    simulate_text(data, &scene, CROWD_FAMILY, CROWD_SEED)
+}
+
+/// The crowd sizes to run: [`CROWD_SIZES`], or those of `NOMEN_BENCH_CROWD`.
+fn crowd_sizes() -> Vec<u32> {
+    match std::env::var("NOMEN_BENCH_CROWD") {
+        Ok(list) => list
+            .split(',')
+            .filter(|s| !s.trim().is_empty())
+            .map(|s| {
+                s.trim()
+                    .parse()
+                    .expect("NOMEN_BENCH_CROWD: sizes like 8,16,32")
+            })
+            .collect(),
+        Err(_) => CROWD_SIZES.to_vec(),
+    }
+}
+
+/// One wrist IMU each, one run per crowd size: engine time, ratio to real time, ratio to the
+/// smallest crowd's time and the growth exponent between sizes.
+fn bench_crowds(repo: &Path, data: &Path) {
+    let mut first: Option<(u32, f64)> = None;
+    let mut previous: Option<(u32, f64)> = None;
+    for people in crowd_sizes() {
+        let (scenario, sim) = simulate_crowd(repo, data, people);
+        let registry = sim.scene.registry.clone();
+        let config = EngineConfig::default();
+        let start = Instant::now();
+        let (out, _) = run_batch(&registry, &sim.recording, &config).expect("runs");
+        let elapsed_s = start.elapsed().as_secs_f64();
+        assert!(!out.is_empty());
+        let (base_people, base_s) = *first.get_or_insert((people, elapsed_s));
+        let growth = previous
+            .map(|(n, t)| {
+                format!(
+                    ", cost ∝ N^{:.2} from {n}",
+                    (elapsed_s / t).ln() / (f64::from(people) / f64::from(n)).ln()
+                )
+            })
+            .unwrap_or_default();
+        println!(
+            "crowd of {people} (one wrist IMU each, {:.0} s, {} messages): {elapsed_s:.2} s = {:.0}× real time, {:.1}× the time of {base_people}{growth}",
+            scenario.duration_s,
+            sim.recording.len(),
+            scenario.duration_s / elapsed_s,
+            elapsed_s / base_s,
+        );
+        previous = Some((people, elapsed_s));
+    }
 }
 
 fn main() {
@@ -80,6 +166,34 @@ fn main() {
         known_clock_offsets: true,
         ..config
     };
+
+    if let Some(people) = std::env::var("NOMEN_BENCH_ONCE")
+        .ok()
+        .and_then(|m| m.strip_prefix("crowd:").map(str::to_owned))
+    {
+        let people: u32 = people.parse().expect("NOMEN_BENCH_ONCE=crowd:N");
+        let (scenario, sim) = simulate_crowd(&repo, &data, people);
+        let start = Instant::now();
+        let (out, _) = run_batch(
+            &sim.scene.registry,
+            &sim.recording,
+            &EngineConfig::default(),
+        )
+        .expect("runs");
+        let elapsed_s = start.elapsed().as_secs_f64();
+        let mut digest = std::collections::hash_map::DefaultHasher::new();
+        format!("{out:?}").hash(&mut digest);
+        println!(
+            "one run on the crowd of {people} (seed {CROWD_SEED}): {elapsed_s:.3} s = {:.0}× real time, output digest {:016x}",
+            scenario.duration_s / elapsed_s,
+            digest.finish()
+        );
+        return;
+    }
+    if std::env::var("NOMEN_BENCH_ONLY").is_ok_and(|v| v == "crowd") {
+        bench_crowds(&repo, &data);
+        return;
+    }
 
     if let Ok(mode) = std::env::var("NOMEN_BENCH_ONCE") {
         let (registry, config) = match mode.as_str() {
@@ -208,6 +322,8 @@ fn main() {
             engine.stats().clock_offsets.len(),
         );
     }
+
+    bench_crowds(&repo, &data);
 }
 
 /// Replays `recording` (in time order) live into one core: message `i` arrives at its time stamp

@@ -506,14 +506,16 @@ pub fn simulate(
     })
 }
 
-/// The most memory the messages of one simulated scene may take, bytes: 1 GiB. [`simulate`]
-/// holds a whole scene (recording and truth) before it is sorted and written. It refuses a
+/// The most memory the messages of one simulated scene may take, bytes: 2 GiB, what the
+/// commands that read a recording whole hold (a 60-s crowd of 128 people with one wrist IMU each
+/// takes about 1.1 GiB). [`simulate`] holds a whole scene (recording and truth) before it is
+/// sorted and written. It refuses a
 /// scene up front when one camera's skeletons, or the wearables' messages, are estimated past
 /// this ([`CameraBytes`], [`wearable_message_bytes`]), and stops with the same error as soon as
 /// the messages it holds pass it (counted after each camera and each wearable). Its peak memory
 /// is this bound, plus one camera's skeletons or one wearable's messages, plus what the vectors
 /// that hold them reserve beyond their length (at most as much again).
-pub const MAX_SCENE_MESSAGE_BYTES: u64 = 1 << 30;
+pub const MAX_SCENE_MESSAGE_BYTES: u64 = 2 << 30;
 
 /// An upper estimate of the bytes one camera's skeletons and their truth take for `scenario`:
 /// a skeleton message and its truth for every person at every frame.

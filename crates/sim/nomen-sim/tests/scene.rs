@@ -247,7 +247,7 @@ fn every_shipped_scenario_fits_in_memory_and_an_hour_of_eight_people_is_refused(
     assert!(*max_duration_s >= 180.0, "{err}");
     assert!(
         err.to_string()
-            .contains("more than the 1024 MiB a simulated scene may hold"),
+            .contains("more than the 2048 MiB a simulated scene may hold"),
         "{err}"
     );
 }
