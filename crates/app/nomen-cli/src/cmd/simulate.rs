@@ -14,7 +14,8 @@ use std::path::{Path, PathBuf};
 pub struct SimulateArgs {
     /// The scenario (TOML; see docs/scenarios.md and scenarios/).
     pub scenario: PathBuf,
-    /// Output folder: recording.jsonl, truth.jsonl, scene.json, obstacles.obj.
+    /// Output folder: recording.jsonl, truth.jsonl, scene.json, and obstacles.obj for a scene with
+    /// obstacles.
     #[arg(long)]
     pub out: PathBuf,
     /// Random seed (default: the scenario's own `seed`).
@@ -118,7 +119,11 @@ fn write_output(sim: &SimOutput, out: &Path, scenario: &Scenario, seed: u64) -> 
     let scene = serde_json::to_string_pretty(&sim.scene)?;
     std::fs::write(out.join("scene.json"), scene + "\n")
         .with_context(|| format!("cannot write {}", out.join("scene.json").display()))?;
-    std::fs::write(out.join("obstacles.obj"), &sim.obstacles_obj)
-        .with_context(|| format!("cannot write {}", out.join("obstacles.obj").display()))?;
+    // A mesh with no faces is no environment (`nomen run --environment` refuses it): the file
+    // exists only for scenes with obstacles.
+    if !scenario.room.obstacles.is_empty() {
+        std::fs::write(out.join("obstacles.obj"), &sim.obstacles_obj)
+            .with_context(|| format!("cannot write {}", out.join("obstacles.obj").display()))?;
+    }
     Ok(())
 }
