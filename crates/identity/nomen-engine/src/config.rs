@@ -41,10 +41,10 @@ pub enum MotionScore {
 /// Weights of the models in [`MotionScore::Nomen`]'s score: the window score of a (track, subject)
 /// pair is `Σ w·r / Σ w` over every correlation `r` present (each IMU of the subject, each model).
 ///
-/// The defaults of the eight correlations are each model's linear-discriminant weight `(μ_match −
-/// μ_other)/σ²`, scaled to mean 1, measured on the CNN training scenes (`scenarios/train/*.toml`:
-/// full body-area networks, true clock offsets, 2 s windows), none of which is an evaluation scene.
-/// All weights 1 ([`ModelWeights::equal`]) give the plain mean.
+/// The defaults of the eight correlations are each model's linear-discriminant weight
+/// `(μ_match − μ_other)/σ²`, scaled to mean 1, measured on the CNN training scenes
+/// (`scenarios/train/*.toml`: full body-area networks, true clock offsets, 2 s windows), none of
+/// which is an evaluation scene. All weights 1 ([`ModelWeights::equal`]) give the plain mean.
 ///
 /// A band on a forearm (wrist, hand or elbow) also adds Belmonte-Hernández's similarity
 /// (`MotionScore::Belmonte`'s score: wrist pitch and chest yaw rate, in [0, 1]) with weight
@@ -56,8 +56,9 @@ pub enum MotionScore {
 /// move alike in different directions, and it separates right from wrong pairs more clearly than
 /// any of them, hence its default 3.
 ///
-/// A weight is measured like any option, e.g. `scenarios/families/sweep.sh model_weights.heading 0
-/// 3 -- --count 4` (the benchmark's validation split).
+/// A weight is measured like any option, e.g.
+/// `scenarios/families/sweep.sh model_weights.heading 0 3 -- --count 4` (the benchmark's validation
+/// split).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ModelWeights {
@@ -160,7 +161,8 @@ pub struct EngineConfig {
     /// further is refused ([`crate::EngineError::TimeJump`]) unless the message of its source
     /// before it was refused for the same reason, less than this much earlier, with no message
     /// at the old time since (a session that resumed after everyone was silent costs one
-    /// message per source; a source that jumps while the others go on is refused throughout). Without it, one corrupt timestamp an hour ahead would put its source's
+    /// message per source; a source that jumps while the others go on is refused throughout).
+    /// Without it, one corrupt timestamp an hour ahead would put its source's
     /// reorder window an hour ahead, so that every later message of that source is refused as
     /// late, and every window until then would time out waiting for the others. The session's
     /// first message waits for the next one and is dropped if that is stamped more than this
@@ -174,24 +176,25 @@ pub struct EngineConfig {
     /// benchmark's validation split).
     pub decision_delay_s: f64,
     /// A session's warm-up, s: an observation within `warmup_s` of the session's first skeleton is
-    /// labelled with the decision of the first window ending at or after `first + warmup_s +
-    /// decision_delay_s`, as if it had been observed at the warm-up's end; when that decision
-    /// leaves its track anonymous, with the latest earlier one that named the track, from the
-    /// observation's own due time `t + decision_delay_s` on. Until the first windows have filled
-    /// and the first clock offsets are known, few people can be named, so without it a session's
-    /// first frames come out anonymous whatever follows; with it they wait for the decisions that
-    /// can name them, at most `warmup_s` longer (see [`EngineConfig::max_latency_s`]); later
-    /// observations are not affected. The fallback on earlier decisions keeps a wearer named at the
-    /// first decision from going anonymous in her first seconds when a look-alike walks in. Such an
-    /// earlier name is not taken when another track of the camera, seen at the observation's time,
-    /// carries it when the observation is sent (it was given before the subject's clock was known,
-    /// to a look-alike).
+    /// labelled with the decision of the first window ending at or after
+    /// `first + warmup_s + decision_delay_s`, as if it had been observed at the warm-up's end; when
+    /// that decision leaves its track anonymous, with the latest earlier one that named the track,
+    /// from the observation's own due time `t + decision_delay_s` on. Until the first windows have
+    /// filled and the first clock offsets are known, few people can be named, so without it a
+    /// session's first frames come out anonymous whatever follows; with it they wait for the
+    /// decisions that can name them, at most `warmup_s` longer (see
+    /// [`EngineConfig::max_latency_s`]); later observations are not affected. The fallback on
+    /// earlier decisions keeps a wearer named at the first decision from going anonymous in her
+    /// first seconds when a look-alike walks in. Such an earlier name is not taken when another
+    /// track of the camera, seen at the observation's time, carries it when the observation is sent
+    /// (it was given before the subject's clock was known, to a look-alike).
     ///
     /// Default 2.0 s: it names most of a session's first frames, and a longer warm-up names a
     /// look-alike's first frames more often and delays the first output further. `0` turns it off
     /// (and `warmup_sync_s` with it). While no clock is known the warm-up may last longer: see
-    /// [`EngineConfig::warmup_sync_s`]. Measured with `scenarios/families/sweep.sh warmup_s 0 1 2 3
-    /// -- --count 4` (the benchmark's validation split).
+    /// [`EngineConfig::warmup_sync_s`]. Measured with
+    /// `scenarios/families/sweep.sh warmup_s 0 1 2 3 -- --count 4` (the benchmark's validation
+    /// split).
     pub warmup_s: f64,
     /// How much longer than `warmup_s` the warm-up's observations may wait for decisions made at
     /// known clocks, s. Before any clock offset is accepted (about 4.5 s into a session at the
@@ -227,11 +230,12 @@ pub struct EngineConfig {
     /// views' evidence, so the person is still scored at every window. Location-tag and RSSI
     /// evidence are scored on every view at every window.
     ///
-    /// Default true: where two cameras see the same people it saves engine time (`cargo bench -p
-    /// nomen-engine`, the 8-person scene with two cameras that both see everyone) for the same
-    /// accuracy. Scenes with one camera are unchanged. Off, every view is scored at every window.
-    /// Measured with `scenarios/families/sweep.sh alternate_paired_views true false -- --count 4`
-    /// (the benchmark's validation split).
+    /// Default true: where two cameras see the same people it saves engine time
+    /// (`cargo bench -p nomen-engine`, the 8-person scene with two cameras that both see everyone)
+    /// for the same accuracy. Scenes with one camera are unchanged. Off, every view is scored at
+    /// every window. Measured with
+    /// `scenarios/families/sweep.sh alternate_paired_views true false -- --count 4` (the
+    /// benchmark's validation split).
     pub alternate_paired_views: bool,
     /// Seconds of history before each window that the low-passed and smoothed signals of both sides
     /// are computed over before the window's part is scored, s (≥ 0); the window-anchored models
@@ -351,8 +355,9 @@ pub struct EngineConfig {
     /// less of the past is needed to outweigh a bad window, and a shorter memory lets a track
     /// follow sooner when the camera's tracker hands it to another person. Before that, scores at
     /// unconfirmed lags are noisy and keep `evidence_half_life_s`, as do subjects with a single
-    /// IMU, whose scores need the longer memory. Measured with `scenarios/families/sweep.sh
-    /// network_evidence_half_life_s 0.75 1 2 -- --count 4` (the benchmark's validation split).
+    /// IMU, whose scores need the longer memory. Measured with
+    /// `scenarios/families/sweep.sh network_evidence_half_life_s 0.75 1 2 -- --count 4` (the
+    /// benchmark's validation split).
     pub network_evidence_half_life_s: f64,
     /// Lowest accumulated score at which a track may be given a subject; below it the track stays
     /// anonymous. In the window score's units: a mean correlation for [`MotionScore::Nomen`] and
@@ -361,8 +366,9 @@ pub struct EngineConfig {
     /// average about 0.1 per window, right ones about 0.4. `nomen experiment imu-table` uses 0.3
     /// for De Marchi's fusions and 0.2 for Belmonte's similarity. It is also the knob for where a
     /// wrong name costs more than none: a higher threshold names fewer frames wrong, fewer right,
-    /// and people who wear nothing less often. Measured with `scenarios/families/sweep.sh
-    /// rejection_threshold 0.15 0.25 0.3 -- --count 4` (the benchmark's validation split).
+    /// and people who wear nothing less often. Measured with
+    /// `scenarios/families/sweep.sh rejection_threshold 0.15 0.25 0.3 -- --count 4` (the
+    /// benchmark's validation split).
     pub rejection_threshold: f64,
     /// Bonus the current label of a track gets in the assignment, so another subject must beat it
     /// by this much to take over (hysteresis on top of the exponential averaging), in the window
@@ -413,8 +419,9 @@ pub struct EngineConfig {
     /// Shortest stretch of a track (first to last sample in the buffer) for it to be a candidate in
     /// the offset search, s. Default 2.5 s: the median simulated track lasts about 2.5 s, so a 4 s
     /// floor leaves most people without a candidate for the first 10–20 s, and shorter tracks give
-    /// less reliable peaks. Measured with `scenarios/families/sweep.sh offset_min_track_s 2 2.5 4
-    /// -- --count 4` (the benchmark's validation split).
+    /// less reliable peaks. Measured with
+    /// `scenarios/families/sweep.sh offset_min_track_s 2 2.5 4 -- --count 4` (the benchmark's
+    /// validation split).
     pub offset_min_track_s: f64,
     /// Shortest stretch of a track (as for `offset_min_track_s`) for it to be scored at its own
     /// lag-curve peak, when that peak is clear (`offset_peak_clarity`), against the IMUs whose
@@ -441,8 +448,9 @@ pub struct EngineConfig {
     /// whose IMUs send nothing (its wearer absent) does not count. Default true: networks are named
     /// sooner in a session's first seconds. It does not apply to subjects with one IMU: a single
     /// IMU's early peaks on short tracks are often a look-alike's, and the network's mean over its
-    /// IMUs is what makes them usable. Measured with `scenarios/families/sweep.sh
-    /// offset_search_while_blind true false -- --count 4` (the benchmark's validation split).
+    /// IMUs is what makes them usable. Measured with
+    /// `scenarios/families/sweep.sh offset_search_while_blind true false -- --count 4` (the
+    /// benchmark's validation split).
     pub offset_search_while_blind: bool,
     /// Lag hypotheses kept per IMU whose offset is not yet accepted: its lag-curve peaks on its
     /// subject's best-scoring tracks of the latest search. A track too short for the search
@@ -470,8 +478,9 @@ pub struct EngineConfig {
     /// both take one track's lags as their offsets (on the simulated scenes some share a motion
     /// clip at another phase). Default 0.05: with inferred joints weighed down
     /// ([`Self::inferred_joint_noise_factor`]) the early fits are sharper and a look-alike's track
-    /// wins more often by a hair. Measured with `scenarios/families/sweep.sh offset_subject_margin
-    /// -1 0 0.05 0.1 -- --count 4` (the benchmark's validation split).
+    /// wins more often by a hair. Measured with
+    /// `scenarios/families/sweep.sh offset_subject_margin -1 0 0.05 0.1 -- --count 4` (the
+    /// benchmark's validation split).
     pub offset_subject_margin: f64,
     /// Number of successive candidates that must agree within `offset_consistency_s` before an
     /// offset is accepted. Default 3.
@@ -488,8 +497,9 @@ pub struct EngineConfig {
     /// The trade-off: fewer wrong offsets on the one-wrist scenes, but until the offset is
     /// accepted, tracks are scored at their own lag-curve peaks, which flatters a person without an
     /// IMU, so people who wear nothing are named more often. Hence off by default; worth turning on
-    /// where everyone in view wears a sensor. Measured with `scenarios/families/sweep.sh
-    /// offset_confirm_apart_s 0 4.5 -- --count 4` (the benchmark's validation split).
+    /// where everyone in view wears a sensor. Measured with
+    /// `scenarios/families/sweep.sh offset_confirm_apart_s 0 4.5 -- --count 4` (the benchmark's
+    /// validation split).
     pub offset_confirm_apart_s: f64,
     /// Local maxima of a lag curve within this of its highest value are near-ties; the one with
     /// the smallest |lag| wins. Default 0.02.
@@ -553,8 +563,9 @@ pub struct EngineConfig {
     /// look-alike's tracks among them give some IMUs a clear peak at the look-alike's lag while the
     /// network as a whole fits poorly: accepted one by one, such offsets stay wrong until the
     /// best-track sum moves them, while held back, the joint search accepts the right ones a few
-    /// seconds later. Measured with `scenarios/families/sweep.sh offset_label_network_min_peak 0
-    /// 0.3 -- --count 4` (the benchmark's validation split).
+    /// seconds later. Measured with
+    /// `scenarios/families/sweep.sh offset_label_network_min_peak 0 0.3 -- --count 4` (the
+    /// benchmark's validation split).
     pub offset_label_network_min_peak: f64,
     /// An accepted offset is withdrawn (and searched for again) when the summed lag curve of its
     /// IMU against the wearer's labelled tracks is below this at the offset and at least
@@ -574,8 +585,9 @@ pub struct EngineConfig {
     /// so a man without a band who walks the wearer's motion half a second out of phase cannot move
     /// her band's offset to his lag and take her name. The path is slow (its peak is right for
     /// about half of the IMUs after 20 s and most after 60 s), so it only decides late, and only on
-    /// clear peaks. Default 7 (21 s at 3 s). Measured with `scenarios/families/sweep.sh
-    /// offset_best_track_curves 0 6 7 8 -- --count 4` (the benchmark's validation split).
+    /// clear peaks. Default 7 (21 s at 3 s). Measured with
+    /// `scenarios/families/sweep.sh offset_best_track_curves 0 6 7 8 -- --count 4` (the benchmark's
+    /// validation split).
     pub offset_best_track_curves: usize,
     /// How often the best-track lag curve gains a pass, s. Default 3 s: every pass correlates every
     /// IMU with every candidate track over the whole offset buffer, and passes every second double
@@ -583,16 +595,17 @@ pub struct EngineConfig {
     pub offset_best_track_interval_s: f64,
     /// How far the best-track curve's peak must stand above every lag more than 0.15 s from it to
     /// accept or move an offset. Default 0.05: a stricter margin accepts fewer wrong peaks and
-    /// waits longer for right ones. Measured with `scenarios/families/sweep.sh
-    /// offset_best_track_margin 0.04 0.05 0.06 -- --count 4` (the benchmark's validation split).
+    /// waits longer for right ones. Measured with
+    /// `scenarios/families/sweep.sh offset_best_track_margin 0.04 0.05 0.06 -- --count 4` (the
+    /// benchmark's validation split).
     pub offset_best_track_margin: f64,
     /// Passes in a row whose best-track peak is clear (`offset_best_track_margin`) and within 0.15
     /// s of an accepted offset that settle it: the best-track pass then skips the IMU while its
     /// offset stays there (the labelled-track check and the refinement still watch it), so a long
     /// session stops correlating every settled IMU with every track; 0 never settles. Default 6 (18
     /// s at 3 s): the accuracy is that of never settling, and on a long 8-person full-network
-    /// session most offsets settle and the engine's time in the later minutes falls (`cargo bench
-    /// -p nomen-engine`).
+    /// session most offsets settle and the engine's time in the later minutes falls
+    /// (`cargo bench -p nomen-engine`).
     pub offset_settle_passes: usize,
     /// How far a track's clear lag peak must beat both another subject's explanation of that track
     /// and the IMU's support at its own offset to vote for moving the accepted offset of a
@@ -610,8 +623,9 @@ pub struct EngineConfig {
     /// subjects have several IMUs); looser variants (fewer votes, lower peaks, no refinement
     /// condition) also move right offsets. Each pass correlates every unrefined single IMU with
     /// every candidate track over the coarse lag grid, which costs a one-wrist scene about a fifth
-    /// more time. Measured with `scenarios/families/sweep.sh offset_unexplained_margin 0 0.1 --
-    /// --count 4` (the benchmark's validation split).
+    /// more time. Measured with
+    /// `scenarios/families/sweep.sh offset_unexplained_margin 0 0.1 -- --count 4` (the benchmark's
+    /// validation split).
     pub offset_unexplained_margin: f64,
     /// Lowest peak that votes (see `offset_unexplained_margin`). Default 0.25: a wearer's own track
     /// in a crowd often peaks at 0.2–0.35 over the 12-s buffer.
@@ -649,15 +663,17 @@ pub struct EngineConfig {
     /// of it (capped at `stitch_max_speed_mps`), s. Default 0.5 s; 0 measures from the last
     /// position. A walker's new track often starts nearer someone standing where the walker was
     /// heading than the walker's own old track; measured from the heading point, fewer such tracks
-    /// are stitched wrong. Measured with `scenarios/families/sweep.sh stitch_velocity_span_s 0 0.5
-    /// 1 -- --count 4` (the benchmark's validation split).
+    /// are stitched wrong. Measured with
+    /// `scenarios/families/sweep.sh stitch_velocity_span_s 0 0.5 1 -- --count 4` (the benchmark's
+    /// validation split).
     pub stitch_velocity_span_s: f64,
     /// Weight a stitched track's inherited motion evidence keeps, relative to what it had on the
     /// ended track (0..=1): a stitch to the wrong one of two people who were close is then outvoted
     /// by the new track's own windows sooner. Default 0.5: a right stitch keeps most of its
     /// evidence, and accuracy varies little between 0.25 and 1. Location-tag and RSSI evidence are
-    /// inherited whole (their half-lives are short). Measured with `scenarios/families/sweep.sh
-    /// stitch_evidence_weight 0.25 0.5 1 -- --count 4` (the benchmark's validation split).
+    /// inherited whole (their half-lives are short). Measured with
+    /// `scenarios/families/sweep.sh stitch_evidence_weight 0.25 0.5 1 -- --count 4` (the
+    /// benchmark's validation split).
     pub stitch_evidence_weight: f64,
     /// Stitch through another camera: when a track of another camera follows a new track's person
     /// (torso positions within `stitch_view_distance_m` on average, every other track at least
@@ -685,8 +701,9 @@ pub struct EngineConfig {
     /// wider ones are windows with an SDK id swap or an inferred torso. Two people walking side by
     /// side 0.25 m apart, each hidden from one camera by the other, come within 0.3 m: their
     /// evidence is then pooled and one takes the other's name. 0.15 and 0.25 m do about as well as
-    /// 0.2 m. 0 disables. Measured with `scenarios/families/sweep.sh camera_pair_distance_m 0.15
-    /// 0.2 0.3 -- --count 4` (the benchmark's validation split).
+    /// 0.2 m. 0 disables. Measured with
+    /// `scenarios/families/sweep.sh camera_pair_distance_m 0.15 0.2 0.3 -- --count 4` (the
+    /// benchmark's validation split).
     pub camera_pair_distance_m: f64,
     /// Tracks of different cameras whose torso positions stayed farther apart than this on
     /// average over their common frames of the last two evidence windows (measured as for

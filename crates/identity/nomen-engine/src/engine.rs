@@ -1380,10 +1380,11 @@ impl Engine {
     /// them (`idle_lookahead_ns` before its window at the latest), those windows could read
     /// nothing, and stepping through them one hop at a time would take as long as the gap is
     /// wide (a day of gap is 172,800 windows). The engine jumps to the last window on the same
-    /// grid that still reads nothing. A window that reads nothing changes nothing but what time alone changes: the
+    /// grid that still reads nothing. A window that reads nothing changes nothing but what time
+    /// alone changes: the
     /// heading estimates decay by the windows skipped, and what `forget` drops at the landing
     /// window is what it would have dropped by then. Only gaps of at least [`IDLE_SKIP_MIN_NS`]
-    /// are skipped, so a recording without long gaps is processed exactly as before.
+    /// are skipped, so a recording without long gaps is processed as if none were.
     fn skip_idle(&mut self, end: i64) -> i64 {
         let from = end
             .saturating_sub(self.idle_lookback_ns)
