@@ -283,11 +283,12 @@ pub struct EngineConfig {
     /// Filters and smoothing of De Marchi's magnitude signals (`nomen_evidence::geometric_scores`).
     pub geometric: GeometricConfig,
     /// Constant-velocity Kalman filter on every world-frame joint; `None`: raw joints. Default an
-    /// acceleration noise density of 1.33 m²/s³ (Bar-Shalom's `a_max² · T` for about 6.3 m/s² at 30
-    /// Hz; the filter crate's generic default is 3, 10 m/s²) and an initial velocity within 2 m/s:
-    /// the smoother joints fit their wearers' IMUs better than with the generic default. A causal
-    /// filter delays a gait's signals, and the estimated clock offsets, which align the IMU with
-    /// the filtered joints, would absorb that delay; [`Self::joint_smoother_lag_s`] removes it.
+    /// acceleration noise density of 1.33 m²/s³ (Bar-Shalom's `a_max² · T` for about 6.3 m/s² at
+    /// 30 Hz; the filter crate's generic default is 3, 10 m/s²) and an initial velocity within
+    /// 2 m/s: the smoother joints fit their wearers' IMUs better than with the generic default. A
+    /// causal filter delays a gait's signals, and the estimated clock offsets, which align the IMU
+    /// with the filtered joints, would absorb that delay; [`Self::joint_smoother_lag_s`] removes
+    /// it.
     pub joint_filter: Option<ConstantVelocityConfig>,
     /// How far back the joint filter's estimates are revised by a fixed-lag Rauch–Tung–Striebel
     /// smoother, s (`nomen_filters::kalman::JointSmoother`; 0: the filter alone). The samples are
@@ -341,8 +342,8 @@ pub struct EngineConfig {
     pub madgwick: MadgwickConfig,
     /// Gravity removed from the world-frame specific force, m/s².
     pub gravity_mps2: f64,
-    /// Half-life of the exponentially weighted evidence of one (track, device) pair, s. Default 2
-    /// s: a window already spans `window_s`, and older evidence may belong to someone else (a
+    /// Half-life of the exponentially weighted evidence of one (track, device) pair, s. Default
+    /// 2 s: a window already spans `window_s`, and older evidence may belong to someone else (a
     /// camera's id swap, a stitch, an encounter), but once cameras pool their views (see
     /// [`EngineConfig::camera_pair_distance_m`]) and stitches inherit at a discount, a longer
     /// memory helps more than it costs, above all on the one-wrist scenes. Measured with
@@ -599,11 +600,11 @@ pub struct EngineConfig {
     /// `scenarios/families/sweep.sh offset_best_track_margin 0.04 0.05 0.06 -- --count 4` (the
     /// benchmark's validation split).
     pub offset_best_track_margin: f64,
-    /// Passes in a row whose best-track peak is clear (`offset_best_track_margin`) and within 0.15
-    /// s of an accepted offset that settle it: the best-track pass then skips the IMU while its
-    /// offset stays there (the labelled-track check and the refinement still watch it), so a long
-    /// session stops correlating every settled IMU with every track; 0 never settles. Default 6 (18
-    /// s at 3 s): the accuracy is that of never settling, and on a long 8-person full-network
+    /// Passes in a row whose best-track peak is clear (`offset_best_track_margin`) and within
+    /// 0.15 s of an accepted offset that settle it: the best-track pass then skips the IMU while
+    /// its offset stays there (the labelled-track check and the refinement still watch it), so a
+    /// long session stops correlating every settled IMU with every track; 0 never settles. Default
+    /// 6 (18 s at 3 s): the accuracy is that of never settling, and on a long 8-person full-network
     /// session most offsets settle and the engine's time in the later minutes falls
     /// (`cargo bench -p nomen-engine`).
     pub offset_settle_passes: usize,

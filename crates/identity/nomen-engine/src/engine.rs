@@ -90,8 +90,8 @@ const MAX_IMU_GAP_NS: i64 = 60_000_000;
 const LAG_DECIMATION: usize = 2;
 
 /// The IMU side of the lag search keeps every n-th sample, n the largest that leaves it at least
-/// this rate, Hz, for the same reason: 33 Hz from 100 Hz (n = 3), still above the track's 15 Hz; 50
-/// Hz from 50 Hz. Each IMU's n is fixed from its rate when its orientation filter first starts
+/// this rate, Hz, for the same reason: 33 Hz from 100 Hz (n = 3), still above the track's 15 Hz;
+/// 50 Hz from 50 Hz. Each IMU's n is fixed from its rate when its orientation filter first starts
 /// ([`imu_lag_step`]). A fixed n = 3 would leave a 50-Hz IMU at 17 Hz, where interpolating the lag
 /// curve's shifts between samples 60 ms apart moves the peaks (clock offsets about twice as far
 /// off, and a 25-Hz band's offset not found at all).
@@ -265,9 +265,9 @@ const UNINFERRED_CAMERA_NS: i64 = 2_000_000_000;
 
 /// The camera rate the sample counts of [`nomen_evidence::GeometricConfig`] and
 /// [`nomen_evidence::BelmonteConfig`] (`min_samples`, `moving_average_len`) are set for, Hz. A
-/// camera at another rate gets them scaled, so that they span the same time: a correlation needs 1
-/// s of samples, the lag search 2 s. Unscaled, a 15-Hz camera's 2-s window would hold 30 samples at
-/// most, all of which a correlation needs, and far fewer frames would be named.
+/// camera at another rate gets them scaled, so that they span the same time: a correlation needs
+/// 1 s of samples, the lag search 2 s. Unscaled, a 15-Hz camera's 2-s window would hold 30 samples
+/// at most, all of which a correlation needs, and far fewer frames would be named.
 const REFERENCE_CAMERA_RATE_HZ: f64 = 30.0;
 
 /// Votes an `either_side` IMU needs before its side is reported: one per window and track
