@@ -413,7 +413,7 @@ pub struct EngineConfig {
     pub max_clock_offset_s: f64,
     /// Length of the buffer over which a device's clock offset is estimated, s. Default 12 s
     /// (several gait cycles *and* several turns, so the true lag beats the lags one stride off); a
-    /// longer buffer follows changed tracks later and is not more accurate. Measured with
+    /// longer one is not more accurate and costs more per search. Measured with
     /// `scenarios/families/sweep.sh offset_estimation_window_s 12 16 -- --count 4` (the benchmark's
     /// validation split).
     pub offset_estimation_window_s: f64,
