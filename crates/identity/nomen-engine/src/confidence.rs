@@ -223,9 +223,9 @@ pub struct RawConfidence {
 
 impl ConfidenceMap {
     /// The map fitted for `motion_score` by `scenarios/train/confidence.sh` (`nomen calibrate
-    /// confidence` on 109 simulated scenes: library scenes at seeds none of the engine README's
-    /// figures use and the first three validation scenes of every scene family; see its
-    /// "Confidence" section). The raw confidences of each motion score differ, and so do
+    /// confidence` on 109 simulated scenes: the CNN's training scenes, library scenes at seeds
+    /// from 1001 on and the first three validation scenes of every scene family; see the engine
+    /// README's "Confidence" section). The raw confidences of each motion score differ, and so do
     /// their maps.
     pub fn fitted(motion_score: MotionScore) -> Self {
         let (named, anonymous) = match motion_score {

@@ -42,14 +42,11 @@ const LAG_STEP_NS: i64 = 10_000_000;
 /// frame at 30 Hz).
 const CAMERA_PAIR_MAX_DT_NS: i64 = 16_000_000;
 
-/// Fewest common frame times over which two cameras' tracks may be found to show the same
-/// person (a sixth of a second at 30 Hz), and fewest settled frames for a track to take part
-/// at all (as a partner or as a rival that makes a pairing ambiguous). A camera's fresh track
-/// after an occlusion is named from the other camera's view of the person as soon as this
-/// many frames match: on the 8-person scenes (seeds 1–9, measured when it was lowered), 15
-/// frames gave 94.79 % (full network) and 78.10 % (one wrist IMU), 5 gave 95.37 % and 78.17 %
-/// (given the true offsets, 97.15 → 97.73 % and 91.48 → 92.66 %; 8 frames and 3 frames were
-/// within 0.1 points on the full network).
+/// Fewest common frame times over which two cameras' tracks may be found to show the same person (a
+/// sixth of a second at 30 Hz), and fewest settled frames for a track to take part at all (as a
+/// partner or as a rival that makes a pairing ambiguous). A camera's fresh track after an occlusion
+/// is named from the other camera's view of the person as soon as this many frames match, so fewer
+/// frames name it sooner; 5 are enough to tell the views apart.
 const CAMERA_PAIR_MIN_FRAMES: usize = 5;
 
 /// How far back two cameras' tracks are compared, in evidence windows: long enough to hold
@@ -63,12 +60,11 @@ const ALIVE_AT_END_NS: i64 = 100_000_000;
 /// Longest chain of stitched tracks [`Engine::successors_name`] follows for a name.
 const MAX_SUCCESSORS: usize = 16;
 
-/// Another camera's view of a track's person names the track's observations up to this long
-/// after the view's last one, ns. Its name (or its successor's) at the time of sending may be
-/// a later decision's about someone else: in the simulated UWB scene at seed 3, an untagged
-/// person's track kept the view it had been paired with, whose last decision named Hugo, and
-/// took that name 1.2–2.5 s after the view ended (untagged people anonymous in 99.13 % of
-/// their frames with 1 s, 99.01 % with 2 s and without a limit).
+/// Another camera's view of a track's person names the track's observations up to this long after
+/// the view's last one, ns. Its name (or its successor's) at the time of sending may be a later
+/// decision's about someone else: a person without a tag whose track kept the view it had been
+/// paired with would take that view's later name, given to someone else, a second or two after the
+/// view ended.
 const VIEW_NAMES_AFTER_END_NS: i64 = 1_000_000_000;
 
 /// A search for an unknown offset first steps this many [`LAG_STEP_NS`] at a time (40 ms: ten
@@ -76,16 +72,12 @@ const VIEW_NAMES_AFTER_END_NS: i64 = 1_000_000_000;
 /// refines around its peak at [`LAG_STEP_NS`].
 const COARSE_LAG_STEPS: usize = 4;
 
-/// The coarse lag curves (every [`COARSE_LAG_STEPS`]-th lag, over the whole offset range)
-/// pair every this-many-th of the lag search's track samples with the IMU: 7.5 Hz from a 30-Hz
-/// camera, still above twice the 3-Hz low-pass the models are smoothed with, and the fine curve
-/// around each coarse peak pairs them all. With offsets searched, on the 8-person full-network
-/// scene (seed 1), the engine ran 11.2 % fewer instructions (7.37 → 6.55 billion) and its 40
-/// clock offsets were as close to the simulator's; over the 60 two-camera 8-person runs of the
-/// sweeps, 6.1 ms off on median both ways and 18.7 → 18.5 ms at the 90th percentile; accuracy
-/// +0.004 points per run over 259 runs (21 better, 18 worse), +0.019 over 86. Every third
-/// sample (10 Hz) ran 16.4 % fewer instructions, with offsets 5.8 ms off on median, but lost
-/// 0.037 points per run (19 better, 40 worse; the 5-person scenes 0.2–0.6 points).
+/// The coarse lag curves (every [`COARSE_LAG_STEPS`]-th lag, over the whole offset range) pair
+/// every this-many-th of the lag search's track samples with the IMU: 7.5 Hz from a 30-Hz camera,
+/// still above twice the 3-Hz low-pass the models are smoothed with, and the fine curve around each
+/// coarse peak pairs them all. It saves about a tenth of the engine's instructions with offsets
+/// searched (`cargo bench -p nomen-engine`) and finds the same clock offsets; every third sample
+/// (10 Hz) saves more but finds them less exactly and names fewer frames right.
 const COARSE_TRACK_STRIDE: usize = 2;
 
 /// Longest gap between two IMU samples across which the engine interpolates, ns (a dropout of
@@ -97,15 +89,12 @@ const MAX_IMU_GAP_NS: i64 = 60_000_000;
 /// curve at half the cost.
 const LAG_DECIMATION: usize = 2;
 
-/// The IMU side of the lag search keeps every n-th sample, n the largest that leaves it at
-/// least this rate, Hz, for the same reason: 33 Hz from 100 Hz (n = 3), still above the
-/// track's 15 Hz; 50 Hz from 50 Hz. Each IMU's n is fixed from its rate when its orientation
-/// filter first starts ([`imu_lag_step`]). A fixed n = 3, as before, left a 50-Hz IMU at
-/// 17 Hz, where interpolating the lag curve's shifts between samples 60 ms apart moved the
-/// peaks: on the 8-person full-network scene (seed 1) with every IMU thinned to 50 Hz, clock
-/// offsets 13.2 ms off the simulator's on median (34 ms at the 90th percentile) and 94.8 % of
-/// frames named right, against 6.8 ms (20 ms) and 99.4 % with the 50 Hz kept, and 4.3 ms
-/// (14 ms) and 99.4 % for the 100-Hz original. A 25-Hz band's offset was not found at all.
+/// The IMU side of the lag search keeps every n-th sample, n the largest that leaves it at least
+/// this rate, Hz, for the same reason: 33 Hz from 100 Hz (n = 3), still above the track's 15 Hz;
+/// 50 Hz from 50 Hz. Each IMU's n is fixed from its rate when its orientation filter first starts
+/// ([`imu_lag_step`]). A fixed n = 3 would leave a 50-Hz IMU at 17 Hz, where interpolating the lag
+/// curve's shifts between samples 60 ms apart moves the peaks (clock offsets about twice as far
+/// off, and a 25-Hz band's offset not found at all).
 const IMU_LAG_MIN_RATE_HZ: f64 = 30.0;
 
 /// The lag search's IMU step (see [`IMU_LAG_MIN_RATE_HZ`]) for samples `dt_ns` apart on
@@ -118,13 +107,11 @@ fn imu_lag_step(dt_ns: i64) -> usize {
     ((rate_hz / IMU_LAG_MIN_RATE_HZ).floor() as usize).max(1)
 }
 
-/// A track observed more than this after the newest sample of a subject's IMUs, while none of
-/// them has sent anything for a whole window, loses its motion evidence for that subject, ns.
-/// The wearer left or took the bands off: an accumulated score is a mean that only moves when
-/// a window scores the pair, so it stayed as it was, and a look-alike who stayed kept the
-/// departed wearer's name (a synthetic test: 479 frames of 16 s; the 8-person one-wrist scene,
-/// seed 4: Ana's band stopped at 55.7 s and her score on Cleo's track took Cleo's frames from
-/// 56.5 to 58.5 s). The slack keeps the wearer's own last frames, decided a window later.
+/// A track observed more than this after the newest sample of a subject's IMUs, while none of them
+/// has sent anything for a whole window, loses its motion evidence for that subject, ns. The wearer
+/// left or took the bands off: an accumulated score is a mean that only moves when a window scores
+/// the pair, so it would stay as it was, and a look-alike who stayed would keep the departed
+/// wearer's name. The slack keeps the wearer's own last frames, decided a window later.
 const SILENT_WEARER_SLACK_NS: i64 = 500_000_000;
 
 /// A summed lag curve's peak must stand above every lag farther than this from it, ns (a third
@@ -145,12 +132,11 @@ const STITCH_VIEW_LOOKBACK_NS: i64 = 1_000_000_000;
 
 /// Id-swap detection ([`Engine::swapped_with`]): joint-centroid noise between two frames, m
 /// (centroids of the simulated 8-person scenes move less than 0.2 m per 33 ms frame 99 % of the
-/// time; the observation after an SDK swap jumps 0.36–1.8 m onto the other person). A jump
-/// beyond this allowance only counts as a swap when it lands near another track's last
-/// observation, so the allowance can sit below the frame-to-frame spread: on the 8-person
-/// scenes (seeds 1–9, true offsets) 0.25 m undid 210 swaps, 0.08 m 219 (the extra ones
-/// between people a step apart, or after the track was unseen for 0.1–0.5 s), both with no
-/// wrong exchange (0.04 m: 219 and one wrong)...
+/// time; the observation after an SDK swap jumps 0.36–1.8 m onto the other person). A jump beyond
+/// this allowance only counts as a swap when it lands near another track's last observation, so the
+/// allowance can sit below the frame-to-frame spread: 0.08 m also undoes swaps between people a
+/// step apart, or after the track was unseen for 0.1–0.5 s, without exchanging tracks wrongly,
+/// which a tighter allowance starts to do...
 const SWAP_NOISE_M: f64 = 0.08;
 /// ... the fastest a person is assumed to move, m/s ...
 const SWAP_SPEED_MPS: f64 = 2.0;
@@ -278,12 +264,10 @@ struct CameraState {
 const UNINFERRED_CAMERA_NS: i64 = 2_000_000_000;
 
 /// The camera rate the sample counts of [`nomen_evidence::GeometricConfig`] and
-/// [`nomen_evidence::BelmonteConfig`] (`min_samples`, `moving_average_len`) are set for, Hz.
-/// A camera at another rate gets them scaled, so that they span the same time: a correlation
-/// needs 1 s of samples, the lag search 2 s. Unscaled, a 15-Hz camera's 2-s window held 30
-/// samples at most, which a correlation needed all of: on the 8-person full-network scene
-/// (seed 1) with every other frame dropped, 76.7 % of frames were named right, and 98.6 %
-/// scaled (99.4 % at 30 Hz); clock offsets 8.5 ms off the simulator's on median.
+/// [`nomen_evidence::BelmonteConfig`] (`min_samples`, `moving_average_len`) are set for, Hz. A
+/// camera at another rate gets them scaled, so that they span the same time: a correlation needs
+/// 1 s of samples, the lag search 2 s. Unscaled, a 15-Hz camera's 2-s window would hold 30 samples
+/// at most, all of which a correlation needs, and far fewer frames would be named.
 const REFERENCE_CAMERA_RATE_HZ: f64 = 30.0;
 
 /// Votes an `either_side` IMU needs before its side is reported: one per window and track
@@ -300,7 +284,7 @@ const CAMERA_RATE_FRAMES: usize = 16;
 
 /// Fewest samples a track needs in a window to be scored there, at 30 Hz (0.27 s), scaled to
 /// the camera's rate like the models' counts ([`scaled_count`]). Counted in samples at every
-/// rate, the floor was twice as long at 15 Hz and half as long at 60 Hz.
+/// rate, the floor would be twice as long at 15 Hz and half as long at 60 Hz.
 const WINDOW_MIN_TRACK_SAMPLES: usize = 8;
 
 /// Fewest samples a track needs in the clock search's buffer to be searched, at 30 Hz
@@ -498,8 +482,8 @@ impl ImuState {
 
     /// Makes every buffer one slice. A ring that has wrapped is moved whole, so each keeps
     /// room for as many samples again as it holds: it then wraps once per buffer's worth of
-    /// samples instead of once per the few hundred its capacity happened to spare (the moves
-    /// were about 1 % of the engine's time).
+    /// samples instead of once per the few hundred its capacity happened to spare (those moves
+    /// would cost about 1 % of the engine's time).
     fn make_contiguous(&mut self) {
         fn contiguous<T>(ring: &mut VecDeque<T>) {
             if ring.capacity() < 2 * ring.len() {
@@ -681,7 +665,7 @@ pub struct Engine {
     camera_index: BTreeMap<CameraId, usize>,
     imus: Vec<ImuState>,
     /// Looked up once per sample and never iterated, so hashed: a B-tree of 40 device names
-    /// cost about 3 % of a steady-state run, and the standard library's SipHash about 1 %;
+    /// costs about 3 % of a steady-state run, and the standard library's SipHash about 1 %;
     /// foldhash (randomly seeded as well) costs a tenth of that.
     imu_index: DeviceIndex,
     tags: Vec<TagState>,
@@ -1396,10 +1380,11 @@ impl Engine {
     /// them (`idle_lookahead_ns` before its window at the latest), those windows could read
     /// nothing, and stepping through them one hop at a time would take as long as the gap is
     /// wide (a day of gap is 172,800 windows). The engine jumps to the last window on the same
-    /// grid that still reads nothing. A window that reads nothing changes nothing but what time alone changes: the
+    /// grid that still reads nothing. A window that reads nothing changes nothing but what time
+    /// alone changes: the
     /// heading estimates decay by the windows skipped, and what `forget` drops at the landing
     /// window is what it would have dropped by then. Only gaps of at least [`IDLE_SKIP_MIN_NS`]
-    /// are skipped, so a recording without long gaps is processed exactly as before.
+    /// are skipped, so a recording without long gaps is processed as if none were.
     fn skip_idle(&mut self, end: i64) -> i64 {
         let from = end
             .saturating_sub(self.idle_lookback_ns)

@@ -1,7 +1,7 @@
 //! An IMU's lag-search signals, kept from one window's search to the next.
 //!
 //! Every search correlates each IMU over a buffer of about 14 s that moves by a hop (0.5 s)
-//! per window. Built from the raw samples each time, every IMU sample went through the
+//! per window. Built from the raw samples each time, every IMU sample would go through the
 //! filters about 20 times on the 8-person body-area-network scene (600 buffers of 1,300
 //! samples per 10 s of session), an eighth of the engine's time. The signals are local (the
 //! 3 Hz zero-phase low-pass forgets within about a second, the swing angle looks 0.2 s back,
@@ -14,15 +14,13 @@
 //! settled ones instead of the low-pass's start-up, and the kept samples (every `step`-th)
 //! are counted from the stream's first sample instead of the buffer's. The orientation change
 //! is still measured from the buffer's first kept sample: it is computed per request from the
-//! kept orientations. Over the ten imu-table scenes, seeds 1–9, with the unseen seeds and the
-//! one-wrist seeds 16–33 (138 runs), accuracy moved by +0.05 ± 0.18 points per run, and the
-//! runs with known offsets not at all.
+//! kept orientations. Neither change moves the accuracy beyond the noise, and with known
+//! offsets it does not move at all.
 //!
 //! The tracks' side is not kept this way: the camera-side models estimate the sampling rate
 //! from the buffer (`(n − 1) / span`), which a track's missing frames lower, so a part computed
-//! afresh is filtered at a different rate than the whole buffer, and values differed by 4 % in
-//! the median; accuracy moved by −0.56 ± 0.42 points per run over the same 138 runs, for little
-//! speed (a track's buffer holds about 5 s, not 14).
+//! afresh is filtered at a different rate than the whole buffer, and values differ by a few
+//! per cent, which costs accuracy for little speed (a track's buffer holds about 5 s, not 14).
 
 use crate::signal::{ImuSeries, LagSignals};
 use nalgebra::UnitQuaternion;

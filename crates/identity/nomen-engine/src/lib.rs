@@ -42,15 +42,15 @@
 //! up to 1 s past the view's end), unless a track of their own camera seen at their time
 //! carries it.
 //! SDKs also swap the ids of two people who pass close to each other: when a track's
-//! observation jumps farther than a person moves in the time since its last one (0.25 m plus
+//! observation jumps farther than a person moves in the time since its last one (0.08 m plus
 //! 2 m/s) onto within half that jump of where another track of the camera was last seen (both
 //! seen within the last second), the engine exchanges the two tracks' people (their joint
 //! history and filters, evidence and label), so each identity stays with its person; frames
 //! from before the swap still waiting for their decision are decided for the person they
 //! showed ([`EngineStats::num_swaps`]). The check runs as observations settle, in time order
-//! across the camera's tracks, so it does not depend on the order they arrived in. Optionally, two tracks that pass within
-//! [`EngineConfig::encounter_distance_m`] across the line of sight pool their motion evidence
-//! when they separate (off by default).
+//! across the camera's tracks, so it does not depend on the order they arrived in.
+//! Optionally, two tracks that pass within [`EngineConfig::encounter_distance_m`] across the
+//! line of sight pool their motion evidence when they separate (off by default).
 //!
 //! Every [`EngineConfig::hop_s`] a window of [`EngineConfig::window_s`] ending at a multiple of
 //! the hop is processed once every source has delivered past its end plus the reorder window,

@@ -1,9 +1,9 @@
 //! Track ids for skeleton streams whose own are not stable: pose estimators without a tracker
 //! (OpenPose, bottom-up MMPose) number a frame's people by detection order, so an id follows
 //! nobody. The engine reads a track id as "the same person as this id's earlier frames"; fed
-//! detection indices, it named 91.7 % of the frames right on the 8-person full-network scene
-//! (seed 1; ids ordered by the pelvis's camera x, which exchange about once a second per
-//! person), and 97.8 % after [`Retracker`], against 99.4 % with the simulated SDK's own ids.
+//! detection indices (ids ordered by the pelvis's camera x, which exchange about once a second
+//! per person), it names far fewer frames right than with a tracker's ids, and after
+//! [`Retracker`] nearly as many.
 //!
 //! A [`Retracker`] holds each camera's skeletons until the camera's next frame shows that the
 //! frame is complete, then matches the frame's detections to the camera's live tracks by an
@@ -17,14 +17,9 @@
 //! engine differently: a track broken in two costs the new one's first second or two (it is
 //! named again from its motion, or stitched to the old one), while a track continued on the
 //! wrong person carries its evidence, and its name, over to them until new evidence outweighs
-//! it. On six scenes (8 people with full networks, seeds 1–3; 8 with one wrist band, seeds
-//! 1–2; 5 with full networks, seed 1) the engine named 98.2 % of frames right on average with
-//! the defaults below; 96.2 % with a gate growing at 1 m/s instead of 0.5, and 97.5 % at
-//! 0.25. The first version, which matched joint centroids, let the gate grow at 3 m/s (a
-//! run) and matched every detection it could reach, named 90.8 %. With every joint the
-//! simulated camera only inferred also removed, as a tracker-less pose estimator gives them,
-//! the 8-person scenes came out at 97.2 % (full networks, seed 1) and 93.3 / 94.7 % (one
-//! wrist, seeds 1–2), against 99.2 / 99.1 / 98.4 % with the simulated SDK's ids.
+//! it. Hence the matching on all common joints rather than their centroid, and the gate that
+//! grows slowly ([`RetrackConfig::gate_growth_mps`]): a faster-growing gate continues more
+//! tracks on the wrong person, a slower one breaks more in two.
 
 use crate::error::{EngineError, Result};
 use nalgebra::{Point3, Vector3};

@@ -372,10 +372,10 @@ pub(crate) fn summed_peak(
 }
 
 /// How far a lag curve must fall on each side of a peak, towards the ends of the searched range,
-/// for the peak to be one: on the simulated 8-person one-wrist scenes, lag curves that kept
-/// rising to an end of the range (a slow trend, not a step) had their highest value inside the
-/// range next to that end, and those values were taken for clock offsets 0.52–0.56 s from the
-/// prior, all wrong.
+/// for the peak to be one: on the simulated 8-person one-wrist scenes, lag curves that keep
+/// rising to an end of the range (a slow trend, not a step) have their highest value inside the
+/// range next to that end, and without this check those values would be taken for clock
+/// offsets, all wrong.
 pub(crate) const PEAK_DROP: f64 = 0.02;
 
 /// Whether `curve` falls at least `drop` below its value at index `k` somewhere on each side of

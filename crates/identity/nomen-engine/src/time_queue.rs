@@ -2,10 +2,10 @@
 //! reorder window before they settle.
 //!
 //! Samples nearly always arrive in order, so an insertion is an append, and settling takes
-//! from the front: a ring buffer does both in a few instructions. An IMU's pending samples
-//! were a B-tree before, whose insertions and removals were about 2 % of the engine's time at
-//! 240,000 samples a minute. A late sample (within the reorder window) is placed by binary
-//! search, shifting the few samples after it.
+//! from the front: a ring buffer does both in a few instructions, where a B-tree's insertions
+//! and removals cost about 2 % of the engine's time at 240,000 samples a minute. A late
+//! sample (within the reorder window) is placed by binary search, shifting the few samples
+//! after it.
 
 use std::collections::VecDeque;
 

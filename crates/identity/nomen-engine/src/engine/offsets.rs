@@ -602,12 +602,11 @@ impl Engine {
                 // same thing.
                 let cut = imu.registry_offset_ns;
                 grid.clear();
-                // Every coarse lag (40 ms). Every second one was half the work and as accurate
-                // with the unsmoothed joints (80.52 against 80.51 % over the ten imu-table
-                // scenes, seeds 1–9), but the smoothed joints' acceleration peaks are narrow
-                // (0.92 at the true lag, 0.63 at 80 ms from it, in a synthetic swing): that grid
-                // missed the registry's lag itself, and a periodic swing's alias half a period
-                // away that fell on it won (the engine test of a track-id change).
+                // Every coarse lag (40 ms), not every second one: the smoothed joints'
+                // acceleration peaks are narrow (0.92 at the true lag, 0.63 at 80 ms from it, in
+                // a synthetic swing), so a coarser grid can miss the registry's lag itself and
+                // let a periodic swing's alias half a period away win (the engine test of a
+                // track-id change).
                 grid.extend(coarse.iter().map(|o| o + cut));
                 // The curves of the tracks named after this IMU's wearer, summed per lag.
                 own.clear();
@@ -716,7 +715,7 @@ impl Engine {
                 // A move away from an accepted offset needs the wearer's own named tracks, when
                 // any is long enough to say, to fit the new lag better than the accepted one: a
                 // person walking the wearer's gait half a stride off peaks at another lag on his
-                // own track, and the sum took it once her track fitted worse for a while.
+                // own track, and the sum would take it once her track fitted worse for a while.
                 if imu.is_offset_known {
                     let at = |o: i64| {
                         let k = nearest_index(&grid, o)?;
@@ -1546,15 +1545,11 @@ pub(super) fn record_offset(
 /// their true rates. The IMU is (its samples are regular); a track's own samples are not (the
 /// frames it missed are absent), so a causal search puts the track on its camera's frame grid
 /// first (`on_frame_grid`). On its own samples, whose mean rate is designed into the filter,
-/// the skeleton came out delayed by 0.90 of the IMU's delay where the tracks missed 9.8 % of the
-/// frames, and the offsets were found early. One wrist, 5 people, seeds 1–10, 50 offsets
-/// against the simulator's, all with a 1-s `history_pad_s` and causal windows: on the track's
-/// own samples −11.1 ms on average (median −12.6, mean absolute error 13.3 ms), 91.37 % of
-/// frames right; on the frame grid −2.0 ms (median −0.9, mean absolute 8.1 ms), 92.23 %; the
-/// zero-phase search +1.7 ms (median +2.0, mean absolute 5.2 ms), 92.44 %. A zero-phase filter
-/// has no delay to scale, and its offsets came out worse on the frame grid (same scenes, the
-/// default windows: +5.7 ms on average, mean absolute 8.4 ms, 91.91 % of frames right, against
-/// +1.3 ms, 5.2 ms and 92.70 % on the track's own samples), so it keeps the own samples.
+/// the skeleton comes out delayed by less than the IMU where the track missed frames, and the
+/// offsets are found early (by about 10 ms with one frame in ten missed); on the frame grid
+/// they are within a few milliseconds. A zero-phase filter has no delay to scale, and its
+/// offsets are less exact on the frame grid than on the track's own samples, so it keeps the
+/// own samples.
 pub(super) fn lag_geometric(config: &EngineConfig) -> GeometricConfig {
     GeometricConfig {
         moving_average_len: 1,
@@ -1570,13 +1565,13 @@ pub(super) fn lag_geometric(config: &EngineConfig) -> GeometricConfig {
 ///
 /// Acceleration gives a sharp peak but repeats every step; the orientation change over the long
 /// buffer follows the turns of the walk, which do not repeat, and picks the right step. (The
-/// velocity model, a leaky integral over 12 s, correlated worse than either on the simulated
+/// velocity model, a leaky integral over 12 s, correlates worse than either on the simulated
 /// scenes.) The orientation's reference is the buffer's first sample on each side: at a
 /// candidate lag `o` the IMU's lies `max offset + cut − o` before the track's, up to a second
 /// apart, which matters for a limb that swings (see the best-track curve in
 /// [`Engine::update_offsets`]). A reference per lag (the IMU's orientation at the track's
-/// reference time, lag by lag) removes that bias, but changed nothing on the simulated scenes
-/// (78.3 against 78.2 % over the ten imu-table scenes, seeds 1–9), so it is not done.
+/// reference time, lag by lag) would remove that bias, but it does not change the accuracy on
+/// the simulated scenes, so it is not done.
 pub(super) fn imu_lag_signals(
     imu: &ImuState,
     memo: &mut ImuLagMemo,
@@ -1758,9 +1753,9 @@ type FrameGrid = (Vec<i64>, Vec<Joints<Point3<f64>>>, Vec<bool>);
 /// Longest run of missed frames that [`on_frame_grid`] fills in, ns: a third of a second (10
 /// frames at 30 Hz, 5 at 15 Hz), longer than the gaps of the simulated Belmonte-Hernández
 /// episodes' tracks (4 to 10 frames at 30 Hz). A causal filter restarted after every missed
-/// frame never settles: with one frame in ten missed, unfilled frames gave offsets 24–32 ms
-/// early in the engine's synthetic test, filled ones 4–5 ms late. Filling up to 30 frames (at
-/// 30 Hz) changed nothing over the sweep.
+/// frame never settles: with one frame in ten missed, unfilled frames give offsets 24–32 ms
+/// early in the engine's synthetic test, filled ones 4–5 ms late. Filling longer runs (up to
+/// 30 frames at 30 Hz) makes no difference.
 const MAX_FILLED_NS: i64 = 333_333_333;
 
 /// A track's samples on its camera's frame grid, and which frames the track was seen in: each

@@ -257,8 +257,8 @@ impl Engine {
     /// Adds this window's votes on the sides of `either_side` IMUs, and reports for each with
     /// [`SIDE_MIN_VOTES`] votes that lead by [`SIDE_MIN_MEAN_VOTE`] on average the side they
     /// lead to ([`EngineStats::imu_sides`](crate::EngineStats::imu_sides)). The comparisons
-    /// keep both sides: fixing the side there, once the votes led, cost frames wherever a
-    /// look-alike's other wrist had won them (see the crate README).
+    /// keep both sides: fixing the side there, once the votes lead, would cost the frames
+    /// where a look-alike's other wrist won them.
     pub(super) fn update_sides(&mut self, updates: Vec<(usize, f64)>) {
         for (i, vote) in updates {
             let Some(imu) = self.imus.get_mut(i) else {
@@ -324,9 +324,8 @@ impl Engine {
             // features are built once per (grid, offset), and a track's once per site: a
             // track that missed the window's first frames takes the whole grid with gaps
             // there. Giving it a suffix of its own, as a track first seen inside the window
-            // gets, cost one more build of every IMU's features per such track, 9 % of the
-            // engine's instructions on the 8-person scene, for no accuracy (345 runs: −0.004
-            // points per run, 15 better, 13 worse).
+            // gets, would cost one more build of every IMU's features per such track (about a
+            // tenth of the engine's instructions on the 8-person scene) for no accuracy.
             let padded_start = start.saturating_sub(window.pad_ns);
             let (pa, _) = sample_range(tr, padded_start, end);
             let first = if pa > 0 {
@@ -625,8 +624,8 @@ impl Engine {
                     scores.dl = scorer.score(imu_win, skel, site);
                 }
                 // An `either_side` band's costs are read at the wrist the correlations chose:
-                // left free to pick their own, a wrong person's track had two more chances
-                // (see the crate README). Belmonte-Hernández's method alone keeps its rule,
+                // left free to pick their own, a wrong person's track would get two more
+                // chances. Belmonte-Hernández's method alone keeps its rule,
                 // the wrist whose pitch fits better.
                 let side = if self.config.motion_score == MotionScore::Belmonte
                     && imu.mirror_site.is_some()
@@ -797,9 +796,8 @@ struct ImuBase {
 /// compared with the IMU's linear acceleration sliced from the camera's whole grid, which the
 /// filter has settled on there while the skeleton's starts, and a track hidden for a while
 /// restarts its filter after the gap. The zero-phase 3 Hz low-pass settles within about
-/// 0.2 s. Over the 138 runs of the README, dropping them with the IMU filtered per grid moved
-/// accuracy by +0.32 ± 0.34 points per run; slicing then cost nothing more (−0.02 ± 0.04),
-/// while slicing without dropping cost 0.70 ± 0.35.
+/// 0.2 s. With the edges dropped, slicing the IMU's signals from the whole grid is as accurate
+/// as filtering them per track; without dropping, slicing costs accuracy.
 const RUN_EDGE_S: f64 = 0.2;
 
 /// One camera's pair scores in a window ([`Engine::score_camera_pairs`]).
@@ -915,7 +913,7 @@ pub(super) fn lateral_distance_m(eye: &Point3<f64>, a: &Point3<f64>, b: &Point3<
 
 /// An IMU's window on a grid, its features and (for a forearm band) Belmonte's band signals,
 /// per (IMU, offset, grid index). Boxed: the value is over a kilobyte, and an insertion into a
-/// B-tree node shifts the node's values (about 1 % of the engine's time when they were inline).
+/// B-tree node shifts the node's values (inline, they cost about 1 % of the engine's time).
 pub(super) type ImuFeatureCache = BTreeMap<(usize, i64, usize), Box<ImuGridFeatures>>;
 
 /// An IMU's window on one grid at one offset, with what every pair reads from it.

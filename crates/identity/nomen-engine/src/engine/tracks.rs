@@ -210,7 +210,7 @@ impl Engine {
     /// gap) within `stitch_radius_m + stitch_max_speed_mps · gap`. When two are within reach,
     /// the nearer (relative to its reach) must be at most half as far as the other; otherwise
     /// nothing is stitched and evidence starts afresh. Measured from the last positions, a
-    /// walker's new track often lay nearer someone standing where the walker was heading than
+    /// walker's new track often lies nearer someone standing where the walker was heading than
     /// to the walker's own old track
     /// ([`EngineConfig::stitch_velocity_span_s`](crate::EngineConfig::stitch_velocity_span_s)).
     pub(super) fn stitch_candidate(
