@@ -31,6 +31,8 @@ mkdir -p out
 # Simulate a scene from the library and evaluate a result against its ground truth.
 run nomen simulate scenarios/imu_wrist_4.toml --out out/w4 --seed 1
 run nomen run out/w4/recording.jsonl --out out/w4/result.jsonl
+step "nomen config defaults > out/nomen.toml"
+nomen config defaults > out/nomen.toml
 # A live stream on stdin: decisions come out as they are made.
 step "nomen run - --live --out - < out/w4/recording.jsonl | tail -n 1"
 nomen run - --live --out - < out/w4/recording.jsonl | tail -n 1

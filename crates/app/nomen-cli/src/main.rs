@@ -64,6 +64,9 @@ enum Command {
     /// Calibrate frames: camera to RTLS (from a walk or from known point pairs) and clock offset.
     #[command(subcommand)]
     Calibrate(cmd::calibrate::CalibrateCommand),
+    /// The engine's configuration: `config defaults` prints every key at its default, documented.
+    #[command(subcommand)]
+    Config(cmd::config::ConfigCommand),
     /// Run the end-to-end demonstration on the default data, with no hardware and no server.
     Demo(cmd::demo::DemoArgs),
     /// The engine as a live service over MQTT (embedded broker unless --mqtt names one).
@@ -99,6 +102,7 @@ fn main() -> ExitCode {
         Command::Replay(a) => cmd::replay::run(a),
         Command::Log(c) => cmd::log::run(c),
         Command::Calibrate(c) => cmd::calibrate::run(c),
+        Command::Config(c) => cmd::config::run(c),
     };
     // A line without its `\n` may still be buffered: write it now, while an error can be reported.
     let outcome = outcome.and_then(|()| std::io::stdout().flush().context("cannot write <stdout>"));

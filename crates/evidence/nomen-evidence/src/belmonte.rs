@@ -52,6 +52,7 @@ impl Side {
 
 /// A signed sensor axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum SensorAxis {
     /// +x.
@@ -118,6 +119,7 @@ impl SensorAxis {
 
 /// Configuration of [`belmonte_costs`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(default, deny_unknown_fields)]
 pub struct BelmonteConfig {
     /// The sensor axis along the forearm (elbow→wrist), if the mounting is known. Default `None`:

@@ -265,6 +265,7 @@ impl ScoreMatrix {
 
 /// How [`fuse`] reduces a [`ScoreTensor`] (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Fusion {
     /// Acceleration model, mean over joints.
@@ -289,6 +290,7 @@ pub enum Fusion {
 
 /// Configuration of [`fuse`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(default, deny_unknown_fields)]
 pub struct FusionConfig {
     /// Correlation above which an entry counts for [`Fusion::Threshold`]. Default 0.5 (a

@@ -45,6 +45,7 @@ use serde::{Deserialize, Serialize};
 
 /// Configuration of the geometric model ([`geometric_scores`] and the magnitude builders).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(default, deny_unknown_fields)]
 pub struct GeometricConfig {
     /// Low-pass cut-off for the IMU's linear acceleration and the joint positions, Hz. Default 3 Hz

@@ -53,6 +53,7 @@ use serde::{Deserialize, Serialize};
 
 /// Configuration of nomen's models.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(default, deny_unknown_fields)]
 pub struct KinematicConfig {
     /// Lag over which the swing angle is measured, s. Default 0.2 s (a fifth of a gait cycle:

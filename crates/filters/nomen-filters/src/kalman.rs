@@ -38,6 +38,7 @@ use std::collections::VecDeque;
 
 /// Configuration of the constant-velocity joint filter.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 pub struct ConstantVelocityConfig {
     /// Power spectral density of the white acceleration driving each axis, m²/s³. Bar-Shalom's
     /// rule of thumb: `q ≈ a_max² · T` for accelerations of about `a_max` over the sampling period.

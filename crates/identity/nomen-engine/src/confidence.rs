@@ -30,11 +30,14 @@ pub const CONFIDENCE_FIT_BINS: usize = 20;
 /// raw confidences through. [`ConfidenceMap::raw`] leaves both sides empty. In a
 /// configuration file, a side left out has no knots (its raw confidences pass through).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(default, deny_unknown_fields)]
 pub struct ConfidenceMap {
     /// Knots for frames named after a subject.
+    #[cfg_attr(feature = "schema", schemars(with = "Vec<[f64; 2]>"))]
     pub named: Knots,
     /// Knots for anonymous frames.
+    #[cfg_attr(feature = "schema", schemars(with = "Vec<[f64; 2]>"))]
     pub anonymous: Knots,
 }
 

@@ -14,6 +14,7 @@ pub const OFFSET_CONFIRM_HISTORY: usize = 30;
 
 /// Which IMU-versus-skeleton evidence a window contributes per (track, subject).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum MotionScore {
     /// De Marchi et al. as published: their three correlations (acceleration, velocity,
@@ -60,6 +61,7 @@ pub enum MotionScore {
 /// `scenarios/families/sweep.sh model_weights.heading 0 3 -- --count 4` (the benchmark's validation
 /// split).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(default, deny_unknown_fields)]
 pub struct ModelWeights {
     /// De Marchi's acceleration magnitude.
@@ -142,6 +144,7 @@ impl ModelWeights {
 
 /// Configuration of [`crate::Engine`]. Durations in seconds on the session clock.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(default, deny_unknown_fields)]
 pub struct EngineConfig {
     /// Evidence window length, s. Default 2 s (De Marchi et al. compare 1–4 s windows; 2 s holds

@@ -39,6 +39,7 @@ const MIN_COMMON_JOINTS: usize = 3;
 
 /// How detections are chained into tracks.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(default, deny_unknown_fields)]
 pub struct RetrackConfig {
     /// Farthest a detection's joints may lie, on mean, from where a track's would be (its

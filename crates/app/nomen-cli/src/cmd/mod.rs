@@ -4,6 +4,7 @@ pub mod bench;
 pub mod calibrate;
 pub mod calibrate_confidence;
 pub mod calibrate_rssi;
+pub mod config;
 pub mod crosswalk;
 pub mod demo;
 pub mod eval;

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 /// rate (Madgwick 2010, eq. 33), in 1/s; the correction turns the estimate toward the
 /// measurement at up to `2β` rad/s.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct MadgwickConfig {
     /// β for [`Madgwick::update_imu`], 1/s. Default 0.033, the IMU value of Madgwick,
