@@ -158,6 +158,12 @@ pub fn run(args: DemoArgs) -> Result<()> {
     }
     write!(stdout, "{}", mot_table(&rows))?;
     writeln!(stdout, "\nfiles in {}", args.out.display())?;
+    writeln!(
+        stdout,
+        "terms: the metrics (id_accuracy, ca/cna/na, switches, appearances, IDF1, MOTA, ...) are \
+         defined in crates/eval/nomen-eval/METRICS.md, the recording and result format in \
+         crates/sources/nomen-recording/FORMAT.md"
+    )?;
     Ok(())
 }
 
