@@ -662,7 +662,13 @@ pub fn run_file(
             r.observe(s);
         }
         match engine.push(m) {
-            Ok(()) => true,
+            Ok(()) => {
+                // Said when it starts, not only in the summary: a live run may go on for hours.
+                if matches!(m, Message::Rssi(_)) && engine.stats().num_rssi_without_model == 1 {
+                    eprintln!("warning: {}", rssi_ignored(1));
+                }
+                true
+            }
             Err(e) => {
                 num_rejected += 1;
                 first_rejection.get_or_insert_with(|| e.to_string());
@@ -796,11 +802,28 @@ pub fn run_file(
         summary.push_str(&format!("\n  side {device}: found at {site}"));
     }
     summary.push_str(&gravity_warnings(engine.stats()));
+    let num_rssi_ignored = engine.stats().num_rssi_without_model;
+    if num_rssi_ignored > 0 {
+        summary.push_str(&format!("\n  warning: {}", rssi_ignored(num_rssi_ignored)));
+    }
     within_skip_limit(summary, skip, &stats, recording)
 }
 
 /// A warning line per IMU whose accelerations do not look like m/s²
 /// ([`nomen_engine::EngineStats::implausible_gravity`]).
+/// The warning for `count` RSSI reads the engine ignored for want of a model.
+fn rssi_ignored(count: u64) -> String {
+    let reads = if count == 1 {
+        "an RSSI read".to_owned()
+    } else {
+        format!("{count} RSSI reads")
+    };
+    format!(
+        "{reads} ignored: the engine uses RSSI only with a model (--rssi-model FILE, fitted by \
+         `nomen calibrate rssi`; or --method llorca)"
+    )
+}
+
 fn gravity_warnings(stats: &nomen_engine::EngineStats) -> String {
     stats
         .implausible_gravity()
