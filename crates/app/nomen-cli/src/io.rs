@@ -226,6 +226,39 @@ pub fn source_name(path: &Path) -> String {
     }
 }
 
+/// The file `relative` names inside `root` (a scenario's clip in the data folder, a path in a
+/// settings file relative to that file's folder), refused unless it stays inside: `relative`
+/// must be a relative path without `..` (an absolute path or `../` is refused before anything
+/// is opened), and the path must resolve, symbolic links followed, to a place inside `root` (for
+/// a file yet to be written, its nearest existing folder). `what` names the path in errors
+/// (`clip file`, `registry of serve.toml`).
+pub fn path_inside(root: &Path, relative: &str, what: &str) -> Result<PathBuf> {
+    use std::path::Component;
+    let rel = Path::new(relative);
+    let is_plain = !relative.is_empty()
+        && rel
+            .components()
+            .all(|c| matches!(c, Component::Normal(_) | Component::CurDir));
+    if !is_plain {
+        bail!(
+            "{what} '{relative}' is not inside {}: it must be a relative path without '..'",
+            root.display()
+        );
+    }
+    let path = root.join(rel);
+    let resolved = path.ancestors().find_map(|p| p.canonicalize().ok());
+    if let (Some(inside), Ok(root_resolved)) = (resolved, root.canonicalize())
+        && !inside.starts_with(&root_resolved)
+    {
+        bail!(
+            "{what} '{relative}' leads out of {} (a symbolic link to {}): refused",
+            root.display(),
+            inside.display()
+        );
+    }
+    Ok(path)
+}
+
 /// Finds the shared data folder: the flag, `$NOMEN_DATA`, `../shared/data`, or the one beside the
 /// source checkout this binary was built from.
 pub fn find_data(flag: Option<&Path>) -> Result<PathBuf> {

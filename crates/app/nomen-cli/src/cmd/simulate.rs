@@ -45,8 +45,11 @@ pub fn simulate_scenario(
 ) -> Result<(Scenario, SimOutput, u64)> {
     let scenario = Scenario::from_toml(text, source)?;
     let data = crate::io::find_data(data)?;
+    // Clip files stay inside the data folder (the scenario's own check refuses absolute paths
+    // and `..`; this one also refuses symbolic links that lead out).
     let clips = load_scenario_clips(&scenario, &mut |file| {
-        nomen_mocap::read_mocap_text(&data.join(file)).map_err(|e| e.to_string())
+        let path = crate::io::path_inside(&data, file, "clip file").map_err(|e| e.to_string())?;
+        nomen_mocap::read_mocap_text(&path).map_err(|e| e.to_string())
     })
     .with_context(|| format!("loading the clips of {source}"))?;
     let seed = seed.unwrap_or(scenario.seed);
