@@ -95,6 +95,46 @@ pub fn create_write_renamed(path: &Path) -> Result<OutFile> {
     })
 }
 
+/// Writes `bytes` to `path` through `PATH.partial` ([`create_write_renamed`]): the file gets
+/// its name only once whole.
+pub fn write_renamed(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut out = create_write_renamed(path)?;
+    out.write_all(bytes)
+        .with_context(|| format!("cannot write {}", sink_name(path)))?;
+    out.commit()
+}
+
+/// Refuses `path` as an input when it is an output still being written, or left by a command
+/// that stopped before its end: a name ending in `.partial` ([`create_write_renamed`]), or a
+/// missing file whose `PATH.partial` exists.
+pub fn check_whole(path: &Path) -> Result<()> {
+    if is_std_stream(path) {
+        return Ok(());
+    }
+    let partial = partial_path(path);
+    if !path.exists() && partial.exists() {
+        bail!(
+            "{} does not exist, but {} does: the command writing it stopped before its end (or \
+             is still running)",
+            path.display(),
+            partial.display()
+        );
+    }
+    if path
+        .file_name()
+        .is_some_and(|n| n.to_string_lossy().ends_with(".partial"))
+    {
+        let whole = path.with_extension("");
+        bail!(
+            "{} is a partial output: the command writing it stopped before its end (or is \
+             still running), and it holds only what came before; the whole result is named {}",
+            path.display(),
+            whole.display()
+        );
+    }
+    Ok(())
+}
+
 /// `PATH.partial`: where [`create_write_renamed`] writes `path` until it is whole.
 pub fn partial_path(path: &Path) -> PathBuf {
     let mut name = path.file_name().unwrap_or_default().to_owned();

@@ -1,12 +1,13 @@
 //! `nomen simulate`: a scenario → recording, ground truth and scene description.
 
-use super::mocap::write_recording;
+use super::mocap::write_recording_partial;
 use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use nomen_recording::{Header, sort_for_writing};
 use nomen_sim::{Scenario, SimOutput, load_scenario_clips, simulate};
 use std::io::IsTerminal;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nomen simulate`.
@@ -112,16 +113,28 @@ fn write_output(sim: &SimOutput, out: &Path, scenario: &Scenario, seed: u64) -> 
             .with_meta("seed", seed)
             .with_meta("kind", kind.to_owned())
     };
-    write_recording(
+    // Every file is written under NAME.partial; they get their names together once all are
+    // whole, so that a stopped simulation never leaves a folder that mixes two scenes.
+    let recording = write_recording_partial(
         &out.join("recording.jsonl"),
         &header("recording"),
         &sim.recording,
     )?;
-    write_recording(&out.join("truth.jsonl"), &header("truth"), &sim.truth)?;
-    let scene = serde_json::to_string_pretty(&sim.scene)?;
-    std::fs::write(out.join("scene.json"), scene + "\n")
-        .with_context(|| format!("cannot write {}", out.join("scene.json").display()))?;
-    std::fs::write(out.join("obstacles.obj"), &sim.obstacles_obj)
-        .with_context(|| format!("cannot write {}", out.join("obstacles.obj").display()))?;
+    let truth = write_recording_partial(&out.join("truth.jsonl"), &header("truth"), &sim.truth)?;
+    let scene = serde_json::to_string_pretty(&sim.scene)? + "\n";
+    let mut files = vec![recording, truth];
+    for (name, bytes) in [
+        ("scene.json", scene.as_bytes()),
+        ("obstacles.obj", sim.obstacles_obj.as_bytes()),
+    ] {
+        let path = out.join(name);
+        let mut file = crate::io::create_write_renamed(&path)?;
+        file.write_all(bytes)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        files.push(file);
+    }
+    for file in files {
+        file.commit()?;
+    }
     Ok(())
 }

@@ -50,6 +50,7 @@ impl Summary {
 
 /// Runs `nomen validate`.
 pub fn run(args: ValidateArgs) -> Result<()> {
+    crate::io::check_whole(&args.file)?;
     let skip = args.skip_bad.then_some(args.max_skipped);
     let mut reader = RecordingReader::open_with_options(
         &args.file,
