@@ -95,6 +95,46 @@ pub fn create_write_renamed(path: &Path) -> Result<OutFile> {
     })
 }
 
+/// Writes `bytes` to `path` through `PATH.partial` ([`create_write_renamed`]): the file gets
+/// its name only once whole.
+pub fn write_renamed(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut out = create_write_renamed(path)?;
+    out.write_all(bytes)
+        .with_context(|| format!("cannot write {}", sink_name(path)))?;
+    out.commit()
+}
+
+/// Refuses `path` as an input when it is an output still being written, or left by a command
+/// that stopped before its end: a name ending in `.partial` ([`create_write_renamed`]), or a
+/// missing file whose `PATH.partial` exists.
+pub fn check_whole(path: &Path) -> Result<()> {
+    if is_std_stream(path) {
+        return Ok(());
+    }
+    let partial = partial_path(path);
+    if !path.exists() && partial.exists() {
+        bail!(
+            "{} does not exist, but {} does: the command writing it stopped before its end (or \
+             is still running)",
+            path.display(),
+            partial.display()
+        );
+    }
+    if path
+        .file_name()
+        .is_some_and(|n| n.to_string_lossy().ends_with(".partial"))
+    {
+        let whole = path.with_extension("");
+        bail!(
+            "{} is a partial output: the command writing it stopped before its end (or is \
+             still running), and it holds only what came before; the whole result is named {}",
+            path.display(),
+            whole.display()
+        );
+    }
+    Ok(())
+}
+
 /// `PATH.partial`: where [`create_write_renamed`] writes `path` until it is whole.
 pub fn partial_path(path: &Path) -> PathBuf {
     let mut name = path.file_name().unwrap_or_default().to_owned();
@@ -224,6 +264,39 @@ pub fn source_name(path: &Path) -> String {
     } else {
         path.display().to_string()
     }
+}
+
+/// The file `relative` names inside `root` (a scenario's clip in the data folder, a path in a
+/// settings file relative to that file's folder), refused unless it stays inside: `relative`
+/// must be a relative path without `..` (an absolute path or `../` is refused before anything
+/// is opened), and the path must resolve, symbolic links followed, to a place inside `root` (for
+/// a file yet to be written, its nearest existing folder). `what` names the path in errors
+/// (`clip file`, `registry of serve.toml`).
+pub fn path_inside(root: &Path, relative: &str, what: &str) -> Result<PathBuf> {
+    use std::path::Component;
+    let rel = Path::new(relative);
+    let is_plain = !relative.is_empty()
+        && rel
+            .components()
+            .all(|c| matches!(c, Component::Normal(_) | Component::CurDir));
+    if !is_plain {
+        bail!(
+            "{what} '{relative}' is not inside {}: it must be a relative path without '..'",
+            root.display()
+        );
+    }
+    let path = root.join(rel);
+    let resolved = path.ancestors().find_map(|p| p.canonicalize().ok());
+    if let (Some(inside), Ok(root_resolved)) = (resolved, root.canonicalize())
+        && !inside.starts_with(&root_resolved)
+    {
+        bail!(
+            "{what} '{relative}' leads out of {} (a symbolic link to {}): refused",
+            root.display(),
+            inside.display()
+        );
+    }
+    Ok(path)
 }
 
 /// Finds the shared data folder: the flag, `$NOMEN_DATA`, `../shared/data`, or the one beside the

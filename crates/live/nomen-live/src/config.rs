@@ -19,10 +19,12 @@ pub struct ServeConfig {
     /// Where the embedded broker listens. Default `127.0.0.1:1883`.
     pub embedded_listen: String,
     /// The registry: a JSON file holding one registry object, or a recording whose header carries
-    /// one. Without it the service waits for one on `nomen/in/registry`.
+    /// one, relative to the configuration file's folder and inside it (no absolute path, no
+    /// `..`). Without it the service waits for one on `nomen/in/registry`.
     pub registry: Option<PathBuf>,
     /// The identity log: an SQLite file that every decision and event goes to before it is
-    /// published (`docs/live.md` has the schema). `--log` overrides it. Default: none.
+    /// published (`docs/live.md` has the schema), relative to the configuration file's folder
+    /// and inside it. `--log` (any path) overrides it. Default: none.
     pub log: Option<PathBuf>,
     /// The MQTT client id of the service. Default `nomen-serve`.
     pub client_id: String,

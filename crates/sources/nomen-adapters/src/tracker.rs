@@ -179,17 +179,35 @@ fn require<'a>(
     match find(row, names) {
         Some((_, Value::Null)) | None => Err(AdapterError::shape(
             at,
-            format!("missing '{}' (found: {})", names.join("' or '"), keys(row)),
+            format!("missing '{}' ({})", names.join("' or '"), keys(row)),
         )),
         Some(found) => Ok(found),
     }
 }
 
+/// The keys of `row` for an error about a missing one, when one of them is a key a tracker
+/// writes (a time, a track, `x` or `y`); any other row's keys (the first line of a file that is
+/// not a tracker's, for CSV) are not repeated.
 fn keys(row: &Map<String, Value>) -> String {
-    row.keys()
-        .map(String::as_str)
-        .collect::<Vec<_>>()
-        .join(", ")
+    let is_tracker_key = |k: &str| {
+        let base = k.split(['(', '[', '_']).next().unwrap_or(k).trim();
+        TIME_NAMES.contains(&base) || TRACK_NAMES.contains(&k) || matches!(base, "x" | "y")
+    };
+    if row.keys().any(|k| is_tracker_key(k.as_str())) {
+        format!(
+            "found: {}",
+            row.keys()
+                .map(String::as_str)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    } else {
+        format!(
+            "none of its {} names is a tracker's t, track, x or y: not a tracker's file? Its \
+             content is not shown",
+            row.len()
+        )
+    }
 }
 
 fn point(
@@ -198,9 +216,8 @@ fn point(
     config: &TrackerConfig,
     out: &mut Collector,
 ) -> Result<()> {
-    let (t_key, unit) = find_time(row).ok_or_else(|| {
-        AdapterError::shape(at, format!("missing the time 't' (found: {})", keys(row)))
-    })?;
+    let (t_key, unit) = find_time(row)
+        .ok_or_else(|| AdapterError::shape(at, format!("missing the time 't' ({})", keys(row))))?;
     let t_at = at.at(t_key);
     let ns = time_ns(
         json::required(row, t_key, at)?,
@@ -220,7 +237,7 @@ fn point(
         let missing = if coordinate("x")?.is_none() { "x" } else { "y" };
         return Err(AdapterError::shape(
             at,
-            format!("missing '{missing}' (found: {})", keys(row)),
+            format!("missing '{missing}' ({})", keys(row)),
         ));
     };
     let k = config.scale_m_per_unit;

@@ -254,6 +254,24 @@ fn tracker() -> TrackerConfig {
 }
 
 #[test]
+fn a_file_that_is_not_a_tracker_s_is_refused_without_its_content() {
+    let passwd = "root:x:0:0:secret-token:/root:/bin/bash\nbin:x:1:1:bin:/bin:/sbin/nologin\n";
+    let e = read_tracker(passwd.as_bytes(), "passwd", &tracker())
+        .unwrap_err()
+        .to_string();
+    assert!(!e.contains("secret-token") && !e.contains("root:x"), "{e}");
+    assert!(
+        e.contains("missing the time 't' (none of its 1 names"),
+        "{e}"
+    );
+    // A tracker's own file with a column missing still lists its columns.
+    let e = read_tracker("t_s,id,x\n0.1,1,2\n".as_bytes(), "counter.csv", &tracker())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("missing 'y' (found: "), "{e}");
+}
+
+#[test]
 fn tracker_csv_sample_reads_into_one_joint_skeletons_scaled_to_metres() {
     let d = read_tracker(
         sample("tracker_overhead.csv").as_bytes(),

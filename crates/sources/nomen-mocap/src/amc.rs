@@ -197,6 +197,7 @@ pub fn parse_amc(text: &str, asf: &Asf, source: &str) -> Result<Bvh> {
     // (frame number, its line) of the frame being read.
     let mut current: Option<(u64, usize)> = None;
     let mut last_line = 1;
+    let mut is_recognised = false;
     for (i, raw_line) in text.lines().enumerate() {
         let line = i + 1;
         last_line = line;
@@ -204,6 +205,14 @@ pub fn parse_amc(text: &str, asf: &Asf, source: &str) -> Result<Bvh> {
         if l.is_empty() || l.starts_with('#') {
             continue;
         }
+        // Until a header keyword or a frame number shows this to be an AMC file, its lines are
+        // not quoted in errors.
+        let not_amc = || MocapError::NotOfKind {
+            file: source.to_owned(),
+            line,
+            kind: "an AMC file",
+            expected: "':FULLY-SPECIFIED', ':DEGREES', ':RADIANS' or a frame number",
+        };
         if let Some(keyword) = l.strip_prefix(':') {
             if current.is_some() {
                 return Err(unexpected(source, line, "a frame number or bone values", l));
@@ -212,6 +221,7 @@ pub fn parse_amc(text: &str, asf: &Asf, source: &str) -> Result<Bvh> {
                 "FULLY-SPECIFIED" => {}
                 "DEGREES" => reader.angle_unit = AngleUnit::Degrees,
                 "RADIANS" => reader.angle_unit = AngleUnit::Radians,
+                _ if !is_recognised => return Err(not_amc()),
                 _ => {
                     return Err(unexpected(
                         source,
@@ -221,6 +231,7 @@ pub fn parse_amc(text: &str, asf: &Asf, source: &str) -> Result<Bvh> {
                     ));
                 }
             }
+            is_recognised = true;
             continue;
         }
         let mut toks = l.split_whitespace();
@@ -253,9 +264,13 @@ pub fn parse_amc(text: &str, asf: &Asf, source: &str) -> Result<Bvh> {
                 });
             }
             current = Some((number, line));
+            is_recognised = true;
             continue;
         }
         if current.is_none() {
+            if !is_recognised {
+                return Err(not_amc());
+            }
             return Err(unexpected(source, line, "a frame number", l));
         }
         let Some(&slot) = slot_of.get(first) else {
@@ -726,5 +741,23 @@ thigh 0 0 0
         );
         let v = m * Vector3::y();
         assert!((v + Vector3::x()).norm() < 1e-15, "{v:?}");
+    }
+
+    #[test]
+    fn a_file_that_is_not_amc_is_refused_without_its_content() {
+        let asf = leg();
+        for text in [
+            "#!/bin/sh\nroot:x:0:0:secret-token:/root:/bin/bash\n",
+            ":secret-token\n1\n",
+        ] {
+            let err = parse_amc(text, &asf, "passwd").unwrap_err().to_string();
+            assert!(err.contains("not an AMC file: expected"), "{err}");
+            assert!(!err.contains("secret-token"), "{err}");
+        }
+        // Once a header keyword showed an AMC file, a bad line is quoted.
+        let err = parse_amc(":DEGREES\nbad line\n", &asf, "walk.amc")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(err, "walk.amc:2: expected a frame number, found 'bad line'");
     }
 }

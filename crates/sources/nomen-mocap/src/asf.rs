@@ -338,7 +338,15 @@ pub fn parse_asf(text: &str, source: &str) -> Result<Asf> {
             continue;
         }
         match section {
-            Section::Preamble => return Err(p.unexpected(line, "a ':' section keyword", l)),
+            // Nothing has shown this to be an ASF file: its line is not quoted.
+            Section::Preamble => {
+                return Err(MocapError::NotOfKind {
+                    file: source.to_owned(),
+                    line,
+                    kind: "an ASF file",
+                    expected: "a ':' section keyword such as ':units'",
+                });
+            }
             Section::Units => p.units_line(l, line)?,
             Section::Root => p.root_line(l, line)?,
             Section::Bonedata => p.bonedata_line(l, line)?,
@@ -1188,5 +1196,16 @@ mod tests {
         let mut b = parse_asf(ARM, "t.asf").unwrap();
         b.source = String::new();
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn a_file_that_is_not_asf_is_refused_without_its_content() {
+        let text = "# a comment\n\nroot:x:0:0:secret-token:/root:/bin/bash\n:units\n";
+        let err = parse_asf(text, "passwd").unwrap_err().to_string();
+        assert_eq!(
+            err,
+            "passwd:3: not an ASF file: expected a ':' section keyword such as ':units' (its \
+             content is not shown)"
+        );
     }
 }

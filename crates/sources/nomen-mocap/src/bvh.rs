@@ -251,7 +251,16 @@ impl<'a> HierarchyParser<'a> {
     }
 
     fn parse(&mut self) -> Result<()> {
-        self.expect("HIERARCHY")?;
+        // The first token says whether this is a BVH file at all; another file's is not quoted.
+        let (line, first) = self.next("'HIERARCHY'")?;
+        if first != "HIERARCHY" {
+            return Err(MocapError::NotOfKind {
+                file: self.file.to_owned(),
+                line,
+                kind: "a BVH file",
+                expected: "'HIERARCHY'",
+            });
+        }
         let line = self.expect("ROOT")?;
         let (_, name) = self.next("the root joint's name")?;
         self.joint(name.to_owned(), None, line, false, 0)?;
@@ -762,5 +771,15 @@ Frame Time: .0083333
             .join("\n")
             .replace("Frames: 9000", &format!("Frames: {}", first_past - 1));
         assert!(parse_bvh(&fewer, "t.bvh").is_ok());
+    }
+
+    #[test]
+    fn a_file_that_is_not_bvh_is_refused_without_its_content() {
+        let text = "# notes\nroot:x:0:0:secret-token:/root:/bin/bash\nHIERARCHY\n";
+        let err = parse_bvh(text, "passwd").unwrap_err().to_string();
+        assert_eq!(
+            err,
+            "passwd:1: not a BVH file: expected 'HIERARCHY' (its content is not shown)"
+        );
     }
 }

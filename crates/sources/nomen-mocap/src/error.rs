@@ -45,6 +45,20 @@ pub enum MocapError {
         /// The longest hierarchy taken, bytes.
         max_bytes: usize,
     },
+    /// Text that does not start as its kind does (a BVH file with `HIERARCHY`, an ASF file with
+    /// a `:` section, an AMC file with a header keyword or a frame number). Its content is not
+    /// repeated: a wrong path may name any file.
+    #[error("{file}:{line}: not {kind}: expected {expected} (its content is not shown)")]
+    NotOfKind {
+        /// Source name (file name).
+        file: String,
+        /// The first line that is not blank or a comment.
+        line: usize,
+        /// The kind of file expected: `a BVH file`.
+        kind: &'static str,
+        /// What it should start with.
+        expected: &'static str,
+    },
     /// A token that does not fit the BVH grammar here.
     #[error("{file}:{line}: expected {expected}, found '{found}'")]
     Unexpected {

@@ -81,9 +81,15 @@ impl Header {
         };
         match obj.get("type").and_then(Value::as_str) {
             Some("header") => {}
-            Some(other) => {
+            Some(other) if crate::reader::MESSAGE_TYPES.contains(&other) => {
                 return Err(bad(format!(
                     "missing header: line 1 is a '{other}' message; {EXPECTED}"
+                )));
+            }
+            // Another file's JSON: its content is not repeated.
+            Some(_) => {
+                return Err(bad(format!(
+                    "missing header: line 1's 'type' is not one of a recording; {EXPECTED}"
                 )));
             }
             None => {

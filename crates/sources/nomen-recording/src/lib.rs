@@ -12,6 +12,8 @@
 //!   accepts; [`sort_for_writing`] puts messages generated per source into file order.
 //! - [`csv`] imports IMU samples, tag fixes and skeletons from CSV files whose columns name
 //!   their units (or a spec that does).
+//! - [`plausibility`] judges what no single line shows: camera and IMU rates that contradict
+//!   the declared ones (times in milliseconds instead of nanoseconds) and accelerations in g.
 //!
 //! ```
 //! use nomen_recording::{Header, RecordingReader, RecordingWriter};
@@ -39,6 +41,7 @@ mod check;
 pub mod csv;
 mod error;
 mod header;
+pub mod plausibility;
 mod reader;
 mod writer;
 

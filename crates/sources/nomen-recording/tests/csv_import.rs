@@ -225,10 +225,44 @@ fn tag_fixes_take_units_from_names_or_spec() {
 
     let missing = "t (s),x (m),y (m),z (m)\n0,1,2,3\n";
     let err = import_fixes(missing.as_bytes(), "fixes.csv", &spec).unwrap_err();
-    assert!(
-        err.to_string()
-            .starts_with("fixes.csv:1: missing column 'tag'"),
-        "{err}"
+    assert_eq!(
+        err.to_string(),
+        "fixes.csv:1: missing column 'tag' (columns are: t (s), x (m), y (m), z (m))"
+    );
+}
+
+#[test]
+fn a_file_that_is_no_table_of_samples_is_refused_without_its_first_row() {
+    let passwd = "root:x:0:0:secret-token:/root:/bin/bash\nbin:x:1:1:bin:/bin:/sbin/nologin\n";
+    let spec = SkeletonCsvSpec::default();
+    let errors = [
+        import_fixes(passwd.as_bytes(), "passwd", &FixCsvSpec::default()).unwrap_err(),
+        import_skeletons(passwd.as_bytes(), "passwd", &spec).unwrap_err(),
+        import_imu_auto(passwd.as_bytes(), "passwd", DeviceId::new("d")).unwrap_err(),
+        import_imu(
+            passwd.as_bytes(),
+            "passwd",
+            &ImuCsvSpec {
+                device: DeviceId::new("d"),
+                time_column: "t (s)".into(),
+                time_unit: TimeUnit::Seconds,
+                time_offset_ns: 0,
+                columns: Vec::new(),
+            },
+        )
+        .unwrap_err(),
+    ];
+    for err in errors {
+        let err = err.to_string();
+        assert!(err.starts_with("passwd:1: "), "{err}");
+        assert!(!err.contains("secret-token"), "{err}");
+        assert!(!err.contains("root:x"), "{err}");
+    }
+    let err = import_fixes(passwd.as_bytes(), "passwd", &FixCsvSpec::default()).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "passwd:1: missing column 't' (the first row has 1 column(s) and none is a time column \
+         't', 'time' or 'timestamp': not a table of samples? (its content is not shown))"
     );
 }
 

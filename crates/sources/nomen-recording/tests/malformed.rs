@@ -254,6 +254,16 @@ fn missing_header_is_an_error_on_line_1() {
         err.starts_with("rec.jsonl:1: missing header: line 1 is not json"),
         "{err}"
     );
+    // Another file's JSON: its type is not repeated.
+    let err = error_of(r#"{"type":"secret-token-4242","key":"value"}"#);
+    assert!(
+        err.starts_with(
+            "rec.jsonl:1: missing header: line 1's 'type' is not one of a recording; expected a \
+             header line"
+        ),
+        "{err}"
+    );
+    assert!(!err.contains("secret-token"), "{err}");
     let err = error_of(r#"{"type":"header","format":"csv","version":1}"#);
     assert_eq!(
         err,

@@ -109,11 +109,7 @@ pub fn run(args: &CalibrateConfidenceArgs) -> Result<()> {
     })
     .context("writing the map as TOML")?;
     let out = args.out.as_deref().unwrap_or(Path::new("-"));
-    let mut w = crate::io::create_write(out)?;
-    w.write_all(text.as_bytes())
-        .and_then(|()| w.flush())
-        .with_context(|| format!("writing {}", crate::io::sink_name(out)))?;
-    Ok(())
+    crate::io::write_renamed(out, text.as_bytes())
 }
 
 fn summary(out: &mut impl Write, what: &str, r: &ConfidenceReport) -> Result<()> {

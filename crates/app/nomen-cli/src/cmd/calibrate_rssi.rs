@@ -85,12 +85,8 @@ pub fn run(args: CalibrateRssiArgs) -> Result<()> {
         write!(stdout, "{report}")?;
     }
     if let Some(out) = &args.out {
-        let text = report.model.to_json()?;
-        let mut w = crate::io::create_write(out)?;
-        w.write_all(text.as_bytes())
-            .and_then(|()| w.write_all(b"\n"))
-            .and_then(|()| w.flush())
-            .with_context(|| format!("cannot write {}", out.display()))?;
+        let text = report.model.to_json()? + "\n";
+        crate::io::write_renamed(out, text.as_bytes())?;
         eprintln!("model written to {}", crate::io::sink_name(out));
     }
     Ok(())

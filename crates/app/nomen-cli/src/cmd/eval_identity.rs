@@ -57,6 +57,9 @@ pub fn evaluate_files(
             result.len()
         );
     }
+    for path in truth.iter().chain(result) {
+        crate::io::check_whole(path)?;
+    }
     let mut scenes = Vec::with_capacity(truth.len());
     let mut num_identities = 0;
     for (t, r) in truth.iter().zip(result) {

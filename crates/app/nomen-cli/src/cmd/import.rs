@@ -11,9 +11,10 @@ use nomen_adapters::{
 use nomen_core::skeleton::sets::JointSet;
 use nomen_core::{CameraId, DeviceId, Joint, Message, Registry};
 use nomen_recording::csv::{
-    FixCsvSpec, SkeletonCsvSpec, SkeletonLayout, TimeUnit, import_fixes, import_imu_auto,
-    import_skeletons,
+    AccelUnit, FixCsvSpec, ImuCsvSpec, ImuQuantity, STANDARD_GRAVITY_MPS2, SkeletonCsvSpec,
+    SkeletonLayout, TimeUnit, import_fixes, import_imu_auto, import_skeletons,
 };
+use nomen_recording::plausibility::{Finding, Plausibility};
 use nomen_recording::{Header, sort_for_writing};
 use std::path::{Path, PathBuf};
 
@@ -197,6 +198,7 @@ pub fn run(command: ImportCommand) -> Result<()> {
         ImportCommand::Imu(a) => Some(DeviceId::new(a.device.clone())),
         _ => None,
     };
+    let mut imu_spec = None;
     let (common, mut messages) = match command {
         ImportCommand::Imu(a) => {
             let (spec, msgs) = import_imu_auto(
@@ -209,6 +211,7 @@ pub fn run(command: ImportCommand) -> Result<()> {
                 name(&a.common.file),
                 spec.columns.len()
             );
+            imu_spec = Some(spec);
             (a.common, msgs)
         }
         ImportCommand::Fixes(c) => {
@@ -313,6 +316,12 @@ pub fn run(command: ImportCommand) -> Result<()> {
     .with_meta("generator", "nomen import")
     .with_meta("source", name(&common.file));
     sort_for_writing(&mut messages);
+    check_plausible(
+        &messages,
+        header.registry.as_ref(),
+        imu_spec.as_ref(),
+        &name(&common.file),
+    )?;
     write_recording(&common.out, &header, &messages).with_context(|| match &common.registry {
         Some(path) => format!(
             "checking the ids of {} against the registry {}",
@@ -365,4 +374,99 @@ fn report(decoded: Decoded, file: &Path) -> Vec<Message> {
 
 fn name(path: &Path) -> String {
     path.display().to_string()
+}
+
+/// Refuses an import whose time stamps or accelerations contradict their labels or the
+/// registry's rates ([`Plausibility`]): a camera ten times off its declared rate, an IMU at
+/// 100 kHz or below 1 Hz, gravity of 1 in a column labelled m/s². For an IMU CSV file the error
+/// names the column and the unit its values are probably in.
+fn check_plausible(
+    messages: &[Message],
+    registry: Option<&Registry>,
+    imu_spec: Option<&ImuCsvSpec>,
+    file: &str,
+) -> Result<()> {
+    let mut plausibility = Plausibility::new(registry);
+    let mut findings: Vec<Finding> = messages
+        .iter()
+        .filter_map(|m| plausibility.push(m))
+        .collect();
+    findings.extend(plausibility.finish());
+    let Some(finding) = findings.into_iter().next() else {
+        return Ok(());
+    };
+    let Some(spec) = imu_spec else {
+        bail!("{file}: {finding}");
+    };
+    match &finding {
+        Finding::Rate {
+            observed_hz,
+            factor: Some(k),
+            ..
+        } => {
+            let meant_ns = spec.time_unit.ns_per_unit() * k;
+            let meant = [(1.0, "ns"), (1e3, "us"), (1e6, "ms"), (1e9, "s")]
+                .into_iter()
+                .find(|(ns, _)| (meant_ns / ns - 1.0).abs() < 1e-6)
+                .map(|(_, unit)| unit);
+            match meant {
+                Some(unit) => bail!(
+                    "{file}: the time column '{}' read as {} gives an IMU at {:.3} Hz: its values \
+                     are probably in {unit}; name the unit in the column, e.g. 't ({unit})'",
+                    spec.time_column,
+                    time_unit_name(spec.time_unit),
+                    observed_hz
+                ),
+                None => bail!("{file}: {finding}"),
+            }
+        }
+        Finding::Gravity { median_mps2, .. } => {
+            let Some(column) = spec
+                .columns
+                .iter()
+                .find(|c| matches!(c.quantity, ImuQuantity::Accel(_)))
+            else {
+                bail!("{file}: {finding}");
+            };
+            let ImuQuantity::Accel(labelled) = column.quantity else {
+                bail!("{file}: {finding}");
+            };
+            let raw = median_mps2 / labelled.to_mps2();
+            let meant = [
+                ("m/s^2", 1.0),
+                ("g", STANDARD_GRAVITY_MPS2),
+                ("mg", STANDARD_GRAVITY_MPS2 * 1e-3),
+            ]
+            .into_iter()
+            .find(|(_, to_mps2)| (3.0..=30.0).contains(&(raw * to_mps2)));
+            let hint = match meant {
+                Some((unit, _)) => format!(
+                    ": its values are probably in {unit}; name that unit in the accelerometer \
+                     columns, e.g. 'acc_x ({unit})'"
+                ),
+                None => String::new(),
+            };
+            bail!(
+                "{file}: the accelerometer column '{}' read as {} gives a median magnitude of \
+                 {:.3} m/s², where gravity alone gives 9.81{hint}",
+                column.column,
+                if labelled == AccelUnit::StandardGravity {
+                    "g"
+                } else {
+                    "m/s^2"
+                },
+                median_mps2
+            )
+        }
+        Finding::Rate { .. } => bail!("{file}: {finding}"),
+    }
+}
+
+fn time_unit_name(unit: TimeUnit) -> &'static str {
+    match unit {
+        TimeUnit::Seconds => "seconds",
+        TimeUnit::Milliseconds => "milliseconds",
+        TimeUnit::Microseconds => "microseconds",
+        TimeUnit::Nanoseconds => "nanoseconds",
+    }
 }

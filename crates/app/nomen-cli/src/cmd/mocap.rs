@@ -209,7 +209,20 @@ pub fn load_clips(
 
 /// Writes a header and messages to `path` with the validating writer.
 pub fn write_recording(path: &Path, header: &Header, messages: &[Message]) -> Result<()> {
-    let out = crate::io::create_write(path)?;
+    write_recording_partial(path, header, messages)?.commit()
+}
+
+/// Writes the recording as [`write_recording`] does, under `PATH.partial`, and returns it
+/// without giving it its name: [`crate::io::OutFile::commit`] does, once every file of a set
+/// is whole.
+pub fn write_recording_partial(
+    path: &Path,
+    header: &Header,
+    messages: &[Message],
+) -> Result<crate::io::OutFile> {
+    // Written as PATH.partial and renamed once whole: an error or a kill leaves no cut file
+    // under the final name, and a previous one whole.
+    let out = crate::io::create_write_renamed(path)?;
     let mut writer =
         RecordingWriter::new(out, header).with_context(|| format!("writing {}", path.display()))?;
     for m in messages {
@@ -219,8 +232,7 @@ pub fn write_recording(path: &Path, header: &Header, messages: &[Message]) -> Re
     }
     writer
         .finish()
-        .with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 fn person_name(path: &Path) -> String {

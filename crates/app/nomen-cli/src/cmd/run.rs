@@ -13,6 +13,7 @@ use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use nomen_core::{Message, Registry};
 use nomen_engine::{Engine, EngineConfig, Retracker};
+use nomen_recording::plausibility::{Finding, Plausibility};
 use nomen_recording::{
     DEFAULT_GLOBAL_TOLERANCE_NS, Header, IdCheck, ReadOptions, ReadStats, RecordingReader,
     RecordingWriter, WriteOptions,
@@ -613,6 +614,9 @@ pub fn run_file(
     };
     // A live session's file is followed as it grows: it is written under its own name.
     let is_followed = extras.live || crate::io::is_std_stream(recording);
+    // Time stamps whose rate contradicts the declared one (every t in milliseconds) would make
+    // every decision anonymous: the run stops as soon as a source shows it.
+    let mut plausibility = Plausibility::new(Some(&registry));
     let mut writer = open_writer(out, recording, registry, "nomen run", is_followed)?;
     // Live (reading stdin or writing stdout): each batch of decisions goes out as soon as it is
     // decided, instead of when the output buffer fills, so a consumer's wait is the engine's
@@ -714,7 +718,18 @@ pub fn run_file(
             bar.set_position(reader.stats().num_bytes);
         }
         match event {
-            Event::Message(Ok(m)) => feed(Some(m), &mut retracker, &mut engine, &mut refinement),
+            Event::Message(Ok(m)) => {
+                // Gravity in g is the engine's warning (`gravity_warnings`), not a stop.
+                if let Some(finding @ Finding::Rate { .. }) = plausibility.push(&m) {
+                    bar.finish_and_clear();
+                    bail!(
+                        "{}: {finding}; stopped with no result (the time stamps, or the \
+                         registry's rates, need fixing first)",
+                        crate::io::source_name(recording)
+                    );
+                }
+                feed(Some(m), &mut retracker, &mut engine, &mut refinement);
+            }
             Event::Message(Err(e)) => {
                 read_error = Some(e);
                 break;

@@ -60,7 +60,27 @@ pub fn run(args: ServeArgs) -> Result<()> {
             ServeConfig::from_toml(&text, &path.display().to_string())?
         }
     };
-    let registry_path = args.registry.as_ref().or(config.registry.as_ref());
+    // Paths in serve.toml are relative to its folder and stay inside it; the command line's
+    // are the user's own and taken as given.
+    let config_dir = args
+        .config
+        .as_deref()
+        .and_then(Path::parent)
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let in_config = |path: &Option<PathBuf>, what: &str| -> Result<Option<PathBuf>> {
+        path.as_deref()
+            .map(|p| {
+                let text = p
+                    .to_str()
+                    .with_context(|| format!("{what}: the path is not UTF-8"))?;
+                crate::io::path_inside(config_dir, text, what)
+            })
+            .transpose()
+    };
+    let config_registry = in_config(&config.registry, "registry of serve.toml")?;
+    let config_log = in_config(&config.log, "log of serve.toml")?;
+    let registry_path = args.registry.as_ref().or(config_registry.as_ref());
     let registry = registry_path.map(|p| load_registry(p)).transpose()?;
     let broker = match args.mqtt.as_ref().or(config.mqtt.as_ref()) {
         Some(url) => BrokerAddr::parse(url)?,
@@ -117,7 +137,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     let log = args
         .log
         .as_ref()
-        .or(config.log.as_ref())
+        .or(config_log.as_ref())
         .map(|p| nomen_live::log::IdentityLog::open(p))
         .transpose()?;
     eprintln!(

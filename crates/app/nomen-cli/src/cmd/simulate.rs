@@ -1,12 +1,13 @@
 //! `nomen simulate`: a scenario → recording, ground truth and scene description.
 
-use super::mocap::write_recording;
+use super::mocap::write_recording_partial;
 use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use nomen_recording::{Header, sort_for_writing};
 use nomen_sim::{Scenario, SimOutput, load_scenario_clips, simulate};
 use std::io::IsTerminal;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nomen simulate`.
@@ -46,8 +47,11 @@ pub fn simulate_scenario(
 ) -> Result<(Scenario, SimOutput, u64)> {
     let scenario = Scenario::from_toml(text, source)?;
     let data = crate::io::find_data(data)?;
+    // Clip files stay inside the data folder (the scenario's own check refuses absolute paths
+    // and `..`; this one also refuses symbolic links that lead out).
     let clips = load_scenario_clips(&scenario, &mut |file| {
-        nomen_mocap::read_mocap_text(&data.join(file)).map_err(|e| e.to_string())
+        let path = crate::io::path_inside(&data, file, "clip file").map_err(|e| e.to_string())?;
+        nomen_mocap::read_mocap_text(&path).map_err(|e| e.to_string())
     })
     .with_context(|| format!("loading the clips of {source}"))?;
     let seed = seed.unwrap_or(scenario.seed);
@@ -110,20 +114,44 @@ fn write_output(sim: &SimOutput, out: &Path, scenario: &Scenario, seed: u64) -> 
             .with_meta("seed", seed)
             .with_meta("kind", kind.to_owned())
     };
-    write_recording(
+    // Every file is written under NAME.partial; they get their names together once all are
+    // whole, so that a stopped simulation never leaves a folder that mixes two scenes.
+    let recording = write_recording_partial(
         &out.join("recording.jsonl"),
         &header("recording"),
         &sim.recording,
     )?;
-    write_recording(&out.join("truth.jsonl"), &header("truth"), &sim.truth)?;
-    let scene = serde_json::to_string_pretty(&sim.scene)?;
-    std::fs::write(out.join("scene.json"), scene + "\n")
-        .with_context(|| format!("cannot write {}", out.join("scene.json").display()))?;
-    // A mesh with no faces is no environment (`nomen run --environment` refuses it): the file
+    let truth = write_recording_partial(&out.join("truth.jsonl"), &header("truth"), &sim.truth)?;
+    let scene = serde_json::to_string_pretty(&sim.scene)? + "\n";
+    let mut files = vec![recording, truth];
+    // A mesh with no faces is no environment (`nomen run --environment` refuses it): the OBJ
     // exists only for scenes with obstacles.
-    if !scenario.room.obstacles.is_empty() {
-        std::fs::write(out.join("obstacles.obj"), &sim.obstacles_obj)
-            .with_context(|| format!("cannot write {}", out.join("obstacles.obj").display()))?;
+    let obstacles = (!scenario.room.obstacles.is_empty()).then_some(sim.obstacles_obj.as_bytes());
+    for (name, bytes) in [
+        ("scene.json", Some(scene.as_bytes())),
+        ("obstacles.obj", obstacles),
+    ] {
+        let Some(bytes) = bytes else {
+            continue;
+        };
+        let path = out.join(name);
+        let mut file = crate::io::create_write_renamed(&path)?;
+        file.write_all(bytes)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        files.push(file);
+    }
+    for file in files {
+        file.commit()?;
+    }
+    // An earlier scene's obstacles do not stay beside this one's files.
+    if obstacles.is_none() {
+        let stale = out.join("obstacles.obj");
+        match std::fs::remove_file(&stale) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(e).with_context(|| format!("cannot remove {}", stale.display()));
+            }
+            _ => {}
+        }
     }
     Ok(())
 }

@@ -13,6 +13,7 @@ use nomen_cnn::{
     balance, label_pairs,
 };
 use nomen_engine::{Engine, EngineConfig};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -240,10 +241,21 @@ fn write_model(model: &CnnModel, out: &Path) -> Result<(PathBuf, PathBuf)> {
             .with_context(|| format!("cannot create {}", parent.display()))?;
     }
     let (weights, meta) = model.to_bytes()?;
-    std::fs::write(&weights_path, weights)
-        .with_context(|| format!("cannot write {}", weights_path.display()))?;
-    std::fs::write(&meta_path, meta)
-        .with_context(|| format!("cannot write {}", meta_path.display()))?;
+    // Both are written under NAME.partial and named together once whole; the metadata holds
+    // the weights' digest, so a model that mixes two trainings does not load.
+    let mut files = Vec::new();
+    for (path, bytes) in [
+        (&weights_path, weights.as_slice()),
+        (&meta_path, meta.as_bytes()),
+    ] {
+        let mut file = crate::io::create_write_renamed(path)?;
+        file.write_all(bytes)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        files.push(file);
+    }
+    for file in files {
+        file.commit()?;
+    }
     Ok((weights_path, meta_path))
 }
 

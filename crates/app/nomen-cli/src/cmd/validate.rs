@@ -1,9 +1,11 @@
-//! `nomen validate`: read a recording line by line, check everything, and summarise it.
+//! `nomen validate`: read a recording line by line, check everything, and summarise it; time
+//! stamps and accelerations that contradict the declared rates or units fail it too.
 
 use crate::skip::read_policy;
 use anyhow::{Result, bail};
 use clap::Args;
 use nomen_core::{Message, SessionTime};
+use nomen_recording::plausibility::Plausibility;
 use nomen_recording::{ReadOptions, RecordingReader};
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -48,22 +50,29 @@ impl Summary {
 
 /// Runs `nomen validate`.
 pub fn run(args: ValidateArgs) -> Result<()> {
+    crate::io::check_whole(&args.file)?;
     let skip = args.skip_bad.then_some(args.max_skipped);
     let mut reader = RecordingReader::open_with_options(
         &args.file,
         ReadOptions::with_policy(read_policy(skip)),
     )?;
     let mut summary = Summary::default();
+    let mut plausibility = Plausibility::new(reader.header().registry.as_ref());
+    let mut implausible = Vec::new();
     let mut first_error = None;
     for m in reader.by_ref() {
         match m {
-            Ok(m) => summary.add(&m),
+            Ok(m) => {
+                summary.add(&m);
+                implausible.extend(plausibility.push(&m));
+            }
             Err(e) => {
                 first_error = Some(e);
                 break;
             }
         }
     }
+    implausible.extend(plausibility.finish());
     let stats = reader.into_stats();
     let mut stdout = crate::io::stdout();
     writeln!(stdout, "{}: {stats}", crate::io::source_name(&args.file))?;
@@ -80,8 +89,21 @@ pub fn run(args: ValidateArgs) -> Result<()> {
     for e in &stats.first_errors {
         writeln!(stdout, "  skipped: {e}")?;
     }
+    for finding in &implausible {
+        writeln!(stdout, "  implausible: {finding}")?;
+    }
     if let Some(e) = first_error {
         bail!("{e}");
+    }
+    if let Some(first) = implausible.first() {
+        bail!(
+            "{}: {first}{}",
+            crate::io::source_name(&args.file),
+            match implausible.len() {
+                1 => String::new(),
+                n => format!(" (and {} more, listed above)", n - 1),
+            }
+        );
     }
     if let Some(limit) = skip {
         limit.check(&stats, &crate::io::source_name(&args.file))?;

@@ -196,10 +196,7 @@ fn import_with<R: Read>(mut csv: CsvInput<R>, spec: &ImuCsvSpec) -> Result<Vec<M
         csv.headers.iter().position(|h| h == name).ok_or_else(|| {
             csv.error(
                 1,
-                &format!(
-                    "missing column '{name}' (columns are: {})",
-                    csv.headers.join(", ")
-                ),
+                &format!("missing column '{name}' ({})", csv.columns_listing()),
             )
         })
     };

@@ -135,6 +135,26 @@ impl<R: Read> CsvInput<R> {
         })
     }
 
+    /// The column names for an error about a missing column: `columns are: t (s), x, ...` when
+    /// the first row has a time column, which shows the file to be a table of samples. Any
+    /// other file's first row is not repeated: a wrong path may name any file.
+    pub(crate) fn columns_listing(&self) -> String {
+        let is_time_unit = |u: &str| units::TimeUnit::parse(u).is_some();
+        let has_time = self.headers.iter().any(|h| {
+            let (base, _) = units::split_unit(h, is_time_unit);
+            matches!(base.as_str(), "t" | "time" | "timestamp")
+        });
+        if has_time {
+            format!("columns are: {}", self.headers.join(", "))
+        } else {
+            format!(
+                "the first row has {} column(s) and none is a time column 't', 'time' or \
+                 'timestamp': not a table of samples? (its content is not shown)",
+                self.headers.len()
+            )
+        }
+    }
+
     /// Like [`CsvInput::find`], but a missing column is an error on line 1.
     pub(crate) fn require(
         &self,
@@ -151,10 +171,7 @@ impl<R: Read> CsvInput<R> {
             });
             let detail = match unknown_unit {
                 Some((h, unit)) => format!("column '{h}': unknown unit '{unit}' for '{base}'"),
-                None => format!(
-                    "missing column '{base}' (columns are: {})",
-                    self.headers.join(", ")
-                ),
+                None => format!("missing column '{base}' ({})", self.columns_listing()),
             };
             error_at(&self.file, 1, &detail)
         })

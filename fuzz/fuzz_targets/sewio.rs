@@ -1,0 +1,18 @@
+//! Sewio RTLS JSON: the file reader (`nomen import sewio`) and the MQTT payload decoder; the first
+//! byte chooses the configuration.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use nomen_adapters::{RtlsConfig, decode_sewio, read_sewio};
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&choice, data)) = data.split_first() else {
+        return;
+    };
+    let mut config = RtlsConfig::default();
+    if choice & 1 == 1 {
+        config.time_offset_ns = -1_600_000_000_000_000_000;
+    }
+    let _ = read_sewio(data, "fuzz.jsonl", &config);
+    let _ = decode_sewio(data, &config);
+});
