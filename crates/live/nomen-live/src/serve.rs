@@ -8,7 +8,7 @@ use crate::log::IdentityLog;
 use crate::session::{IDLE_TICK, Output, Refusal, Session};
 use crate::topics::{EVENT_TOPIC, HEALTH_TOPIC, INPUT_FILTER, input_source, output_topic};
 use crate::{LiveError, Result};
-use nomen_core::{Message, Registry};
+use nomen_core::{Message, Registry, SkeletonObservation};
 use rumqttc::{Client, Connection, Event, Outgoing, Packet, QoS};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, SyncSender, TrySendError, sync_channel};
@@ -28,6 +28,9 @@ pub trait DecisionSink {
 pub trait Observer {
     /// A session started with `registry` (also when the registry came with the command).
     fn registry(&mut self, registry: &Registry);
+    /// The engine took this skeleton (its decision comes later, in [`Observer::outputs`], with
+    /// the same camera, track and time; decisions carry no joints unless refined).
+    fn skeleton(&mut self, skeleton: &SkeletonObservation);
     /// A batch of outputs (decisions in time order, then events), after they were logged.
     fn outputs(&mut self, outputs: &[Output]);
     /// A health report, as published.
@@ -188,8 +191,13 @@ pub fn serve(
                 last_message = Instant::now();
                 match session.push(&m, last_message, &mut out) {
                     Ok(()) => {
-                        if let (Some(log), Message::Skeleton(s)) = (log.as_mut(), &m) {
-                            log.observe(s);
+                        if let Message::Skeleton(s) = &m {
+                            if let Some(log) = log.as_mut() {
+                                log.observe(s);
+                            }
+                            if let Some(observer) = observer.as_mut() {
+                                observer.skeleton(s);
+                            }
                         }
                     }
                     Err(refusal) => {
