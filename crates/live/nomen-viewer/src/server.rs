@@ -16,7 +16,7 @@ use axum::middleware::{self, Next};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
-use nomen_core::Registry;
+use nomen_core::{Registry, SkeletonObservation};
 use nomen_live::health::HealthReport;
 use nomen_live::session::Output;
 use std::convert::Infallible;
@@ -216,6 +216,10 @@ impl Drop for Viewer {
 impl nomen_live::Observer for Viewer {
     fn registry(&mut self, registry: &Registry) {
         self.shared.state().set_registry(registry);
+    }
+
+    fn skeleton(&mut self, skeleton: &SkeletonObservation) {
+        self.shared.state().push_skeleton(skeleton);
     }
 
     fn outputs(&mut self, outputs: &[Output]) {

@@ -1,12 +1,20 @@
 //! What the page shows, built from the values `nomen serve`'s session loop hands over: the
-//! registry (cameras, anchors, subjects), the decisions (the newest skeleton of each camera track,
-//! the newest fix of each tag), the events and the health reports. Sans-IO: no socket and no wall
-//! clock; a track leaves the screen when the session clock of the decisions has moved
-//! [`ViewerConfig::linger_s`] past its newest decision.
+//! registry (cameras, anchors, subjects), the skeletons the engine took, the decisions (each
+//! camera track's newest one, drawn with the skeleton it decided; the newest fix of each tag),
+//! the events and the health reports. Sans-IO: no socket and no wall clock; a track leaves the
+//! screen when the session clock of the decisions has moved [`ViewerConfig::linger_s`] past its
+//! newest decision.
+//!
+//! The engine's decisions carry no joints (unless pose refinement added them): the skeletons it
+//! took wait here, per track, for their decision (same camera, track and time), at most
+//! [`ViewerConfig::pending_s`] of session time and [`MAX_PENDING_PER_TRACK`] frames per track.
 
 use nalgebra::{Isometry3, Matrix3, Point3};
 use nomen_core::skeleton::{Joint, JointState, NUM_JOINTS};
-use nomen_core::{CameraId, IdentifiedSkeleton, Message, Registry, TagCorrection, TrackId};
+use nomen_core::skeleton::{JointObservation, Joints};
+use nomen_core::{
+    CameraId, IdentifiedSkeleton, Message, Registry, SkeletonObservation, TagCorrection, TrackId,
+};
 use nomen_live::events::Event;
 use nomen_live::health::HealthReport;
 use nomen_live::session::Output;
@@ -26,7 +34,16 @@ pub struct ViewerConfig {
     pub max_tags: usize,
     /// Events kept for the timeline, newest last. Default 100.
     pub max_events: usize,
+    /// Session time a skeleton waits for its decision, s. Default 30: ten times the engine's
+    /// default decision latency with a silent source (3.25 s).
+    pub pending_s: f64,
 }
+
+/// The most skeletons of one track waiting for their decisions (30 s at 30 Hz, 15 at 60 Hz).
+pub const MAX_PENDING_PER_TRACK: usize = 900;
+
+/// World-frame joints of one skeleton.
+type WorldJoints = [Option<JointMm>; NUM_JOINTS];
 
 impl Default for ViewerConfig {
     fn default() -> Self {
@@ -35,6 +52,7 @@ impl Default for ViewerConfig {
             max_people: 256,
             max_tags: 256,
             max_events: 100,
+            pending_s: 30.0,
         }
     }
 }
@@ -76,8 +94,9 @@ pub struct PersonView {
     pub confidence: f64,
     /// Session time of the decision, ns.
     pub t_ns: i64,
-    /// Per canonical joint, in the order of [`Snapshot::joint_names`]: `None` when missing.
-    pub joints: [Option<JointMm>; NUM_JOINTS],
+    /// Per canonical joint, in the order of [`Snapshot::joint_names`]: `None` when missing (all
+    /// `None` when the skeleton of the decision was not kept).
+    pub joints: WorldJoints,
 }
 
 /// The newest correction of one tag.
@@ -169,6 +188,8 @@ pub struct ViewerState {
     anchors: Vec<AnchorView>,
     bones: Vec<[usize; 2]>,
     people: BTreeMap<(CameraId, TrackId), PersonView>,
+    pending: BTreeMap<(CameraId, TrackId), VecDeque<(i64, WorldJoints)>>,
+    newest_skeleton_ns: Option<i64>,
     tags: BTreeMap<String, TagView>,
     events: VecDeque<Event>,
     health: Option<HealthReport>,
@@ -194,6 +215,8 @@ impl ViewerState {
             anchors: Vec::new(),
             bones,
             people: BTreeMap::new(),
+            pending: BTreeMap::new(),
+            newest_skeleton_ns: None,
             tags: BTreeMap::new(),
             events: VecDeque::new(),
             health: None,
@@ -244,9 +267,35 @@ impl ViewerState {
             })
             .collect();
         self.people.clear();
+        self.pending.clear();
+        self.newest_skeleton_ns = None;
         self.tags.clear();
         self.newest_ns = None;
         self.version += 1;
+    }
+
+    /// A skeleton the engine took: it waits for its decision. Not a change of what is shown.
+    pub fn push_skeleton(&mut self, s: &SkeletonObservation) {
+        let t_ns = s.t.as_ns();
+        let joints = self.to_world(&s.camera, &s.joints);
+        let key = (s.camera.clone(), s.track);
+        if !self.pending.contains_key(&key) && self.pending.len() >= self.config.max_people.max(1) {
+            // The track whose newest skeleton is the oldest goes.
+            if let Some(oldest) = self
+                .pending
+                .iter()
+                .min_by_key(|(_, q)| q.back().map_or(i64::MIN, |(t, _)| *t))
+                .map(|(k, _)| k.clone())
+            {
+                self.pending.remove(&oldest);
+            }
+        }
+        let queue = self.pending.entry(key).or_default();
+        if queue.len() >= MAX_PENDING_PER_TRACK {
+            queue.pop_front();
+        }
+        queue.push_back((t_ns, joints));
+        self.newest_skeleton_ns = Some(self.newest_skeleton_ns.map_or(t_ns, |n| n.max(t_ns)));
     }
 
     /// A batch of the session loop's outputs.
@@ -323,34 +372,31 @@ impl ViewerState {
     fn on_identified(&mut self, d: &IdentifiedSkeleton) {
         self.num_decisions += 1;
         let t_ns = d.t.as_ns();
-        // The engine takes only the registry's cameras; one it did not know is drawn in its
-        // own frame.
-        let world_from_camera = self
-            .poses
-            .get(&d.camera)
-            .copied()
-            .unwrap_or_else(Isometry3::identity);
-        let mut joints = [None; NUM_JOINTS];
-        for (joint, o) in d.joints.iter() {
-            if o.state == JointState::Missing {
-                continue;
+        let key = (d.camera.clone(), d.track);
+        // The skeleton decided: the decision's own joints when it has them (refined), else the
+        // one the engine took at that time; those before it will have no decision.
+        let mut taken = None;
+        if let Some(queue) = self.pending.get_mut(&key) {
+            while let Some((t, joints)) = queue.front() {
+                if *t > t_ns {
+                    break;
+                }
+                if *t == t_ns {
+                    taken = Some(*joints);
+                }
+                queue.pop_front();
             }
-            let p = world_from_camera * o.position_m;
-            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
-                continue;
-            }
-            let sigma_mm = match (o.state, o.covariance_m2) {
-                (JointState::Estimated, Some(c)) => largest_sigma_m(&c).map(|s| m_to_mm(s)),
-                _ => None,
-            };
-            if let Some(slot) = joints.get_mut(joint.index()) {
-                *slot = Some(JointMm {
-                    position_mm: to_mm(&p),
-                    sigma_mm,
-                });
+            if queue.is_empty() {
+                self.pending.remove(&key);
             }
         }
-        let key = (d.camera.clone(), d.track);
+        // None kept (the viewer started after it): the track's previous pose stays.
+        let previous = self.people.get(&key).map(|p| p.joints);
+        let joints = if d.joints.is_empty() {
+            taken.or(previous).unwrap_or([None; NUM_JOINTS])
+        } else {
+            self.to_world(&d.camera, &d.joints)
+        };
         self.make_room(&key, self.config.max_people);
         self.people.insert(
             key,
@@ -364,6 +410,38 @@ impl ViewerState {
             },
         );
         self.newest_ns = Some(self.newest_ns.map_or(t_ns, |n| n.max(t_ns)));
+    }
+
+    /// A camera's joints in the world frame, mm; estimated joints with their uncertainty.
+    fn to_world(&self, camera: &CameraId, joints: &Joints<JointObservation>) -> WorldJoints {
+        // The engine takes only the registry's cameras; one it did not know is drawn in its
+        // own frame.
+        let world_from_camera = self
+            .poses
+            .get(camera)
+            .copied()
+            .unwrap_or_else(Isometry3::identity);
+        let mut out = [None; NUM_JOINTS];
+        for (joint, o) in joints.iter() {
+            if o.state == JointState::Missing {
+                continue;
+            }
+            let p = world_from_camera * o.position_m;
+            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+                continue;
+            }
+            let sigma_mm = match (o.state, o.covariance_m2) {
+                (JointState::Estimated, Some(c)) => largest_sigma_m(&c).map(m_to_mm),
+                _ => None,
+            };
+            if let Some(slot) = out.get_mut(joint.index()) {
+                *slot = Some(JointMm {
+                    position_mm: to_mm(&p),
+                    sigma_mm,
+                });
+            }
+        }
+        out
     }
 
     fn on_tag(&mut self, c: &TagCorrection) {
@@ -417,6 +495,15 @@ impl ViewerState {
         let oldest_ns = newest_ns.saturating_sub((self.config.linger_s * 1e9) as i64);
         self.people.retain(|_, p| p.t_ns >= oldest_ns);
         self.tags.retain(|_, t| t.t_ns >= oldest_ns);
+        if let Some(newest_skeleton_ns) = self.newest_skeleton_ns {
+            let oldest_ns = newest_skeleton_ns.saturating_sub((self.config.pending_s * 1e9) as i64);
+            self.pending.retain(|_, q| {
+                while q.front().is_some_and(|(t, _)| *t < oldest_ns) {
+                    q.pop_front();
+                }
+                !q.is_empty()
+            });
+        }
     }
 }
 
@@ -527,6 +614,76 @@ mod tests {
             serde_json::json!([0, 0, 2_500])
         );
         assert_eq!(json["bones"].as_array().unwrap().len(), NUM_JOINTS - 1);
+    }
+
+    fn skeleton(t_s: f64, track: u64, x_m: f64) -> SkeletonObservation {
+        let mut joints = Joints::new();
+        for joint in Joint::ALL {
+            joints.insert(joint, JointObservation::tracked(Point3::new(x_m, 0.0, 1.0)));
+        }
+        SkeletonObservation {
+            t: SessionTime::from_ns((t_s * 1e9) as i64),
+            camera: CameraId::new("cam"),
+            track: TrackId(track),
+            joints,
+        }
+    }
+
+    fn without_joints(mut o: Output) -> Output {
+        if let Output::Decision(Message::Identified(d)) = &mut o {
+            d.joints = Joints::new();
+        }
+        o
+    }
+
+    #[test]
+    fn a_decision_is_drawn_with_the_skeleton_it_decided() {
+        let mut state = ViewerState::new(ViewerConfig::default());
+        state.set_registry(&registry());
+        for k in 0..10 {
+            state.push_skeleton(&skeleton(1.0 + 0.1 * f64::from(k), 1, f64::from(k)));
+        }
+        // The engine's decision for t = 1.3 s, without joints: the skeleton of 1.3 s is drawn,
+        // the earlier ones are dropped, the later ones wait.
+        state.apply(&[without_joints(decision(1.3, 1, Some("ana")))]);
+        let person = state.people().next().unwrap();
+        assert_eq!(
+            person.joints[Joint::Head.index()].unwrap().position_mm,
+            [13_000, 0, 1_000]
+        );
+        assert_eq!(state.pending.values().next().unwrap().len(), 6);
+        // A decision whose skeleton was not kept keeps the track's previous pose.
+        state.apply(&[without_joints(decision(1.35, 1, Some("ana")))]);
+        let person = state.people().next().unwrap();
+        assert_eq!(
+            person.joints[Joint::Head.index()].unwrap().position_mm,
+            [13_000, 0, 1_000]
+        );
+    }
+
+    #[test]
+    fn skeletons_waiting_for_a_decision_are_bounded() {
+        let config = ViewerConfig {
+            max_people: 3,
+            ..ViewerConfig::default()
+        };
+        let mut state = ViewerState::new(config);
+        state.set_registry(&registry());
+        for k in 0..(MAX_PENDING_PER_TRACK + 10) {
+            state.push_skeleton(&skeleton(0.01 * k as f64, 1, 0.0));
+        }
+        assert_eq!(
+            state.pending.values().next().unwrap().len(),
+            MAX_PENDING_PER_TRACK
+        );
+        for track in 2..10 {
+            state.push_skeleton(&skeleton(10.0, track, 0.0));
+        }
+        assert_eq!(state.pending.len(), 3);
+        // Older than pending_s before the newest skeleton: dropped at the next batch.
+        state.push_skeleton(&skeleton(100.0, 20, 0.0));
+        state.apply(&[decision(100.0, 20, None)]);
+        assert!(state.pending.is_empty(), "{:?}", state.pending.keys());
     }
 
     #[test]
