@@ -145,24 +145,39 @@ canvas.addEventListener('wheel', (ev) => {
   userMoved = true;
   placeView();
 }, { passive: false });
-canvas.addEventListener('dblclick', () => { userMoved = false; fitted = false; });
+canvas.addEventListener('dblclick', () => { userMoved = false; fitted = false; if (frame) growRoom(frame); });
 
-// Fits the view to the room: anchors, cameras and everyone on screen.
+// The room: a box around the anchors, the cameras and everyone seen so far in the session. The
+// view is fitted to it whenever it grows, until the user turns or zooms (a double-click fits
+// again).
+const roomBox = new THREE.Box3();
 let fitted = false;
-function fit(frame) {
-  const box = new THREE.Box3();
-  const add = (mm) => box.expandByPoint(new THREE.Vector3(mm[0] / 1000, mm[1] / 1000, mm[2] / 1000));
+function growRoom(frame) {
+  const before = roomBox.clone();
+  const add = (mm) => roomBox.expandByPoint(new THREE.Vector3(mm[0] / 1000, mm[1] / 1000, mm[2] / 1000));
   for (const a of frame.anchors) add(a.position_mm);
   for (const c of frame.cameras) add(c.position_mm);
   for (const p of frame.people) for (const j of p.joints) if (j) add(j);
-  if (box.isEmpty()) return false;
-  box.expandByScalar(0.5);
-  box.getCenter(orbit.target);
-  const size = box.getSize(new THREE.Vector3());
-  orbit.distance = Math.max(4, 1.3 * Math.max(size.x, size.y, size.z * 2));
+  if (roomBox.isEmpty()) return;
+  // Grown by more than 25 cm on a side: fit and redraw the floor.
+  const grown = before.isEmpty()
+    || before.min.distanceTo(roomBox.min) > 0.25 || before.max.distanceTo(roomBox.max) > 0.25;
+  if (grown) {
+    rebuildFloor(roomBox);
+    fitted = false;
+  }
+  if (!fitted && !userMoved) {
+    fit(roomBox);
+    fitted = true;
+  }
+}
+function fit(box) {
+  const padded = box.clone().expandByScalar(0.5);
+  padded.getCenter(orbit.target);
+  orbit.target.z = Math.min(orbit.target.z, 1.0);
+  const size = padded.getSize(new THREE.Vector3());
+  orbit.distance = Math.max(4, 1.2 * Math.max(size.x, size.y, size.z * 2));
   placeView();
-  rebuildFloor(box);
-  return true;
 }
 
 function rebuildFloor(box) {
@@ -170,7 +185,7 @@ function rebuildFloor(box) {
     room.remove(old);
     old.geometry.dispose();
   }
-  const size = Math.ceil(Math.max(box.max.x - box.min.x, box.max.y - box.min.y, 4));
+  const size = Math.ceil(Math.max(box.max.x - box.min.x, box.max.y - box.min.y, 4) + 1);
   const grid = new THREE.GridHelper(size, size, 0x4a515b, 0x30353d);
   grid.rotation.x = Math.PI / 2; // GridHelper lies in x-z; the floor is x-y
   grid.position.set((box.min.x + box.max.x) / 2, (box.min.y + box.max.y) / 2, 0);
@@ -203,6 +218,7 @@ function rebuildRoom(frame) {
     m.position.set(a.position_mm[0] / 1000, a.position_mm[1] / 1000, a.position_mm[2] / 1000);
     room.add(m);
   }
+  roomBox.makeEmpty();
   subjectIndex = new Map(frame.subjects.map((s, i) => [s, i]));
   colorCache.clear();
 }
@@ -218,7 +234,7 @@ let dirty = false;
 function applyFrame() {
   dirty = false;
   rebuildRoom(frame);
-  if (!fitted && !userMoved) fitted = fit(frame);
+  growRoom(frame);
   let nj = 0, ns = 0;
   bones.n = 0;
   labelAnchors = [];

@@ -158,6 +158,12 @@ pub fn run(args: DemoArgs) -> Result<()> {
     }
     write!(stdout, "{}", mot_table(&rows))?;
     writeln!(stdout, "\nfiles in {}", args.out.display())?;
+    writeln!(
+        stdout,
+        "live: `nomen serve --http` in one terminal, `nomen replay {} --speed 1` in another, \
+         then open http://127.0.0.1:8080/",
+        recording.display()
+    )?;
     Ok(())
 }
 
