@@ -59,7 +59,9 @@ try {
     options.minPeople,
     { timeout: options.timeoutS * 1000, polling: 100 },
   );
-  // The frame intervals of requestAnimationFrame over the measurement, as the page sees them.
+  // The frame intervals of requestAnimationFrame over the measurement, as the page sees them,
+  // and how many of those frames the page drew.
+  const before = await page.evaluate(() => window.nomenViewer.counts());
   const intervals = await page.evaluate((ms) => new Promise((resolve) => {
     const d = [];
     let previous = null;
@@ -71,6 +73,7 @@ try {
     }
     requestAnimationFrame(step);
   }), options.measureS * 1000);
+  const after = await page.evaluate(() => window.nomenViewer.counts());
   const state = await page.evaluate(() => {
     const b = document.body.dataset;
     const gl = document.createElement('canvas').getContext('webgl2');
@@ -101,6 +104,7 @@ try {
     measured: {
       seconds: options.measureS,
       num_frames: intervals.length,
+      num_rendered: after.numRendered - before.numRendered,
       mean_ms: mean,
       p50_ms: at(0.5),
       p95_ms: at(0.95),

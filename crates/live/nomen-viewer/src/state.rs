@@ -447,16 +447,16 @@ impl ViewerState {
     fn on_tag(&mut self, c: &TagCorrection) {
         let t_ns = c.t.as_ns();
         let tag = c.tag.as_str().to_owned();
-        if !self.tags.contains_key(&tag) && self.tags.len() >= self.config.max_tags.max(1) {
-            if let Some(oldest) = self
+        if !self.tags.contains_key(&tag)
+            && self.tags.len() >= self.config.max_tags.max(1)
+            && let Some(oldest) = self
                 .tags
                 .iter()
                 .min_by_key(|(_, v)| v.t_ns)
                 .map(|(k, _)| k.clone())
-            {
-                self.tags.remove(&oldest);
-                self.num_evicted += 1;
-            }
+        {
+            self.tags.remove(&oldest);
+            self.num_evicted += 1;
         }
         self.tags.insert(
             tag.clone(),

@@ -12,9 +12,14 @@ const RAW_FIX = new THREE.Color(0x6c727c);
 const FRAME_WINDOW = 120; // frames over which the frame time is averaged
 const body = document.body;
 
+// `?render=always` draws every animation frame, not only when something changed: the frame
+// time then measures the drawing itself, whatever the rate of the data.
+const params = new URLSearchParams(location.search);
+const renderAlways = params.get('render') === 'always';
 // The token travels as a cookie once the page is open: keep it out of the address bar.
-if (new URLSearchParams(location.search).has('token')) {
-  history.replaceState(null, '', location.pathname);
+if (params.has('token')) {
+  params.delete('token');
+  history.replaceState(null, '', location.pathname + (params.size ? `?${params}` : ''));
 }
 
 // --- scene ---------------------------------------------------------------------------------
@@ -449,7 +454,7 @@ function loop(now) {
   resize();
   // Drawn when something changed: a new frame from the server, or the view.
   if (dirty && frame) applyFrame();
-  if (viewMoved) {
+  if (viewMoved || renderAlways) {
     placeLabels();
     viewMoved = false;
     renderer.render(scene, view);
@@ -484,6 +489,7 @@ requestAnimationFrame(loop);
 // A hook for tests and tools: the newest frame and the last frame intervals and work times, ms.
 window.nomenViewer = {
   frame: () => frame,
+  counts: () => ({ numFrames, numRendered }),
   frameTimes: () => {
     const n = Math.min(numFrames, FRAME_WINDOW);
     return { intervals: Array.from(intervals.subarray(0, n)), work: Array.from(works.subarray(0, n)) };
