@@ -38,9 +38,11 @@ view.up.set(0, 0, 1);
 const room = new THREE.Group();
 scene.add(room);
 
+// Unlit, low-poly spheres: in software WebGL (headless Chromium, SwiftShader) lighting and
+// triangles are what the frame time is made of.
 const jointMesh = new THREE.InstancedMesh(
-  new THREE.SphereGeometry(0.045, 8, 5),
-  new THREE.MeshLambertMaterial(),
+  new THREE.SphereGeometry(0.045, 6, 4),
+  new THREE.MeshBasicMaterial(),
   MAX_PEOPLE * NUM_JOINTS,
 );
 jointMesh.instanceMatrix.setUsage(THREE.DynamicDrawUsage);
@@ -329,10 +331,15 @@ function placeLabels() {
     const [x, y, z] = labelAnchors[i];
     projected.set(x, y, z).project(view);
     const el = labelPool[i];
-    if (projected.z > 1) { el.style.display = 'none'; continue; }
-    el.style.display = '';
+    if (projected.z > 1) { if (el.style.display !== 'none') el.style.display = 'none'; continue; }
+    if (el.style.display !== '') el.style.display = '';
     const sx = (projected.x * 0.5 + 0.5) * w, sy = (-projected.y * 0.5 + 0.5) * h;
-    el.style.transform = `translate(${Math.round(sx)}px, ${Math.round(sy)}px) translate(-50%, -100%)`;
+    const transform = `translate(${Math.round(sx)}px, ${Math.round(sy)}px) translate(-50%, -100%)`;
+    // Written only when it moved: each write costs the browser a style pass.
+    if (el.dataset.at !== transform) {
+      el.dataset.at = transform;
+      el.style.transform = transform;
+    }
   }
 }
 
