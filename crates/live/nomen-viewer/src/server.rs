@@ -7,7 +7,7 @@
 
 use crate::access::{Access, COOKIE, query_token};
 use crate::assets;
-use crate::state::{ServerStats, ViewerConfig, ViewerState};
+use crate::state::{PLAYOUT_NS, ServerStats, ViewerConfig, ViewerState};
 use crate::{Result, ViewerError};
 use axum::Router;
 use axum::extract::{Request, State};
@@ -23,7 +23,7 @@ use std::convert::Infallible;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 use tokio::sync::watch;
 
 /// How the viewer serves.
@@ -102,24 +102,61 @@ impl Shared {
         }
     }
 
-    /// The current state as the JSON of a frame numbered `seq`.
-    fn frame_json(&self, seq: u64) -> String {
+    /// The current state as the JSON of a frame numbered `seq`, presented at `present_ns`.
+    fn frame_json(&self, seq: u64, present_ns: Option<i64>) -> String {
         let state = self.state();
         // Our own values always serialise (finite numbers, string keys).
-        serde_json::to_string(&state.snapshot(seq, self.stats())).unwrap_or_default()
+        serde_json::to_string(&state.snapshot(seq, self.stats(), present_ns)).unwrap_or_default()
     }
 
-    /// Makes a frame when the state changed since `last_version` and a page is listening.
-    fn tick(&self, seq: &mut u64, last_version: &mut u64) {
-        let version = self.state().version();
-        if version == *last_version || self.frames.receiver_count() == 0 {
+    /// Makes a frame when the state or the presentation time changed and a page is listening.
+    fn tick(&self, seq: &mut u64, last_version: &mut u64, playout: &mut Playout) {
+        let (version, newest_ns) = {
+            let state = self.state();
+            (state.version(), state.newest_ns())
+        };
+        let present_ns = playout.advance(newest_ns, Instant::now());
+        if (version == *last_version && present_ns == playout.shown_ns)
+            || self.frames.receiver_count() == 0
+        {
             return;
         }
         *last_version = version;
+        playout.shown_ns = present_ns;
         *seq += 1;
-        let json = Arc::from(self.frame_json(*seq));
+        let json = Arc::from(self.frame_json(*seq, present_ns));
         self.frames
             .send_replace(Arc::new(Frame { seq: *seq, json }));
+    }
+}
+
+/// The presentation time of the frames: the engine decides in batches (one per window hop), so
+/// the frames run through each batch at the pace of the wall clock, at most [`PLAYOUT_NS`]
+/// behind the newest decision, instead of jumping from batch to batch.
+#[derive(Debug, Default)]
+struct Playout {
+    present: Option<(i64, Instant)>,
+    shown_ns: Option<i64>,
+}
+
+impl Playout {
+    fn advance(&mut self, newest_ns: Option<i64>, now: Instant) -> Option<i64> {
+        let Some(newest_ns) = newest_ns else {
+            self.present = None;
+            return None;
+        };
+        let present_ns = match self.present {
+            None => newest_ns,
+            Some((ns, at)) => {
+                let elapsed_ns =
+                    i64::try_from(now.saturating_duration_since(at).as_nanos()).unwrap_or(i64::MAX);
+                ns.saturating_add(elapsed_ns)
+                    .max(newest_ns.saturating_sub(PLAYOUT_NS))
+                    .min(newest_ns)
+            }
+        };
+        self.present = Some((present_ns, now));
+        Some(present_ns)
     }
 }
 
@@ -165,9 +202,10 @@ impl Viewer {
                         let mut interval = tokio::time::interval(period);
                         interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
                         let (mut seq, mut last_version) = (0, u64::MAX);
+                        let mut playout = Playout::default();
                         loop {
                             interval.tick().await;
-                            ticker_shared.tick(&mut seq, &mut last_version);
+                            ticker_shared.tick(&mut seq, &mut last_version, &mut playout);
                         }
                     };
                     tokio::select! {
@@ -316,7 +354,7 @@ async fn snapshot(State(shared): State<Arc<Shared>>) -> Response {
             (header::CONTENT_TYPE, "application/json"),
             (header::CACHE_CONTROL, "no-store"),
         ],
-        shared.frame_json(seq),
+        shared.frame_json(seq, None),
     )
         .into_response()
 }
@@ -345,7 +383,7 @@ async fn stream(State(shared): State<Arc<Shared>>) -> Response {
     // The page gets the current state at once, then each new frame.
     let first = Arc::new(Frame {
         seq: frames.borrow().seq,
-        json: Arc::from(shared.frame_json(frames.borrow().seq)),
+        json: Arc::from(shared.frame_json(frames.borrow().seq, None)),
     });
     drop(frames.borrow_and_update());
     let events = futures_util::stream::unfold(
@@ -505,6 +543,7 @@ mod tests {
             assert!(first.starts_with(b"data: {"));
             // Ten frames made while the page reads nothing: it gets the newest only.
             let (mut seq, mut version) = (0, u64::MAX);
+            let mut playout = Playout::default();
             for k in 0..10 {
                 shared
                     .state()
@@ -513,7 +552,7 @@ mod tests {
                         1,
                         (0, 1),
                     ));
-                shared.tick(&mut seq, &mut version);
+                shared.tick(&mut seq, &mut version, &mut playout);
             }
             let next = body.next().await.unwrap().unwrap();
             let text = String::from_utf8_lossy(&next);

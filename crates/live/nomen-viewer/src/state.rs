@@ -39,6 +39,12 @@ pub struct ViewerConfig {
     pub pending_s: f64,
 }
 
+/// Session time of decided poses kept for the playout, ns: two of the engine's default hops
+/// (0.5 s), the batches its decisions come in.
+pub const PLAYOUT_NS: i64 = 1_000_000_000;
+/// The most decided poses kept for the playout (32 people at 30 Hz for 10 s).
+pub const MAX_RECENT: usize = 10_000;
+
 /// The most skeletons of one track waiting for their decisions (30 s at 30 Hz, 15 at 60 Hz).
 pub const MAX_PENDING_PER_TRACK: usize = 900;
 
@@ -188,6 +194,9 @@ pub struct ViewerState {
     anchors: Vec<AnchorView>,
     bones: Vec<[usize; 2]>,
     people: BTreeMap<(CameraId, TrackId), PersonView>,
+    /// Decided poses of the last [`PLAYOUT_NS`], oldest first: a frame shows each track as it
+    /// was at the frame's presentation time, not only at its newest decision.
+    recent: VecDeque<PersonView>,
     pending: BTreeMap<(CameraId, TrackId), VecDeque<(i64, WorldJoints)>>,
     newest_skeleton_ns: Option<i64>,
     tags: BTreeMap<String, TagView>,
@@ -215,6 +224,7 @@ impl ViewerState {
             anchors: Vec::new(),
             bones,
             people: BTreeMap::new(),
+            recent: VecDeque::new(),
             pending: BTreeMap::new(),
             newest_skeleton_ns: None,
             tags: BTreeMap::new(),
@@ -267,6 +277,7 @@ impl ViewerState {
             })
             .collect();
         self.people.clear();
+        self.recent.clear();
         self.pending.clear();
         self.newest_skeleton_ns = None;
         self.tags.clear();
@@ -326,6 +337,11 @@ impl ViewerState {
         self.version += 1;
     }
 
+    /// The newest decision's session time, ns.
+    pub fn newest_ns(&self) -> Option<i64> {
+        self.newest_ns
+    }
+
     /// The subjects named on screen now, sorted.
     pub fn named(&self) -> BTreeSet<&str> {
         self.people
@@ -344,8 +360,23 @@ impl ViewerState {
         self.tags.values()
     }
 
-    /// The frame numbered `seq`.
-    pub fn snapshot(&self, seq: u64, server: ServerStats) -> Snapshot<'_> {
+    /// The frame numbered `seq`, showing each track on screen as it was decided at `present_ns`
+    /// (its newest decision at or before then, within the last [`PLAYOUT_NS`]; its newest one
+    /// when none), or at its newest decision when `present_ns` is `None`.
+    pub fn snapshot(&self, seq: u64, server: ServerStats, present_ns: Option<i64>) -> Snapshot<'_> {
+        let mut people: BTreeMap<(&CameraId, TrackId), &PersonView> =
+            self.people.iter().map(|((c, t), p)| ((c, *t), p)).collect();
+        if let Some(present_ns) = present_ns {
+            let mut at_present: BTreeMap<(&CameraId, TrackId), &PersonView> = BTreeMap::new();
+            for p in self.recent.iter().take_while(|p| p.t_ns <= present_ns) {
+                at_present.insert((&p.camera, p.track), p);
+            }
+            for (key, p) in at_present {
+                if let Some(slot) = people.get_mut(&key) {
+                    *slot = p;
+                }
+            }
+        }
         let mut joint_names = [""; NUM_JOINTS];
         for j in Joint::ALL {
             joint_names[j.index()] = j.name();
@@ -359,7 +390,7 @@ impl ViewerState {
             subjects: &self.subjects,
             cameras: &self.cameras,
             anchors: &self.anchors,
-            people: self.people.values().collect(),
+            people: people.into_values().collect(),
             tags: self.tags.values().collect(),
             events: &self.events,
             health: self.health.as_ref(),
@@ -398,17 +429,19 @@ impl ViewerState {
             self.to_world(&d.camera, &d.joints)
         };
         self.make_room(&key, self.config.max_people);
-        self.people.insert(
-            key,
-            PersonView {
-                camera: d.camera.clone(),
-                track: d.track,
-                subject: d.identity.subject().map(|s| s.as_str().to_owned()),
-                confidence: d.confidence,
-                t_ns,
-                joints,
-            },
-        );
+        let person = PersonView {
+            camera: d.camera.clone(),
+            track: d.track,
+            subject: d.identity.subject().map(|s| s.as_str().to_owned()),
+            confidence: d.confidence,
+            t_ns,
+            joints,
+        };
+        if self.recent.len() >= MAX_RECENT {
+            self.recent.pop_front();
+        }
+        self.recent.push_back(person.clone());
+        self.people.insert(key, person);
         self.newest_ns = Some(self.newest_ns.map_or(t_ns, |n| n.max(t_ns)));
     }
 
@@ -494,6 +527,14 @@ impl ViewerState {
         };
         let oldest_ns = newest_ns.saturating_sub((self.config.linger_s * 1e9) as i64);
         self.people.retain(|_, p| p.t_ns >= oldest_ns);
+        let oldest_recent_ns = newest_ns.saturating_sub(PLAYOUT_NS);
+        while self
+            .recent
+            .front()
+            .is_some_and(|p| p.t_ns < oldest_recent_ns)
+        {
+            self.recent.pop_front();
+        }
         self.tags.retain(|_, t| t.t_ns >= oldest_ns);
         if let Some(newest_skeleton_ns) = self.newest_skeleton_ns {
             let oldest_ns = newest_skeleton_ns.saturating_sub((self.config.pending_s * 1e9) as i64);
@@ -598,7 +639,7 @@ mod tests {
             Some(30)
         );
         assert_eq!(person.joints[Joint::RightFoot.index()], None);
-        let json = serde_json::to_value(state.snapshot(7, ServerStats::default())).unwrap();
+        let json = serde_json::to_value(state.snapshot(7, ServerStats::default(), None)).unwrap();
         assert_eq!(json["seq"], 7);
         assert_eq!(json["people"][0]["subject"], "ana");
         assert_eq!(
@@ -659,6 +700,35 @@ mod tests {
             person.joints[Joint::Head.index()].unwrap().position_mm,
             [13_000, 0, 1_000]
         );
+    }
+
+    #[test]
+    fn a_frame_shows_each_track_as_decided_at_its_presentation_time() {
+        let mut state = ViewerState::new(ViewerConfig::default());
+        state.set_registry(&registry());
+        // One batch of a hop: five decisions of one track, 0.1 s apart.
+        let batch: Vec<Output> = (0..5)
+            .map(|k| {
+                let subject = if k < 3 { None } else { Some("ana") };
+                decision(1.0 + 0.1 * f64::from(k), 1, subject)
+            })
+            .collect();
+        state.apply(&batch);
+        let at = |present: Option<i64>| {
+            let json =
+                serde_json::to_value(state.snapshot(1, ServerStats::default(), present)).unwrap();
+            (
+                json["people"][0]["t_ns"].as_i64().unwrap(),
+                json["people"][0]["subject"].clone(),
+            )
+        };
+        assert_eq!(at(None), (1_400_000_000, serde_json::json!("ana")));
+        assert_eq!(
+            at(Some(1_150_000_000)),
+            (1_100_000_000, serde_json::Value::Null)
+        );
+        // Before anything kept: the newest.
+        assert_eq!(at(Some(0)).0, 1_400_000_000);
     }
 
     #[test]
@@ -727,7 +797,7 @@ mod tests {
             .map(|k| Output::Event(Event::warning(k, format!("w{k}"))))
             .collect();
         state.apply(&events);
-        let json = serde_json::to_value(state.snapshot(1, ServerStats::default())).unwrap();
+        let json = serde_json::to_value(state.snapshot(1, ServerStats::default(), None)).unwrap();
         assert_eq!(json["num_evicted"], 6);
         let messages: Vec<&str> = json["events"]
             .as_array()
