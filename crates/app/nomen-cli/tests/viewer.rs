@@ -456,12 +456,22 @@ fn a_viewer_off_loopback_needs_its_token() {
         &[&format!("Cookie: nomen_token={TOKEN}")],
     );
     assert_eq!(status, 200);
-    let (status, _, _) = http_get(
-        http_port,
-        "/api/snapshot",
-        &[&format!("Authorization: Bearer {TOKEN}")],
-    );
-    assert_eq!(status, 200);
+    // The service runs (its first health report is in) before it is stopped: a SIGTERM before
+    // it handles signals would kill it.
+    let started = Instant::now();
+    loop {
+        let (status, _, body) = http_get(
+            http_port,
+            "/api/snapshot",
+            &[&format!("Authorization: Bearer {TOKEN}")],
+        );
+        assert_eq!(status, 200);
+        if body.contains("\"health\":{") {
+            break;
+        }
+        assert!(started.elapsed() < TIMEOUT, "{}", serve.stderr());
+        std::thread::sleep(Duration::from_millis(50));
+    }
     serve.stop();
 }
 
