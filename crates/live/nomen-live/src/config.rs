@@ -40,6 +40,13 @@ pub struct ServeConfig {
     /// Session time without a decision naming a subject after which he is lost, s, at most
     /// 86,400. Default 3.
     pub lost_after_s: f64,
+    /// Where the web viewer listens, `host:port` (`docs/live.md`); none: no viewer. `--http`
+    /// overrides it. A non-loopback address needs `http_token`.
+    pub http: Option<String>,
+    /// The token the viewer asks of every request (`Authorization: Bearer`, `?token=` or the
+    /// cookie the page sets); required when `http` is not a loopback address, optional
+    /// otherwise. `--http-token` overrides it.
+    pub http_token: Option<String>,
     /// The engine's configuration, as in `nomen run --config`.
     pub engine: EngineConfig,
 }
@@ -56,6 +63,8 @@ impl Default for ServeConfig {
             publish_capacity: 4_096,
             health_period_s: 1.0,
             lost_after_s: 3.0,
+            http: None,
+            http_token: None,
             engine: EngineConfig::default(),
         }
     }

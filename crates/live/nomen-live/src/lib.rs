@@ -22,4 +22,4 @@ pub mod topics;
 
 pub use config::ServeConfig;
 pub use error::{LiveError, Result};
-pub use serve::{DecisionSink, ServeOptions, ServeSummary, serve};
+pub use serve::{DecisionSink, Observer, ServeOptions, ServeSummary, serve};

@@ -8,7 +8,7 @@ use crate::log::IdentityLog;
 use crate::session::{IDLE_TICK, Output, Refusal, Session};
 use crate::topics::{EVENT_TOPIC, HEALTH_TOPIC, INPUT_FILTER, input_source, output_topic};
 use crate::{LiveError, Result};
-use nomen_core::{Message, Registry};
+use nomen_core::{Message, Registry, SkeletonObservation};
 use rumqttc::{Client, Connection, Event, Outgoing, Packet, QoS};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, SyncSender, TrySendError, sync_channel};
@@ -21,6 +21,20 @@ pub trait DecisionSink {
     fn write(&mut self, registry: &Registry, decisions: &[Message]) -> std::io::Result<()>;
     /// The service stops: flush.
     fn finish(&mut self) -> std::io::Result<()>;
+}
+
+/// What watches the service besides MQTT (the web viewer): it is handed the values the session
+/// loop makes, as they are made, and must return at once (it runs on the session loop).
+pub trait Observer {
+    /// A session started with `registry` (also when the registry came with the command).
+    fn registry(&mut self, registry: &Registry);
+    /// The engine took this skeleton (its decision comes later, in [`Observer::outputs`], with
+    /// the same camera, track and time; decisions carry no joints unless refined).
+    fn skeleton(&mut self, skeleton: &SkeletonObservation);
+    /// A batch of outputs (decisions in time order, then events), after they were logged.
+    fn outputs(&mut self, outputs: &[Output]);
+    /// A health report, as published.
+    fn health(&mut self, report: &HealthReport);
 }
 
 /// How `serve` runs.
@@ -77,13 +91,14 @@ fn lock(health: &SharedHealth) -> std::sync::MutexGuard<'_, Health> {
 /// runs `session` on them, publishes its outputs (QoS 1), a health report every period and,
 /// at the end, the session's last decisions. `registry`, when given, starts the first session
 /// before any registry message arrives. Every batch of outputs goes to `log` (committed) before
-/// it is published, and to `sink`.
+/// it is published, and to `sink` and `observer`.
 pub fn serve(
     options: &ServeOptions,
     mut session: Session,
     registry: Option<Registry>,
     mut sink: Option<&mut dyn DecisionSink>,
     mut log: Option<IdentityLog>,
+    mut observer: Option<&mut dyn Observer>,
     stop: &AtomicBool,
 ) -> Result<ServeSummary> {
     let started = Instant::now();
@@ -139,10 +154,18 @@ pub fn serve(
         num_events: 0,
         num_sent: 0,
         logged_session: 0,
+        observed_session: 0,
     };
     if let Some(registry) = registry {
         session.set_registry(registry, &mut out);
-        publisher.publish(&mut out, &session, &mut sink, &mut log, &health)?;
+        publisher.publish(
+            &mut out,
+            &session,
+            &mut sink,
+            &mut log,
+            &mut observer,
+            &health,
+        )?;
     }
     let mut last_message = Instant::now();
     let mut next_health = started + options.health_period;
@@ -168,8 +191,13 @@ pub fn serve(
                 last_message = Instant::now();
                 match session.push(&m, last_message, &mut out) {
                     Ok(()) => {
-                        if let (Some(log), Message::Skeleton(s)) = (log.as_mut(), &m) {
-                            log.observe(s);
+                        if let Message::Skeleton(s) = &m {
+                            if let Some(log) = log.as_mut() {
+                                log.observe(s);
+                            }
+                            if let Some(observer) = observer.as_mut() {
+                                observer.skeleton(s);
+                            }
                         }
                     }
                     Err(refusal) => {
@@ -197,7 +225,14 @@ pub fn serve(
                 break;
             }
         }
-        if let Err(e) = publisher.publish(&mut out, &session, &mut sink, &mut log, &health) {
+        if let Err(e) = publisher.publish(
+            &mut out,
+            &session,
+            &mut sink,
+            &mut log,
+            &mut observer,
+            &health,
+        ) {
             result = Err(e);
             break;
         }
@@ -210,7 +245,7 @@ pub fn serve(
                 &shared.in_queue,
                 options.queue_capacity,
             );
-            publisher.health(&report)?;
+            publisher.health(&report, &mut observer)?;
         }
     }
     // Stopped: take what is queued, then flush the engine.
@@ -223,7 +258,14 @@ pub fn serve(
         }
     }
     session.finish(&mut out);
-    publisher.publish(&mut out, &session, &mut sink, &mut log, &health)?;
+    publisher.publish(
+        &mut out,
+        &session,
+        &mut sink,
+        &mut log,
+        &mut observer,
+        &health,
+    )?;
     if let Some(sink) = sink {
         sink.finish().map_err(|e| LiveError::Io {
             what: "cannot write the decisions".to_owned(),
@@ -237,7 +279,7 @@ pub fn serve(
         &shared.in_queue,
         options.queue_capacity,
     );
-    publisher.health(&report)?;
+    publisher.health(&report, &mut observer)?;
     let summary = ServeSummary {
         health: report,
         num_decisions: publisher.num_decisions,
@@ -283,6 +325,8 @@ struct Publisher<'a> {
     num_sent: u64,
     /// The session the log's rows go to (0: none yet).
     logged_session: u64,
+    /// The session the observer was last told of (0: none yet).
+    observed_session: u64,
 }
 
 impl Publisher<'_> {
@@ -292,6 +336,7 @@ impl Publisher<'_> {
         session: &Session,
         sink: &mut Option<&mut dyn DecisionSink>,
         log: &mut Option<IdentityLog>,
+        observer: &mut Option<&mut dyn Observer>,
         health: &SharedHealth,
     ) -> Result<()> {
         if !out.is_empty() {
@@ -299,7 +344,16 @@ impl Publisher<'_> {
                 // Written and committed before anything is published.
                 log.write(out)?;
             }
+            if let Some(observer) = observer.as_mut() {
+                observer.outputs(out);
+            }
             self.send_all(out, session, sink, health)?;
+        }
+        if let (Some(observer), Some(registry)) = (observer.as_mut(), session.registry())
+            && session.num_sessions() != self.observed_session
+        {
+            observer.registry(registry);
+            self.observed_session = session.num_sessions();
         }
         // A new session (after its predecessor's last outputs went to the old one).
         if let (Some(log), Some(registry)) = (log.as_mut(), session.registry())
@@ -357,7 +411,14 @@ impl Publisher<'_> {
         Ok(())
     }
 
-    fn health(&mut self, report: &HealthReport) -> Result<()> {
+    fn health(
+        &mut self,
+        report: &HealthReport,
+        observer: &mut Option<&mut dyn Observer>,
+    ) -> Result<()> {
+        if let Some(observer) = observer.as_mut() {
+            observer.health(report);
+        }
         self.send(HEALTH_TOPIC.to_owned(), to_json(report))
     }
 

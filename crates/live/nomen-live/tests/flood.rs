@@ -53,7 +53,7 @@ fn a_flood_into_a_small_queue_is_taken_or_dropped_and_counted_never_buffered() {
                 health_period: Duration::from_millis(50),
                 connect_timeout: Duration::from_secs(10),
             };
-            serve(&options, session, None, None, None, &stop).unwrap()
+            serve(&options, session, None, None, None, None, &stop).unwrap()
         })
     };
     // Wait until the service is subscribed: its first health report.

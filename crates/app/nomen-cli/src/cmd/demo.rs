@@ -164,6 +164,12 @@ pub fn run(args: DemoArgs) -> Result<()> {
          defined in crates/eval/nomen-eval/METRICS.md, the recording and result format in \
          crates/sources/nomen-recording/FORMAT.md"
     )?;
+    writeln!(
+        stdout,
+        "live: `nomen serve --http` in one terminal, `nomen replay {} --speed 1` in another, \
+         then open http://127.0.0.1:8080/",
+        recording.display()
+    )?;
     Ok(())
 }
 

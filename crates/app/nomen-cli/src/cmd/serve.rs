@@ -10,8 +10,9 @@ use nomen_core::{Message, Registry};
 use nomen_live::ServeOptions;
 use nomen_live::broker::{BrokerAddr, start_embedded};
 use nomen_live::session::{Session, SessionOptions};
-use nomen_live::{DecisionSink, ServeConfig};
+use nomen_live::{DecisionSink, Observer, ServeConfig};
 use nomen_recording::{Header, RecordingReader, RecordingWriter};
+use nomen_viewer::{Viewer, ViewerOptions};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -46,7 +47,19 @@ pub struct ServeArgs {
     /// A model from `nomen train cnn`: the engine adds its score as one more model.
     #[arg(long, value_name = "MODEL")]
     pub cnn: Option<PathBuf>,
+    /// Serve the web viewer on this address (`--http` alone: 127.0.0.1:8080): the room in 3D,
+    /// named and anonymous skeletons, tag fixes, sensor health and events, live.
+    #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = DEFAULT_HTTP)]
+    pub http: Option<String>,
+    /// The token the viewer asks of every request (`?token=` in the page's address); required
+    /// when `--http` is not a loopback address. Better in `serve.toml` (`http_token`), out of
+    /// the process list.
+    #[arg(long, value_name = "TOKEN")]
+    pub http_token: Option<String>,
 }
+
+/// Where `--http` alone serves the viewer.
+const DEFAULT_HTTP: &str = "127.0.0.1:8080";
 
 /// How long `nomen serve` waits for its broker to answer.
 const CONNECT_TIMEOUT: Duration = Duration::from_secs(10);
@@ -59,6 +72,31 @@ pub fn run(args: ServeArgs) -> Result<()> {
             let text = crate::io::read_settings(path)?;
             ServeConfig::from_toml(&text, &path.display().to_string())?
         }
+    };
+    // First, so that a viewer refused (no token off loopback, a port taken) stops the service
+    // before it starts a broker.
+    let http = args.http.as_ref().or(config.http.as_ref());
+    let http_token = args.http_token.as_ref().or(config.http_token.as_ref());
+    let mut viewer = match http {
+        Some(listen) => {
+            let listen: SocketAddr = listen.parse().with_context(|| {
+                format!("--http '{listen}' is not an address such as {DEFAULT_HTTP}")
+            })?;
+            let options = ViewerOptions::new(listen, http_token.cloned());
+            let viewer = Viewer::start(&options)?;
+            eprintln!(
+                "nomen serve: viewer on http://{}/{}",
+                viewer.local_addr(),
+                if http_token.is_some() {
+                    "?token=TOKEN"
+                } else {
+                    ""
+                }
+            );
+            Some(viewer)
+        }
+        None if http_token.is_some() => bail!("--http-token (http_token) needs --http (http)"),
+        None => None,
     };
     // Paths in serve.toml are relative to its folder and stay inside it; the command line's
     // are the user's own and taken as given.
@@ -155,6 +193,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
         registry,
         sink.as_mut().map(|s| s as &mut dyn DecisionSink),
         log,
+        viewer.as_mut().map(|v| v as &mut dyn Observer),
         &stop,
     )?;
     let h = &summary.health;
