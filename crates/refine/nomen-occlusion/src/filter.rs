@@ -21,7 +21,8 @@
 //!    particle by more than a margin that can grow with the depth noise,
 //!    [`ConstraintConfig::occlusion_margin_at_m`]). Because every constraint is a veto the
 //!    accepted set does not depend on the order; we test the cheap ones (distance, range of
-//!    motion, the depth image) first and cast rays only for the survivors;
+//!    motion) first and cast rays only for the survivors, then read the depth image, whose
+//!    empty pixels can cost a search of their neighbourhood;
 //! 4. **estimate** — weighted mean and covariance of the particles with non-zero weight, before
 //!    resampling, and the volume of the 95 % ellipsoid of that covariance;
 //! 5. **systematic resampling**.
@@ -755,20 +756,6 @@ impl ConstrainedParticleFilter {
             return false;
         }
         let set = self.constraints.enabled;
-        if set.occlusion
-            && !is_observed
-            && let Some(depth) = depth
-        {
-            let v = particle_visibility_at_depth(
-                &mut **depth,
-                &Point3::from(p),
-                |z| self.constraints.occlusion_margin_at_m(z),
-                self.constraints.max_fill_radius_px,
-            );
-            if v == Visibility::WouldBeSeen {
-                return false;
-            }
-        }
         if set.environment
             && let (Some(env), Some(parent)) = (environment, parent)
         {
@@ -784,6 +771,20 @@ impl ConstrainedParticleFilter {
             if let Some(t) = env.cast_ray(&origin, &dir, 1.0) {
                 // Rebecchi: the particle cannot pass the surface; clamp, then discard.
                 self.pos[i] = origin.coords + dir * t;
+                return false;
+            }
+        }
+        if set.occlusion
+            && !is_observed
+            && let Some(depth) = depth
+        {
+            let v = particle_visibility_at_depth(
+                &mut **depth,
+                &Point3::from(p),
+                |z| self.constraints.occlusion_margin_at_m(z),
+                self.constraints.max_fill_radius_px,
+            );
+            if v == Visibility::WouldBeSeen {
                 return false;
             }
         }
