@@ -211,6 +211,17 @@ pub fn particle_visibility(
     margin_m: f64,
     max_fill_radius_px: u32,
 ) -> Visibility {
+    particle_visibility_at_depth(probe, p_world, |_| margin_m, max_fill_radius_px)
+}
+
+/// [`particle_visibility`] with a margin that depends on the point's depth (camera Z, m), for a
+/// margin drawn from the depth noise, which grows with depth.
+pub fn particle_visibility_at_depth(
+    probe: &mut dyn DepthProbe,
+    p_world: &Point3<f64>,
+    margin_m: impl Fn(f64) -> f64,
+    max_fill_radius_px: u32,
+) -> Visibility {
     let Some((u, v, z)) = probe.camera().project(p_world) else {
         return Visibility::Unknown;
     };
@@ -219,7 +230,7 @@ pub fn particle_visibility(
     };
     match filled_depth_m(probe, pu, pv, max_fill_radius_px) {
         None => Visibility::Unknown,
-        Some(d) if f64::from(d) > z + margin_m => Visibility::WouldBeSeen,
+        Some(d) if f64::from(d) > z + margin_m(z) => Visibility::WouldBeSeen,
         Some(_) => Visibility::Hidden,
     }
 }

@@ -15,11 +15,12 @@ use std::sync::OnceLock;
 const FAMILY: &str = "nomen-occlusion-sans";
 
 /// Box colours per variant, in report order.
-const COLOURS: [RGBColor; 4] = [
+const COLOURS: [RGBColor; 5] = [
     RGBColor(214, 39, 40),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
     RGBColor(127, 127, 127),
+    RGBColor(31, 119, 180),
 ];
 
 /// One encoded plot.

@@ -16,7 +16,7 @@ use crate::environment::Environment;
 use crate::error::Result;
 use crate::filter::{
     ChainContext, ConstrainedParticleFilter, ConstraintConfig, FilterConfig, JointEstimate,
-    RomContext,
+    RomContext, ellipsoid_volume_95_m3,
 };
 use crate::rom::{Side, TrunkFrame, hinge_axis};
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -40,6 +40,16 @@ pub struct RefinerConfig {
     pub default_upper_arm_m: f64,
     /// Forearm length used before it is measured, m. Default 0.26 (adult anthropometry).
     pub default_forearm_m: f64,
+    /// The wrist rides on the elbow filter's estimate also while the elbow is observed (the
+    /// camera's joint noise smoothed away), and tells the wrist filter that estimate's σ so
+    /// the crown can be as narrow as the elbow is certain
+    /// ([`crate::filter::ConstraintConfig::bone_tolerance_sigmas`]). Default true (Rebecchi:
+    /// false, the wrist rides on the measured elbow).
+    pub filtered_parent: bool,
+    /// An estimated wrist's covariance adds its parent's: the wrist filter places its
+    /// particles around the elbow's estimate, so the elbow's own uncertainty (large when the
+    /// elbow is hidden too) is not in the wrist's cloud. Default true (Rebecchi: false).
+    pub add_parent_covariance: bool,
     /// Seed of the particle filters' random streams.
     pub seed: u64,
 }
@@ -53,6 +63,8 @@ impl Default for RefinerConfig {
             refine_elbows: true,
             default_upper_arm_m: 0.30,
             default_forearm_m: 0.26,
+            filtered_parent: true,
+            add_parent_covariance: true,
             seed: 0,
         }
     }
@@ -279,10 +291,13 @@ impl JointRefiner {
 
             // Elbow: parent = shoulder.
             let mut elbow_now = elbow_obs;
+            let mut elbow_sigma_m = f64::NAN;
+            let mut elbow_covariance_m2: Option<Matrix3<f64>> = None;
             if config.refine_elbows {
                 let ctx = ChainContext {
                     parent_m: shoulder.unwrap_or(nan),
                     bone_length_m: arm.upper.get(),
+                    parent_sigma_m: f64::NAN,
                     rom: trunk.map_or(RomContext::None, |trunk| RomContext::Shoulder { trunk }),
                 };
                 let est = arm.elbow_filter.step(
@@ -295,11 +310,16 @@ impl JointRefiner {
                         None => None,
                     },
                 );
-                if elbow_obs.is_none()
-                    && let Some(e) = est
+                if let Some(e) = est
+                    && (elbow_obs.is_none() || config.filtered_parent)
+                    && finite(&e.position_m)
                 {
-                    out.insert(arm.elbow, RefinedJoint::estimated(&e));
+                    if elbow_obs.is_none() {
+                        out.insert(arm.elbow, RefinedJoint::estimated(&e));
+                    }
                     elbow_now = Some(e.position_m);
+                    elbow_sigma_m = (e.covariance_m2.trace() / 3.0).max(0.0).sqrt();
+                    elbow_covariance_m2 = Some(e.covariance_m2);
                 }
             }
 
@@ -315,6 +335,11 @@ impl JointRefiner {
                 let ctx = ChainContext {
                     parent_m: elbow_now.unwrap_or(nan),
                     bone_length_m: arm.fore.get(),
+                    parent_sigma_m: if config.filtered_parent {
+                        elbow_sigma_m
+                    } else {
+                        f64::NAN
+                    },
                     rom: RomContext::Elbow {
                         shoulder_m: shoulder.unwrap_or(nan),
                         hinge_axis: axis,
@@ -331,8 +356,15 @@ impl JointRefiner {
                     },
                 );
                 if wrist_obs.is_none()
-                    && let Some(e) = est
+                    && let Some(mut e) = est
                 {
+                    if config.add_parent_covariance
+                        && let Some(c) = elbow_covariance_m2
+                        && c.iter().all(|v| v.is_finite())
+                    {
+                        e.covariance_m2 += c;
+                        e.ellipsoid_volume_m3 = ellipsoid_volume_95_m3(&e.covariance_m2);
+                    }
                     out.insert(arm.wrist, RefinedJoint::estimated(&e));
                 }
             }
@@ -408,6 +440,37 @@ mod tests {
             let d = (w.position_m - Point3::new(0.05, -0.25, 1.16)).norm();
             // The weighted mean of a crown of radius 0.26 lies inside it, never beyond.
             assert!(d < 0.26 + 0.03 + 1e-9, "wrist {d} m from the elbow");
+        }
+    }
+
+    #[test]
+    fn wrist_ellipsoid_grows_by_its_parents_uncertainty_and_keeps_its_centre() {
+        let run = |add: bool| {
+            let mut r = JointRefiner::new(RefinerConfig {
+                add_parent_covariance: add,
+                ..small_config()
+            })
+            .unwrap();
+            let dt = 33_333_333;
+            for k in 0..30 {
+                r.step(SessionTime::from_ns(k * dt), &standing(0.31), None, None);
+            }
+            let mut j = standing(0.31);
+            j.remove(Joint::RightWrist);
+            j.remove(Joint::RightElbow);
+            let mut out = Vec::new();
+            for k in 30..45 {
+                let w = *r
+                    .step(SessionTime::from_ns(k * dt), &j, None, None)
+                    .get(Joint::RightWrist)
+                    .unwrap();
+                out.push(w);
+            }
+            out
+        };
+        for (with, without) in run(true).iter().zip(run(false)) {
+            assert_eq!(with.position_m, without.position_m);
+            assert!(with.ellipsoid_volume_m3.unwrap() > without.ellipsoid_volume_m3.unwrap());
         }
     }
 }

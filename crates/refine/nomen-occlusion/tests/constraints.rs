@@ -31,6 +31,7 @@ fn elbow_ctx() -> ChainContext {
     ChainContext {
         parent_m: Point3::new(0.0, 0.0, 1.0),
         bone_length_m: 0.26,
+        parent_sigma_m: f64::NAN,
         rom: RomContext::None,
     }
 }
@@ -182,4 +183,13 @@ fn constrained_filter_beats_the_unconstrained_one_on_the_assembly_scene() {
     assert!(vol("complete") < vol("original"), "{report:#?}");
     let r = report.error_reduction.unwrap();
     assert!(r.is_finite() && r < 1.0);
+    for v in &report.variants {
+        let c = v.coverage_95.unwrap();
+        assert!((0.0..=1.0).contains(&c), "{}: coverage {c}", v.name);
+    }
+    // The published figures compare Rebecchi's own Complete with Original.
+    assert_eq!(
+        report.rebecchi_volume_reduction,
+        Some(1.0 - vol("complete") / vol("original"))
+    );
 }
