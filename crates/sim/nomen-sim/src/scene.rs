@@ -508,7 +508,7 @@ pub fn simulate(
 
 /// The most memory the messages of one simulated scene may take, bytes: 2 GiB, what the
 /// commands that read a recording whole hold (a 60-s crowd of 128 people with one wrist IMU each
-/// takes about 1.1 GiB). [`simulate`] holds a whole scene (recording and truth) before it is
+/// passes 1 GiB). [`simulate`] holds a whole scene (recording and truth) before it is
 /// sorted and written. It refuses a
 /// scene up front when one camera's skeletons, or the wearables' messages, are estimated past
 /// this ([`CameraBytes`], [`wearable_message_bytes`]), and stops with the same error as soon as
