@@ -1739,3 +1739,19 @@ fn a_run_without_an_rssi_model_says_at_once_and_in_its_summary_that_rssi_is_igno
     assert!(o.status.success(), "{}", text(&o.stderr));
     assert!(!text(&o.stderr).contains("ignored"), "{}", text(&o.stderr));
 }
+
+#[test]
+fn simulate_writes_obstacles_only_for_a_scene_with_obstacles_and_removes_an_earlier_scenes() {
+    let Some(data) = data_dir() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("scene");
+    common::simulate_library("hospital_room.toml", &out, &data);
+    let obj = std::fs::read_to_string(out.join("obstacles.obj")).unwrap();
+    assert!(obj.lines().any(|l| l.starts_with("f ")), "{obj}");
+    // A scene without obstacles into the same folder: no OBJ, not even the earlier one.
+    common::simulate_library("uwb_1.toml", &out, &data);
+    assert!(out.join("recording.jsonl").is_file());
+    assert!(!out.join("obstacles.obj").exists());
+}

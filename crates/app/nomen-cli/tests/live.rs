@@ -6,10 +6,10 @@
 
 mod common;
 
-use common::{data_dir, nomen, nomen_command, repo, text};
+use common::{data_dir, free_port, nomen, nomen_command, repo, text, wait_for_port};
 use rumqttc::{Client, Event, MqttOptions, Packet, QoS};
 use serde_json::Value;
-use std::net::{TcpListener, TcpStream};
+
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
@@ -19,25 +19,6 @@ use std::time::{Duration, Instant};
 const SCENE_S: f64 = 20.0;
 /// How long a test waits for the service to take every message.
 const TIMEOUT: Duration = Duration::from_secs(120);
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-fn wait_for_port(port: u16) {
-    let started = Instant::now();
-    while TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(
-            started.elapsed() < Duration::from_secs(10),
-            "nothing listens on port {port}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
 
 /// `scenarios/imu_wrist_2.toml` cut to [`SCENE_S`] and simulated into `dir`: its recording.
 fn short_scene(dir: &Path, data: &Path) -> PathBuf {

@@ -6,11 +6,11 @@
 
 mod common;
 
-use common::{data_dir, nomen, nomen_command, repo, text};
+use common::{data_dir, free_port, nomen, nomen_command, repo, text, wait_for_port};
 use serde_json::Value;
 use std::collections::BTreeSet;
 use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -24,25 +24,6 @@ const TIMEOUT: Duration = Duration::from_secs(120);
 const LINGER_NS: i64 = 2_000_000_000;
 /// A token of the length the viewer asks for.
 const TOKEN: &str = "e2e-token-0123456789";
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-fn wait_for_port(port: u16) {
-    let started = Instant::now();
-    while TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(
-            started.elapsed() < Duration::from_secs(10),
-            "nothing listens on port {port}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
 
 /// A GET over a plain socket: the status and the response's head and body as text.
 fn http_get(port: u16, target: &str, headers: &[&str]) -> (u16, String, String) {

@@ -157,16 +157,6 @@ fn main() {
         println!("skipping: shared data not found at {}", data.display());
         return;
     }
-    let (scenario, sim) = simulate_sorted(&repo, &data, SCENARIO);
-    let registry = sim.scene.registry.clone();
-    let config = EngineConfig::default();
-    // The steady state's inputs: every clock offset known (here the simulator's true ones).
-    let known = sim.scene.registry_with_true_offsets();
-    let known_config = EngineConfig {
-        known_clock_offsets: true,
-        ..config
-    };
-
     if let Some(people) = std::env::var("NOMEN_BENCH_ONCE")
         .ok()
         .and_then(|m| m.strip_prefix("crowd:").map(str::to_owned))
@@ -194,6 +184,16 @@ fn main() {
         bench_crowds(&repo, &data);
         return;
     }
+
+    let (scenario, sim) = simulate_sorted(&repo, &data, SCENARIO);
+    let registry = sim.scene.registry.clone();
+    let config = EngineConfig::default();
+    // The steady state's inputs: every clock offset known (here the simulator's true ones).
+    let known = sim.scene.registry_with_true_offsets();
+    let known_config = EngineConfig {
+        known_clock_offsets: true,
+        ..config
+    };
 
     if let Ok(mode) = std::env::var("NOMEN_BENCH_ONCE") {
         let (registry, config) = match mode.as_str() {

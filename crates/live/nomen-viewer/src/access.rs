@@ -77,6 +77,22 @@ impl Access {
     }
 }
 
+/// Whether a request's `Host` header names this machine's loopback (`localhost`, `127.0.0.1` or
+/// `[::1]`, any port), or is absent. An open viewer (on loopback, without a token) answers only
+/// such requests: a web page elsewhere that points its own host name at 127.0.0.1 (DNS
+/// rebinding) would otherwise read the viewer through the operator's browser.
+pub fn is_loopback_host(host: Option<&str>) -> bool {
+    let Some(host) = host else {
+        return true;
+    };
+    let name = match host.strip_prefix('[') {
+        // `[::1]` or `[::1]:8080`.
+        Some(rest) => rest.split(']').next().unwrap_or_default(),
+        None => host.split(':').next().unwrap_or_default(),
+    };
+    name.eq_ignore_ascii_case("localhost") || name == "127.0.0.1" || name == "::1"
+}
+
 /// The `token` parameter of a query string.
 pub fn query_token(query: Option<&str>) -> Option<&str> {
     query?
@@ -108,6 +124,29 @@ mod tests {
 
     fn addr(s: &str) -> SocketAddr {
         s.parse().unwrap()
+    }
+
+    #[test]
+    fn only_loopback_host_names_are_loopback_hosts() {
+        for host in [
+            "localhost",
+            "LOCALHOST:8080",
+            "127.0.0.1",
+            "127.0.0.1:8080",
+            "[::1]:8080",
+        ] {
+            assert!(is_loopback_host(Some(host)), "{host}");
+        }
+        assert!(is_loopback_host(None));
+        for host in [
+            "evil.example",
+            "evil.example:8080",
+            "127.0.0.1.evil.example",
+            "[::2]",
+            "",
+        ] {
+            assert!(!is_loopback_host(Some(host)), "{host}");
+        }
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! [`ViewerOptions::frame_hz`] when it changed, and each page's stream sends the newest frame
 //! when the page can take one: a slow page skips frames (counted), it never queues them.
 
-use crate::access::{Access, COOKIE, query_token};
+use crate::access::{Access, COOKIE, is_loopback_host, query_token};
 use crate::assets;
 use crate::state::{PLAYOUT_NS, ServerStats, ViewerConfig, ViewerState};
 use crate::{Result, ViewerError};
@@ -279,8 +279,9 @@ pub fn router(shared: Arc<Shared>) -> Router {
         .with_state(shared)
 }
 
-/// Refuses a request without the token (401), and sets the token's cookie when the page is
-/// opened with `?token=`, so that its files and its stream are allowed too.
+/// Refuses a request to an open viewer whose `Host` is not loopback (421, see
+/// [`is_loopback_host`]) and a request without the token (401), and sets the token's cookie
+/// when the page is opened with `?token=`, so that its files and its stream are allowed too.
 async fn check(State(shared): State<Arc<Shared>>, request: Request, next: Next) -> Response {
     let headers = request.headers();
     let text = |name| {
@@ -288,6 +289,13 @@ async fn check(State(shared): State<Arc<Shared>>, request: Request, next: Next) 
             .get(name)
             .and_then(|v: &HeaderValue| v.to_str().ok())
     };
+    if matches!(shared.access, Access::Open) && !is_loopback_host(text(header::HOST)) {
+        return (
+            StatusCode::MISDIRECTED_REQUEST,
+            "the viewer on loopback answers only to localhost, 127.0.0.1 or [::1]\n",
+        )
+            .into_response();
+    }
     let query = request.uri().query();
     if !shared
         .access

@@ -212,7 +212,8 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         let mut num_keys = 0;
         for (k, line) in lines.iter().enumerate() {
-            let is_key = line.contains(" = ") && !line.starts_with('#');
+            let is_key = (line.contains(" = ") && !line.starts_with('#'))
+                || line.ends_with(": not set by default");
             let is_table = line.starts_with('[');
             if !(is_key || is_table) {
                 continue;

@@ -824,8 +824,6 @@ pub fn run_file(
     within_skip_limit(summary, skip, &stats, recording)
 }
 
-/// A warning line per IMU whose accelerations do not look like m/s²
-/// ([`nomen_engine::EngineStats::implausible_gravity`]).
 /// The warning for `count` RSSI reads the engine ignored for want of a model.
 fn rssi_ignored(count: u64) -> String {
     let reads = if count == 1 {
@@ -835,10 +833,12 @@ fn rssi_ignored(count: u64) -> String {
     };
     format!(
         "{reads} ignored: the engine uses RSSI only with a model (--rssi-model FILE, fitted by \
-         `nomen calibrate rssi`; or --method llorca)"
+         `nomen calibrate rssi`; --method llorca needs one too)"
     )
 }
 
+/// A warning line per IMU whose accelerations do not look like m/s²
+/// ([`nomen_engine::EngineStats::implausible_gravity`]).
 fn gravity_warnings(stats: &nomen_engine::EngineStats) -> String {
     stats
         .implausible_gravity()

@@ -116,10 +116,16 @@ pub fn run(args: ServeArgs) -> Result<()> {
             })
             .transpose()
     };
-    let config_registry = in_config(&config.registry, "registry of serve.toml")?;
-    let config_log = in_config(&config.log, "log of serve.toml")?;
-    let registry_path = args.registry.as_ref().or(config_registry.as_ref());
-    let registry = registry_path.map(|p| load_registry(p)).transpose()?;
+    // A flag replaces the file's path: the file's is not even checked then.
+    let registry_path = match &args.registry {
+        Some(path) => Some(path.clone()),
+        None => in_config(&config.registry, "registry of serve.toml")?,
+    };
+    let log_path = match &args.log {
+        Some(path) => Some(path.clone()),
+        None => in_config(&config.log, "log of serve.toml")?,
+    };
+    let registry = registry_path.as_deref().map(load_registry).transpose()?;
     let broker = match args.mqtt.as_ref().or(config.mqtt.as_ref()) {
         Some(url) => BrokerAddr::parse(url)?,
         None => {
@@ -172,10 +178,8 @@ pub fn run(args: ServeArgs) -> Result<()> {
     let stop = Arc::new(AtomicBool::new(false));
     nomen_live::signals::stop_on_signals(Arc::clone(&stop))?;
     let mut sink = args.out.as_deref().map(FileSink::new);
-    let log = args
-        .log
+    let log = log_path
         .as_ref()
-        .or(config_log.as_ref())
         .map(|p| nomen_live::log::IdentityLog::open(p))
         .transpose()?;
     eprintln!(

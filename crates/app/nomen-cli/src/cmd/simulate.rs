@@ -114,8 +114,8 @@ fn write_output(sim: &SimOutput, out: &Path, scenario: &Scenario, seed: u64) -> 
             .with_meta("seed", seed)
             .with_meta("kind", kind.to_owned())
     };
-    // Every file is written under NAME.partial; they get their names together once all are
-    // whole, so that a stopped simulation never leaves a folder that mixes two scenes.
+    // Every file is written under NAME.partial; they get their names one after another once
+    // all are whole, so that a simulation stopped while writing leaves the folder as it was.
     let recording = write_recording_partial(
         &out.join("recording.jsonl"),
         &header("recording"),

@@ -1,9 +1,11 @@
 //! Helpers shared by the CLI's end-to-end tests: run the binary, find the shared data, simulate a
-//! library scenario, count messages in a recording.
+//! library scenario, count messages in a recording, find a free port and wait for a server.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::time::{Duration, Instant};
 
 /// Runs the `nomen` binary with `args`.
 pub fn nomen(args: &[&str]) -> Output {
@@ -68,4 +70,25 @@ pub fn count(path: &Path, kind: &str) -> usize {
         .lines()
         .filter(|l| l.contains(&format!("\"type\":\"{kind}\"")))
         .count()
+}
+
+/// A TCP port free on 127.0.0.1 when asked (for a server the test starts).
+pub fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// Waits (up to 10 s) until something listens on `port` of 127.0.0.1.
+pub fn wait_for_port(port: u16) {
+    let started = Instant::now();
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(
+            started.elapsed() < Duration::from_secs(10),
+            "nothing listens on port {port}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }
