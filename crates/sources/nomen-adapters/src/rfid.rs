@@ -168,7 +168,7 @@ fn zebra_event(
 fn report_time(obj: &Map<String, Value>, name: &str, at: &Place) -> Result<i64> {
     let t_at = at.at(name);
     let stamp = json::text(json::required(obj, name, at)?, &t_at)?;
-    parse_datetime_ns(stamp).ok_or_else(|| {
+    parse_datetime_ns(stamp, 0).ok_or_else(|| {
         AdapterError::shape(
             &t_at,
             format!("'{stamp}' is not a date-time like 2018-06-14T00:15:54.36879Z"),

@@ -193,7 +193,7 @@ fn sewio_payload(
     };
     let t_at = x.0.at("at");
     let stamp = json::text(json::required(x.1, "at", &x.0)?, &t_at)?;
-    let ns = parse_datetime_ns(stamp).ok_or_else(|| {
+    let ns = parse_datetime_ns(stamp, 0).ok_or_else(|| {
         AdapterError::shape(
             &t_at,
             format!("'{stamp}' is not a date-time like 2017-09-06 15:00:12.142"),

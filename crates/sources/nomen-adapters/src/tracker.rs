@@ -273,7 +273,7 @@ fn time_ns(
         _ => return Err(AdapterError::shape(at, "expected a number or a date-time")),
     };
     if as_text.parse::<f64>().is_err() {
-        return parse_datetime_ns(&as_text).ok_or_else(|| {
+        return parse_datetime_ns(&as_text, 0).ok_or_else(|| {
             AdapterError::shape(
                 at,
                 format!("'{as_text}' is neither a number nor a date-time"),
