@@ -2,14 +2,19 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use nomen_recording::csv::{FixCsvSpec, LengthUnit, TimeUnit, import_fixes};
+use nomen_recording::csv::{CsvOptions, FixCsvSpec, LengthUnit, TimeUnit, import_fixes};
 
 fuzz_target!(|data: &[u8]| {
-    let _ = import_fixes(data, "fuzz.csv", &FixCsvSpec::default());
+    let _ = import_fixes(
+        data,
+        "fuzz.csv",
+        &FixCsvSpec::default(),
+        &CsvOptions::default(),
+    );
     let spec = FixCsvSpec {
         time_unit: Some(TimeUnit::Milliseconds),
         length_unit: Some(LengthUnit::Millimetres),
         time_offset_ns: 0,
     };
-    let _ = import_fixes(data, "fuzz.csv", &spec);
+    let _ = import_fixes(data, "fuzz.csv", &spec, &CsvOptions::default());
 });

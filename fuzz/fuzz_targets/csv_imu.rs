@@ -3,8 +3,13 @@
 
 use libfuzzer_sys::fuzz_target;
 use nomen_core::DeviceId;
-use nomen_recording::csv::import_imu_auto;
+use nomen_recording::csv::{CsvOptions, import_imu_auto};
 
 fuzz_target!(|data: &[u8]| {
-    let _ = import_imu_auto(data, "fuzz.csv", DeviceId::new("imu"));
+    let _ = import_imu_auto(
+        data,
+        "fuzz.csv",
+        DeviceId::new("imu"),
+        &CsvOptions::default(),
+    );
 });

@@ -4,7 +4,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use nomen_core::skeleton::sets::JointSet;
-use nomen_recording::csv::{SkeletonCsvSpec, SkeletonLayout, import_skeletons};
+use nomen_recording::csv::{CsvOptions, SkeletonCsvSpec, SkeletonLayout, import_skeletons};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&choice, text)) = data.split_first() else {
@@ -23,6 +23,6 @@ fuzz_target!(|data: &[u8]| {
             joint_set,
             ..SkeletonCsvSpec::default()
         };
-        let _ = import_skeletons(text, "fuzz.csv", &spec);
+        let _ = import_skeletons(text, "fuzz.csv", &spec, &CsvOptions::default());
     }
 });

@@ -5,10 +5,15 @@
 use nomen_core::skeleton::sets::JointSet;
 use nomen_core::{DeviceId, Joint, JointState, Message};
 use nomen_recording::csv::{
-    AccelUnit, FixCsvSpec, GyroUnit, ImuColumn, ImuCsvSpec, ImuQuantity, LengthUnit,
-    SkeletonCsvSpec, SkeletonLayout, TimeUnit, import_fixes, import_imu, import_imu_auto,
-    import_skeletons,
+    AccelUnit, CsvImport, CsvOptions, FixCsvSpec, GyroUnit, ImuColumn, ImuCsvSpec, ImuQuantity,
+    LengthUnit, SkeletonCsvSpec, SkeletonLayout, TimeFormat, TimeUnit, import_fixes, import_imu,
+    import_imu_auto, import_skeletons,
 };
+
+/// Imports an IMU file named `imu.csv` of device `d` with the default options.
+fn imu_csv(input: impl std::io::Read) -> nomen_recording::Result<(ImuCsvSpec, CsvImport)> {
+    import_imu_auto(input, "imu.csv", DeviceId::new("d"), &CsvOptions::default())
+}
 
 const XIO_CSV: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -21,9 +26,15 @@ fn xio_export_is_still_at_the_start_and_sampled_at_100_hz() {
         println!("skipping: {XIO_CSV} not found");
         return;
     };
-    let (spec, messages) =
-        import_imu_auto(std::io::BufReader::new(file), XIO_CSV, DeviceId::new("xio")).unwrap();
-    assert_eq!(spec.time_unit, TimeUnit::Seconds);
+    let (spec, imported) = import_imu_auto(
+        std::io::BufReader::new(file),
+        XIO_CSV,
+        DeviceId::new("xio"),
+        &CsvOptions::default(),
+    )
+    .unwrap();
+    let messages = imported.messages;
+    assert_eq!(spec.time_format, TimeFormat::Epoch(TimeUnit::Seconds));
     assert_eq!(spec.columns.len(), 9);
     assert!(spec.columns.contains(&ImuColumn {
         column: "Accelerometer Z (g)".into(),
@@ -80,7 +91,7 @@ fn explicit_spec_converts_units_and_offsets_time() {
     let spec = ImuCsvSpec {
         device: DeviceId::new("band1"),
         time_column: "stamp".into(),
-        time_unit: TimeUnit::Milliseconds,
+        time_format: TimeFormat::Epoch(TimeUnit::Milliseconds),
         time_offset_ns: -1_000_000_000,
         columns: vec![
             col("ax", g, 0),
@@ -91,7 +102,9 @@ fn explicit_spec_converts_units_and_offsets_time() {
             col("wz", dps, 2),
         ],
     };
-    let messages = import_imu(text.as_bytes(), "band.csv", &spec).unwrap();
+    let messages = import_imu(text.as_bytes(), "band.csv", &spec, &CsvOptions::default())
+        .unwrap()
+        .messages;
     let Message::Imu(second) = &messages[1] else {
         panic!()
     };
@@ -105,7 +118,7 @@ fn explicit_spec_converts_units_and_offsets_time() {
 fn imu_csv_errors_name_file_line_and_column() {
     let head = "t_s,accel_x_g,accel_y_g,accel_z_g,gyro_x_dps,gyro_y_dps,gyro_z_dps\n";
     let text = format!("{head}0.00,0,0,1,0,0,0\n0.01,0,0,abc,0,0,0\n");
-    let err = import_imu_auto(text.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
+    let err = imu_csv(text.as_bytes()).unwrap_err();
     assert_eq!(
         err.to_string(),
         "imu.csv:3: column 'accel_z_g': cannot read 'abc' as a number"
@@ -118,40 +131,36 @@ fn imu_csv_errors_name_file_line_and_column() {
         head.trim_end(),
         ",x".repeat(100_000)
     );
-    let err = import_imu_auto(wide.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
+    let err = imu_csv(wide.as_bytes()).unwrap_err();
     assert_eq!(
         err.to_string(),
         "imu.csv:1: 100007 columns, more than the 4096 a table of samples may have"
     );
 
-    let text = format!("{head}0.01,0,0,1,0,0,0\n0.01,0,0,1,0,0,0\n");
-    let err = import_imu_auto(text.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "imu.csv:3: time 0.010000 s is not after the previous imu sample of 'd' at 0.010000 s (duplicate timestamp)"
-    );
-
     // A row whose time jumped ahead is named, not the good row after it.
     let text =
         format!("{head}0.00,0,0,1,0,0,0\n0.01,0,0,1,0,0,0\n999,0,0,1,0,0,0\n0.03,0,0,1,0,0,0\n");
-    let err = import_imu_auto(text.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
+    let err = imu_csv(text.as_bytes()).unwrap_err();
     assert_eq!(
         err.to_string(),
         "imu.csv:4: time 999.000000 s is after both the row before it (0.010000 s, line 3) and \
          the row after it (0.030000 s, line 5): a corrupt time or a row out of place"
     );
-    // A row that goes back in time with no jump before it is the row named.
-    let text = format!("{head}0.00,0,0,1,0,0,0\n0.02,0,0,1,0,0,0\n0.01,0,0,1,0,0,0\n");
-    let err = import_imu_auto(text.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
-    assert!(
-        err.to_string()
-            .starts_with("imu.csv:4: time 0.010000 s is not after"),
-        "{err}"
+    // A row that goes back in time by more than the reorder window, with no jump before it,
+    // is the row named.
+    let text =
+        format!("{head}0.00,0,0,1,0,0,0\n1.00,0,0,1,0,0,0\n2.00,0,0,1,0,0,0\n0.50,0,0,1,0,0,0\n");
+    let err = imu_csv(text.as_bytes()).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "imu.csv:5: time 0.500000 s is 1.500 s before time 2.000000 s of line 4 of the same \
+         source, more than the 1 s within which rows are sorted (--reorder-window-s): a corrupt \
+         time or rows out of place"
     );
 
     // 100 g is beyond any wearable: probably m/s² labelled as g.
     let text = format!("{head}0.00,0,0,100,0,0,0\n");
-    let err = import_imu_auto(text.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
+    let err = imu_csv(text.as_bytes()).unwrap_err();
     assert!(
         err.to_string()
             .starts_with("imu.csv:2: accel_mps2[2] = 980.665 is outside"),
@@ -159,7 +168,7 @@ fn imu_csv_errors_name_file_line_and_column() {
     );
 
     let text = "t_s,accel_x,accel_y,accel_z\n0,0,0,1\n";
-    let err = import_imu_auto(text.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
+    let err = imu_csv(text.as_bytes()).unwrap_err();
     assert!(
         err.to_string()
             .starts_with("imu.csv:1: column 'accel_x' has no unit"),
@@ -167,10 +176,10 @@ fn imu_csv_errors_name_file_line_and_column() {
     );
 
     let text = format!("{head}0.00,0,0,1,0,0\n");
-    let err = import_imu_auto(text.as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
+    let err = imu_csv(text.as_bytes()).unwrap_err();
     assert_eq!(err.to_string(), "imu.csv:2: row has 6 fields, expected 7");
 
-    let err = import_imu_auto("".as_bytes(), "imu.csv", DeviceId::new("d")).unwrap_err();
+    let err = imu_csv("".as_bytes()).unwrap_err();
     assert_eq!(
         err.to_string(),
         "imu.csv:1: empty csv file: expected a row of column names"
@@ -180,7 +189,14 @@ fn imu_csv_errors_name_file_line_and_column() {
 #[test]
 fn tag_fixes_take_units_from_names_or_spec() {
     let text = "t_ms,tag,x_mm,y_mm,z_mm,quality\n100,tag1,1000,2000,1300,0.9\n100,tag2,0,0,0,\n";
-    let messages = import_fixes(text.as_bytes(), "fixes.csv", &FixCsvSpec::default()).unwrap();
+    let messages = import_fixes(
+        text.as_bytes(),
+        "fixes.csv",
+        &FixCsvSpec::default(),
+        &CsvOptions::default(),
+    )
+    .unwrap()
+    .messages;
     assert_eq!(messages.len(), 2);
     let Message::RtlsFix(f) = &messages[0] else {
         panic!()
@@ -194,37 +210,69 @@ fn tag_fixes_take_units_from_names_or_spec() {
     assert_eq!(f.quality, None);
 
     let bare = "t,tag,x,y,z\n0.5,tag1,1,2,1.3\n";
-    let err = import_fixes(bare.as_bytes(), "fixes.csv", &FixCsvSpec::default()).unwrap_err();
+    let err = import_fixes(
+        bare.as_bytes(),
+        "fixes.csv",
+        &FixCsvSpec::default(),
+        &CsvOptions::default(),
+    )
+    .unwrap_err();
     assert_eq!(
         err.to_string(),
-        "fixes.csv:1: column 't' has no unit: rename it like 't (s)' (the unit after an underscore or in brackets), or, from the library, give the unit in the import spec"
+        "fixes.csv:1: column 't' has no unit: rename it like 't (s)' (the unit after an \
+         underscore or in brackets), give it in a units file or as the time unit (nomen import \
+         --units, --time-unit), or, from the library, in the import spec; date-times are read \
+         as such"
     );
     let spec = FixCsvSpec {
         time_unit: Some(TimeUnit::Seconds),
         length_unit: Some(LengthUnit::Metres),
         time_offset_ns: 0,
     };
-    let messages = import_fixes(bare.as_bytes(), "fixes.csv", &spec).unwrap();
+    let messages = import_fixes(bare.as_bytes(), "fixes.csv", &spec, &CsvOptions::default())
+        .unwrap()
+        .messages;
     assert_eq!(messages[0].t().as_ns(), 500_000_000);
 
     // A unit the importer does not know is named as such, not as a missing column.
     let feet = "t_s,tag,x_ft,y_m,z_m\n0.5,tag1,1,2,1.3\n";
-    let err = import_fixes(feet.as_bytes(), "fixes.csv", &FixCsvSpec::default()).unwrap_err();
+    let err = import_fixes(
+        feet.as_bytes(),
+        "fixes.csv",
+        &FixCsvSpec::default(),
+        &CsvOptions::default(),
+    )
+    .unwrap_err();
     assert_eq!(
         err.to_string(),
         "fixes.csv:1: column 'x_ft': unknown unit 'ft' for 'x'"
     );
-    // Another separator than the comma is named.
+    // A delimiter given that is not the file's is named.
     let semicolons = "t_s;tag;x_m;y_m;z_m\n0.5;tag1;1;2;1.3\n";
-    let err = import_fixes(semicolons.as_bytes(), "fixes.csv", &FixCsvSpec::default()).unwrap_err();
+    let err = import_fixes(
+        semicolons.as_bytes(),
+        "fixes.csv",
+        &FixCsvSpec::default(),
+        &CsvOptions {
+            delimiter: Some(b','),
+            ..CsvOptions::default()
+        },
+    )
+    .unwrap_err();
     assert!(
         err.to_string()
-            .starts_with("fixes.csv:1: the columns are separated by ';', not by commas"),
+            .starts_with("fixes.csv:1: the columns are separated by ';', not by ','"),
         "{err}"
     );
 
     let missing = "t (s),x (m),y (m),z (m)\n0,1,2,3\n";
-    let err = import_fixes(missing.as_bytes(), "fixes.csv", &spec).unwrap_err();
+    let err = import_fixes(
+        missing.as_bytes(),
+        "fixes.csv",
+        &spec,
+        &CsvOptions::default(),
+    )
+    .unwrap_err();
     assert_eq!(
         err.to_string(),
         "fixes.csv:1: missing column 'tag' (columns are: t (s), x (m), y (m), z (m))"
@@ -236,19 +284,32 @@ fn a_file_that_is_no_table_of_samples_is_refused_without_its_first_row() {
     let passwd = "root:x:0:0:secret-token:/root:/bin/bash\nbin:x:1:1:bin:/bin:/sbin/nologin\n";
     let spec = SkeletonCsvSpec::default();
     let errors = [
-        import_fixes(passwd.as_bytes(), "passwd", &FixCsvSpec::default()).unwrap_err(),
-        import_skeletons(passwd.as_bytes(), "passwd", &spec).unwrap_err(),
-        import_imu_auto(passwd.as_bytes(), "passwd", DeviceId::new("d")).unwrap_err(),
+        import_fixes(
+            passwd.as_bytes(),
+            "passwd",
+            &FixCsvSpec::default(),
+            &CsvOptions::default(),
+        )
+        .unwrap_err(),
+        import_skeletons(passwd.as_bytes(), "passwd", &spec, &CsvOptions::default()).unwrap_err(),
+        import_imu_auto(
+            passwd.as_bytes(),
+            "passwd",
+            DeviceId::new("d"),
+            &CsvOptions::default(),
+        )
+        .unwrap_err(),
         import_imu(
             passwd.as_bytes(),
             "passwd",
             &ImuCsvSpec {
                 device: DeviceId::new("d"),
                 time_column: "t (s)".into(),
-                time_unit: TimeUnit::Seconds,
+                time_format: TimeFormat::Epoch(TimeUnit::Seconds),
                 time_offset_ns: 0,
                 columns: Vec::new(),
             },
+            &CsvOptions::default(),
         )
         .unwrap_err(),
     ];
@@ -258,7 +319,13 @@ fn a_file_that_is_no_table_of_samples_is_refused_without_its_first_row() {
         assert!(!err.contains("secret-token"), "{err}");
         assert!(!err.contains("root:x"), "{err}");
     }
-    let err = import_fixes(passwd.as_bytes(), "passwd", &FixCsvSpec::default()).unwrap_err();
+    let err = import_fixes(
+        passwd.as_bytes(),
+        "passwd",
+        &FixCsvSpec::default(),
+        &CsvOptions::default(),
+    )
+    .unwrap_err();
     assert_eq!(
         err.to_string(),
         "passwd:1: missing column 't' (the first row has 1 column(s) and none is a time column \
@@ -276,7 +343,9 @@ t (s),camera,track,joint,x (m),y (m),z (m),confidence,state
 0.033,kinect,1,head,0.0,1.7,2.5,1,tracked
 ";
     let spec = SkeletonCsvSpec::default();
-    let messages = import_skeletons(text.as_bytes(), "sk.csv", &spec).unwrap();
+    let messages = import_skeletons(text.as_bytes(), "sk.csv", &spec, &CsvOptions::default())
+        .unwrap()
+        .messages;
     assert_eq!(messages.len(), 3);
     let Message::Skeleton(first) = &messages[0] else {
         panic!()
@@ -290,7 +359,8 @@ t (s),camera,track,joint,x (m),y (m),z (m),confidence,state
 
     // A bad value on a skeleton's second row is named on that row, not the skeleton's first.
     let bad = text.replace("0.3,1.0,2.4,,inferred", "0.3,1.0,2.4,5,inferred");
-    let err = import_skeletons(bad.as_bytes(), "sk.csv", &spec).unwrap_err();
+    let err =
+        import_skeletons(bad.as_bytes(), "sk.csv", &spec, &CsvOptions::default()).unwrap_err();
     assert!(
         err.to_string()
             .starts_with("sk.csv:3: joints.left_wrist.confidence = 5"),
@@ -298,7 +368,8 @@ t (s),camera,track,joint,x (m),y (m),z (m),confidence,state
     );
 
     let bad = text.replace("left_wrist", "left_pinky");
-    let err = import_skeletons(bad.as_bytes(), "sk.csv", &spec).unwrap_err();
+    let err =
+        import_skeletons(bad.as_bytes(), "sk.csv", &spec, &CsvOptions::default()).unwrap_err();
     assert!(
         err.to_string()
             .starts_with("sk.csv:3: unknown joint 'left_pinky'"),
@@ -319,7 +390,9 @@ t_ms,camera,track,joint,x_mm,y_mm,z_mm
         joint_set: Some(JointSet::KinectV2),
         ..SkeletonCsvSpec::default()
     };
-    let messages = import_skeletons(text.as_bytes(), "k.csv", &spec).unwrap();
+    let messages = import_skeletons(text.as_bytes(), "k.csv", &spec, &CsvOptions::default())
+        .unwrap()
+        .messages;
     let Message::Skeleton(s) = &messages[0] else {
         panic!()
     };
@@ -347,7 +420,9 @@ t (s),camera,track,left_shoulder_x (m),left_shoulder_y (m),left_shoulder_z (m),r
         joint_set: Some(JointSet::Coco17),
         ..SkeletonCsvSpec::default()
     };
-    let messages = import_skeletons(text.as_bytes(), "wide.csv", &spec).unwrap();
+    let messages = import_skeletons(text.as_bytes(), "wide.csv", &spec, &CsvOptions::default())
+        .unwrap()
+        .messages;
     assert_eq!(messages.len(), 2);
     let Message::Skeleton(first) = &messages[0] else {
         panic!()
@@ -394,7 +469,7 @@ fn endless(pattern: &'static [u8]) -> Endless {
 
 #[test]
 fn an_endless_row_is_refused_at_the_row_limit() {
-    let err = import_imu_auto(endless(b"0"), "imu.csv", DeviceId::new("d")).unwrap_err();
+    let err = imu_csv(endless(b"0")).unwrap_err();
     assert_eq!(
         err.to_string(),
         "imu.csv:2: the line is longer than 1 MiB, the longest line a CSV file may have"
@@ -405,7 +480,13 @@ fn an_endless_row_is_refused_at_the_row_limit() {
         pattern: b"\0",
         at: 0,
     };
-    let err = import_fixes(zeros, "z.csv", &FixCsvSpec::default()).unwrap_err();
+    let err = import_fixes(
+        zeros,
+        "z.csv",
+        &FixCsvSpec::default(),
+        &CsvOptions::default(),
+    )
+    .unwrap_err();
     assert_eq!(
         err.to_string(),
         "z.csv:1: the line is longer than 1 MiB, the longest line a CSV file may have"
@@ -415,7 +496,7 @@ fn an_endless_row_is_refused_at_the_row_limit() {
 #[test]
 fn an_endless_file_is_refused_at_the_file_limit() {
     // Blank lines make no rows: the file limit stops them.
-    let err = import_imu_auto(endless(b"\n"), "imu.csv", DeviceId::new("d")).unwrap_err();
+    let err = imu_csv(endless(b"\n")).unwrap_err();
     assert!(
         err.to_string()
             .ends_with(": the file holds more than 256 MiB, the most a CSV file may have"),
@@ -449,7 +530,7 @@ fn endless_good_rows_are_refused_when_their_messages_pass_the_memory_limit() {
         pending: IMU_HEAD.to_vec(),
         row: 0,
     };
-    let err = import_imu_auto(rows, "imu.csv", DeviceId::new("d")).unwrap_err();
+    let err = imu_csv(rows).unwrap_err();
     let message_bytes = std::mem::size_of::<Message>() as u64;
     // The first row past the limit: the header is line 1.
     let line = nomen_recording::csv::MAX_CSV_MESSAGE_BYTES / message_bytes + 2;

@@ -1,5 +1,7 @@
 //! `nomen import`: CSV files and vendor formats → a nomen recording. CSV units come from the
-//! column names; vendor formats are read by `nomen_adapters` (`docs/adapters.md`).
+//! column names or a units file, the dialect is detected, rows are sorted within a window and
+//! repeated times merged (`nomen_recording::csv`); vendor formats are read by `nomen_adapters`
+//! (`docs/adapters.md`).
 
 use super::mocap::write_recording;
 use anyhow::{Context, Result, bail};
@@ -11,8 +13,10 @@ use nomen_adapters::{
 use nomen_core::skeleton::sets::JointSet;
 use nomen_core::{CameraId, DeviceId, Joint, Message, Registry};
 use nomen_recording::csv::{
-    AccelUnit, FixCsvSpec, ImuCsvSpec, ImuQuantity, STANDARD_GRAVITY_MPS2, SkeletonCsvSpec,
-    SkeletonLayout, TimeUnit, import_fixes, import_imu_auto, import_skeletons,
+    AccelUnit, BatchPolicy, ColumnUnits, CsvImport, CsvOptions, DecimalSeparator, Duplicates,
+    FixCsvSpec, ImuCsvSpec, ImuQuantity, OrderPolicy, STANDARD_GRAVITY_MPS2, SkeletonCsvSpec,
+    SkeletonLayout, TimeFormat, TimeUnit, import_fixes, import_imu_auto, import_skeletons,
+    parse_utc_offset,
 };
 use nomen_recording::plausibility::{Finding, Plausibility};
 use nomen_recording::{Header, sort_for_writing};
@@ -25,7 +29,7 @@ pub enum ImportCommand {
     /// `t (s), acc_x (g), gyr_x (deg/s)` or `time_ms, accel_x_mps2, gyro_x_radps`.
     Imu(ImuArgs),
     /// RTLS tag fixes: `t, tag, x, y, z [, quality]` (units in the names, e.g. `x_m`, `t_ms`).
-    Fixes(CommonArgs),
+    Fixes(FixesArgs),
     /// Camera skeletons, one joint per row (`t, camera, track, joint, x, y, z [, confidence,
     /// state]`) or one skeleton per row (`t, camera, track, <joint>_x, ...`).
     Skeletons(SkeletonArgs),
@@ -60,14 +64,152 @@ pub struct CommonArgs {
     pub registry: Option<PathBuf>,
 }
 
+/// How a CSV file is read: its dialect, time, order and units (`docs/import.md`).
+#[derive(Debug, Args)]
+pub struct CsvArgs {
+    /// The column delimiter: `,`, `;` or `tab` (default: detected from the first rows).
+    #[arg(long, value_parser = parse_delimiter)]
+    delimiter: Option<u8>,
+    /// The decimal separator: `.` or `,` (default: detected; `,` only between columns separated
+    /// by `;` or tabs).
+    #[arg(long, value_parser = parse_decimal)]
+    decimal: Option<DecimalSeparator>,
+    /// The unit of a numeric time column whose name carries none, e.g. Unix-epoch
+    /// milliseconds in a column named `timestamp` (a unit in the name wins).
+    #[arg(long, value_enum)]
+    time_unit: Option<TimeUnitName>,
+    /// The UTC offset of date-times that name no zone, e.g. `+02:00` or `-0530`.
+    #[arg(long, default_value = "UTC", value_parser = parse_timezone)]
+    timezone: i64,
+    /// Rows of one source up to this much earlier than an earlier row are sorted into place;
+    /// a row further back is an error naming its line, s.
+    #[arg(long, default_value_t = 1.0)]
+    reorder_window_s: f64,
+    /// Rows of one source at one time: `average` keeps their mean (skeletons the first),
+    /// `drop` keeps the first.
+    #[arg(long, value_enum, default_value_t = DuplicatesName::Average)]
+    duplicates: DuplicatesName,
+    /// An IMU found to deliver its samples in batches (median interval a quarter of the mean
+    /// or less): `retime` spaces them at the rate fitted to the batches, `keep` keeps the
+    /// file's times; reported either way.
+    #[arg(long, value_enum, default_value_t = BatchedName::Retime)]
+    batched: BatchedName,
+    /// Units of columns whose names carry none, or the wrong one: a TOML file of
+    /// `"column" = "unit"` lines (`"acc_*" = "m/s^2"` for every column starting `acc_`).
+    #[arg(long)]
+    units: Option<PathBuf>,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum DuplicatesName {
+    Average,
+    Drop,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum BatchedName {
+    Retime,
+    Keep,
+}
+
+fn parse_delimiter(text: &str) -> std::result::Result<u8, String> {
+    match text {
+        "," | "comma" => Ok(b','),
+        ";" | "semicolon" => Ok(b';'),
+        "tab" | "\\t" | "\t" => Ok(b'\t'),
+        other => Err(format!("'{other}': expected ',', ';' or tab")),
+    }
+}
+
+fn parse_decimal(text: &str) -> std::result::Result<DecimalSeparator, String> {
+    match text {
+        "." | "point" => Ok(DecimalSeparator::Point),
+        "," | "comma" => Ok(DecimalSeparator::Comma),
+        other => Err(format!("'{other}': expected '.' or ','")),
+    }
+}
+
+fn parse_timezone(text: &str) -> std::result::Result<i64, String> {
+    parse_utc_offset(text).ok_or_else(|| {
+        format!("'{text}': expected a UTC offset such as +02:00, -0530 or UTC (no zone names)")
+    })
+}
+
+impl CsvArgs {
+    /// The options these flags give.
+    fn options(&self) -> Result<CsvOptions> {
+        if !(self.reorder_window_s.is_finite() && self.reorder_window_s >= 0.0) {
+            bail!(
+                "--reorder-window-s {}: expected seconds, 0 or more",
+                self.reorder_window_s
+            );
+        }
+        let units = match &self.units {
+            Some(path) => read_units(path)?,
+            None => ColumnUnits::default(),
+        };
+        Ok(CsvOptions {
+            delimiter: self.delimiter,
+            decimal: self.decimal,
+            time_unit: self.time_unit.map(time_unit),
+            utc_offset_s: self.timezone,
+            order: OrderPolicy {
+                window_ns: (self.reorder_window_s * 1e9).round().min(9e18) as i64,
+                duplicates: match self.duplicates {
+                    DuplicatesName::Average => Duplicates::Average,
+                    DuplicatesName::Drop => Duplicates::Drop,
+                },
+                batches: match self.batched {
+                    BatchedName::Retime => BatchPolicy::Retime,
+                    BatchedName::Keep => BatchPolicy::Keep,
+                },
+            },
+            units,
+        })
+    }
+}
+
+/// A units file: `"column" = "unit"` pairs, TOML.
+fn read_units(path: &Path) -> Result<ColumnUnits> {
+    let text = crate::io::read_settings(path)?;
+    let table: std::collections::BTreeMap<String, String> =
+        toml::from_str(&text).with_context(|| {
+            format!(
+                "{}: not a units file (TOML lines such as \"acc_x\" = \"m/s^2\")",
+                path.display()
+            )
+        })?;
+    Ok(ColumnUnits::new(table))
+}
+
+fn time_unit(unit: TimeUnitName) -> TimeUnit {
+    match unit {
+        TimeUnitName::S => TimeUnit::Seconds,
+        TimeUnitName::Ms => TimeUnit::Milliseconds,
+        TimeUnitName::Us => TimeUnit::Microseconds,
+        TimeUnitName::Ns => TimeUnit::Nanoseconds,
+    }
+}
+
 /// Arguments of `nomen import imu`.
 #[derive(Debug, Args)]
 pub struct ImuArgs {
     #[command(flatten)]
     common: CommonArgs,
+    #[command(flatten)]
+    csv: CsvArgs,
     /// The IMU's device id.
     #[arg(long)]
     device: String,
+}
+
+/// Arguments of `nomen import fixes`.
+#[derive(Debug, Args)]
+pub struct FixesArgs {
+    #[command(flatten)]
+    common: CommonArgs,
+    #[command(flatten)]
+    csv: CsvArgs,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -89,6 +231,8 @@ enum SetName {
 pub struct SkeletonArgs {
     #[command(flatten)]
     common: CommonArgs,
+    #[command(flatten)]
+    csv: CsvArgs,
     /// Row layout.
     #[arg(long, value_enum, default_value_t = Layout::JointPerRow)]
     layout: Layout,
@@ -181,7 +325,7 @@ pub struct RfidArgs {
 pub fn run(command: ImportCommand) -> Result<()> {
     let common = match &command {
         ImportCommand::Imu(a) => &a.common,
-        ImportCommand::Fixes(c) => c,
+        ImportCommand::Fixes(a) => &a.common,
         ImportCommand::Skeletons(a) => &a.common,
         ImportCommand::AzureKinect(a) => &a.common,
         ImportCommand::Tracker(a) => &a.common,
@@ -201,10 +345,11 @@ pub fn run(command: ImportCommand) -> Result<()> {
     let mut imu_spec = None;
     let (common, mut messages) = match command {
         ImportCommand::Imu(a) => {
-            let (spec, msgs) = import_imu_auto(
+            let (spec, imported) = import_imu_auto(
                 open(&a.common.file)?,
                 &name(&a.common.file),
                 DeviceId::new(a.device),
+                &a.csv.options()?,
             )?;
             eprintln!(
                 "{}: {} columns mapped",
@@ -212,11 +357,19 @@ pub fn run(command: ImportCommand) -> Result<()> {
                 spec.columns.len()
             );
             imu_spec = Some(spec);
+            let msgs = summarise(imported, &a.common.file);
             (a.common, msgs)
         }
-        ImportCommand::Fixes(c) => {
-            let msgs = import_fixes(open(&c.file)?, &name(&c.file), &FixCsvSpec::default())?;
-            (c, msgs)
+        ImportCommand::Fixes(a) => {
+            let file = &a.common.file;
+            let imported = import_fixes(
+                open(file)?,
+                &name(file),
+                &FixCsvSpec::default(),
+                &a.csv.options()?,
+            )?;
+            let msgs = summarise(imported, file);
+            (a.common, msgs)
         }
         ImportCommand::Skeletons(a) => {
             let spec = SkeletonCsvSpec {
@@ -232,7 +385,9 @@ pub fn run(command: ImportCommand) -> Result<()> {
                 }),
                 ..Default::default()
             };
-            let msgs = import_skeletons(open(&a.common.file)?, &name(&a.common.file), &spec)?;
+            let file = &a.common.file;
+            let imported = import_skeletons(open(file)?, &name(file), &spec, &a.csv.options()?)?;
+            let msgs = summarise(imported, file);
             (a.common, msgs)
         }
         ImportCommand::AzureKinect(a) => {
@@ -249,12 +404,7 @@ pub fn run(command: ImportCommand) -> Result<()> {
             let config = TrackerConfig {
                 camera: CameraId::new(a.camera),
                 scale_m_per_unit: a.scale,
-                time_unit: a.time_unit.map(|u| match u {
-                    TimeUnitName::S => TimeUnit::Seconds,
-                    TimeUnitName::Ms => TimeUnit::Milliseconds,
-                    TimeUnitName::Us => TimeUnit::Microseconds,
-                    TimeUnitName::Ns => TimeUnit::Nanoseconds,
-                }),
+                time_unit: a.time_unit.map(time_unit),
                 joint: match a.joint {
                     PointJoint::Head => Joint::Head,
                     PointJoint::Pelvis => Joint::Pelvis,
@@ -364,6 +514,16 @@ fn reader(
     })
 }
 
+/// The messages of a CSV import, after saying on stderr how the file was read, what was sorted
+/// and merged, and warning of batched delivery with its numbers.
+fn summarise(imported: CsvImport, file: &Path) -> Vec<Message> {
+    eprintln!("{}: {}", name(file), imported.report);
+    for batching in &imported.report.batching {
+        eprintln!("warning: {}: {batching}", name(file));
+    }
+    imported.messages
+}
+
 /// The messages of a vendor import, after saying on stderr what was skipped on purpose.
 fn report(decoded: Decoded, file: &Path) -> Vec<Message> {
     if decoded.skipped.total() > 0 {
@@ -404,7 +564,10 @@ fn check_plausible(
             factor: Some(k),
             ..
         } => {
-            let meant_ns = spec.time_unit.ns_per_unit() * k;
+            let TimeFormat::Epoch(labelled) = spec.time_format else {
+                bail!("{file}: {finding}");
+            };
+            let meant_ns = labelled.ns_per_unit() * k;
             let meant = [(1.0, "ns"), (1e3, "us"), (1e6, "ms"), (1e9, "s")]
                 .into_iter()
                 .find(|(ns, _)| (meant_ns / ns - 1.0).abs() < 1e-6)
@@ -414,7 +577,7 @@ fn check_plausible(
                     "{file}: the time column '{}' read as {} gives an IMU at {:.3} Hz: its values \
                      are probably in {unit}; name the unit in the column, e.g. 't ({unit})'",
                     spec.time_column,
-                    time_unit_name(spec.time_unit),
+                    time_unit_name(labelled),
                     observed_hz
                 ),
                 None => bail!("{file}: {finding}"),

@@ -1,7 +1,7 @@
 //! IMU CSV import.
 
-use super::CsvInput;
-use super::units::{AccelUnit, GyroUnit, MagUnit, TimeUnit, split_unit};
+use super::units::{AccelUnit, GyroUnit, MagUnit, TimeFormat, TimeUnit, split_unit};
+use super::{CsvImport, CsvInput, CsvOptions};
 use crate::error::Result;
 use csv::StringRecord;
 use nalgebra::Vector3;
@@ -60,8 +60,8 @@ pub struct ImuCsvSpec {
     pub device: DeviceId,
     /// Name of the time column.
     pub time_column: String,
-    /// Unit of the time column.
-    pub time_unit: TimeUnit,
+    /// How the time column is read.
+    pub time_format: TimeFormat,
     /// Added to every time after conversion (maps the file's clock onto the session clock).
     pub time_offset_ns: i64,
     /// The sensor columns.
@@ -78,56 +78,79 @@ impl ImuCsvSpec {
     /// `t`, `time` or `timestamp`. Other columns are ignored. A quantity column without a
     /// recognised unit is an error: units are never guessed.
     pub fn infer(device: DeviceId, column_names: &[String]) -> std::result::Result<Self, String> {
-        let any_unit = |u: &str| {
-            TimeUnit::parse(u).is_some()
-                || AccelUnit::parse(u).is_some()
-                || GyroUnit::parse(u).is_some()
-                || MagUnit::parse(u).is_some()
-        };
-        let mut time = None;
-        let mut columns = Vec::new();
-        for name in column_names {
-            let (base, unit) = split_unit(name, any_unit);
-            if matches!(base.as_str(), "t" | "time" | "timestamp") {
-                let unit = unit.and_then(TimeUnit::parse).ok_or_else(|| {
-                    format!("time column '{name}' has no unit such as '(s)' or '_ms'")
-                })?;
-                time = Some((name.clone(), unit));
-                continue;
-            }
-            let Some((slot, axis)) = quantity_and_axis(&base) else {
-                continue;
-            };
-            let unit = unit.unwrap_or_default();
-            let quantity = match slot {
-                0 => AccelUnit::parse(unit).map(ImuQuantity::Accel),
-                1 => GyroUnit::parse(unit).map(ImuQuantity::Gyro),
-                _ => MagUnit::parse(unit).map(ImuQuantity::Mag),
-            }
-            .ok_or_else(|| {
-                let example = ["(m/s^2) or (g)", "(rad/s) or (deg/s)", "(uT) or (gauss)"][slot];
-                if unit.is_empty() {
-                    format!("column '{name}' has no unit: add one such as {example}")
-                } else {
-                    format!("column '{name}': unknown unit '{unit}', expected e.g. {example}")
-                }
-            })?;
-            columns.push(ImuColumn {
-                column: name.clone(),
-                quantity,
-                axis,
-            });
-        }
-        let (time_column, time_unit) = time
-            .ok_or_else(|| "no time column ('t', 'time' or 'timestamp' with a unit)".to_owned())?;
+        let (time, columns) = infer_columns(column_names, &[])?;
+        let (name, unit) = time.ok_or_else(no_time_column)?;
+        let unit = unit
+            .as_deref()
+            .and_then(TimeUnit::parse)
+            .ok_or_else(|| format!("time column '{name}' has no unit such as '(s)' or '_ms'"))?;
         Ok(Self {
             device,
-            time_column,
-            time_unit,
+            time_column: name,
+            time_format: TimeFormat::Epoch(unit),
             time_offset_ns: 0,
             columns,
         })
     }
+}
+
+fn no_time_column() -> String {
+    "no time column ('t', 'time' or 'timestamp' with a unit)".to_owned()
+}
+
+/// The time column (name, unit if given) and the sensor columns of a file whose columns are
+/// named `column_names`, with units from a units file (`given`, per column; missing entries
+/// give none) winning over the names'.
+#[allow(clippy::type_complexity)]
+fn infer_columns(
+    column_names: &[String],
+    given: &[Option<String>],
+) -> std::result::Result<(Option<(String, Option<String>)>, Vec<ImuColumn>), String> {
+    let any_unit = |u: &str| {
+        TimeUnit::parse(u).is_some()
+            || AccelUnit::parse(u).is_some()
+            || GyroUnit::parse(u).is_some()
+            || MagUnit::parse(u).is_some()
+    };
+    let mut time = None;
+    let mut columns = Vec::new();
+    for (i, name) in column_names.iter().enumerate() {
+        let (base, unit) = split_unit(name, any_unit);
+        let unit = match given.get(i) {
+            Some(Some(u)) => Some(u.as_str()),
+            _ => unit,
+        };
+        if matches!(base.as_str(), "t" | "time" | "timestamp") {
+            time = Some((name.clone(), unit.map(str::to_owned)));
+            continue;
+        }
+        let Some((slot, axis)) = quantity_and_axis(&base) else {
+            continue;
+        };
+        let unit = unit.unwrap_or_default();
+        let quantity = match slot {
+            0 => AccelUnit::parse(unit).map(ImuQuantity::Accel),
+            1 => GyroUnit::parse(unit).map(ImuQuantity::Gyro),
+            _ => MagUnit::parse(unit).map(ImuQuantity::Mag),
+        }
+        .ok_or_else(|| {
+            let example = ["(m/s^2) or (g)", "(rad/s) or (deg/s)", "(uT) or (gauss)"][slot];
+            if unit.is_empty() {
+                format!(
+                    "column '{name}' has no unit: add one such as {example}, or give it in a \
+                     units file"
+                )
+            } else {
+                format!("column '{name}': unknown unit '{unit}', expected e.g. {example}")
+            }
+        })?;
+        columns.push(ImuColumn {
+            column: name.clone(),
+            quantity,
+            axis,
+        });
+    }
+    Ok((time, columns))
 }
 
 /// Which quantity (0 accel, 1 gyro, 2 mag) and axis a lower-case base column name names.
@@ -173,25 +196,47 @@ fn quantity_and_axis(base: &str) -> Option<(usize, usize)> {
 }
 
 /// Imports an IMU CSV file with an explicit spec.
-pub fn import_imu(input: impl Read, source: &str, spec: &ImuCsvSpec) -> Result<Vec<Message>> {
-    let csv = CsvInput::new(input, source)?;
+pub fn import_imu(
+    input: impl Read,
+    source: &str,
+    spec: &ImuCsvSpec,
+    options: &CsvOptions,
+) -> Result<CsvImport> {
+    let mut csv = CsvInput::new(input, source, options)?;
+    csv.time_format = Some(spec.time_format);
     import_with(csv, spec)
 }
 
-/// Imports an IMU CSV file whose column names carry their units ([`ImuCsvSpec::infer`]); returns
-/// the inferred spec too.
+/// Imports an IMU CSV file whose column names (or units file) give their units, as
+/// [`ImuCsvSpec::infer`] reads them; a time column without a unit takes the options' or, when
+/// its first cell is one, is read as date-times. Returns the inferred spec too.
 pub fn import_imu_auto(
     input: impl Read,
     source: &str,
     device: DeviceId,
-) -> Result<(ImuCsvSpec, Vec<Message>)> {
-    let csv = CsvInput::new(input, source)?;
-    let spec = ImuCsvSpec::infer(device, &csv.headers).map_err(|e| csv.error(1, &e))?;
-    let messages = import_with(csv, &spec)?;
-    Ok((spec, messages))
+    options: &CsvOptions,
+) -> Result<(ImuCsvSpec, CsvImport)> {
+    let mut csv = CsvInput::new(input, source, options)?;
+    let (time, columns) = infer_columns(&csv.headers, &csv.units).map_err(|e| csv.error(1, &e))?;
+    let (time_column, unit) = time.ok_or_else(|| csv.error(1, &no_time_column()))?;
+    let col = csv
+        .headers
+        .iter()
+        .position(|h| *h == time_column)
+        .unwrap_or_default();
+    let time_format = csv.time_format(col, unit.as_deref(), None)?;
+    let spec = ImuCsvSpec {
+        device,
+        time_column,
+        time_format,
+        time_offset_ns: 0,
+        columns,
+    };
+    let imported = import_with(csv, &spec)?;
+    Ok((spec, imported))
 }
 
-fn import_with<R: Read>(mut csv: CsvInput<R>, spec: &ImuCsvSpec) -> Result<Vec<Message>> {
+fn import_with<R: Read>(mut csv: CsvInput<R>, spec: &ImuCsvSpec) -> Result<CsvImport> {
     let find_exact = |name: &str| -> Result<usize> {
         csv.headers.iter().position(|h| h == name).ok_or_else(|| {
             csv.error(
@@ -246,10 +291,15 @@ fn import_with<R: Read>(mut csv: CsvInput<R>, spec: &ImuCsvSpec) -> Result<Vec<M
     };
     let mag = full[2];
 
-    let mut out = Vec::new();
     let mut record = StringRecord::new();
     while let Some(line) = csv.next_row(&mut record)? {
-        let t = csv.time(&record, time_col, spec.time_unit, spec.time_offset_ns, line)?;
+        let t = csv.time(
+            &record,
+            time_col,
+            spec.time_format,
+            spec.time_offset_ns,
+            line,
+        )?;
         let vector = |cols: [(usize, f64); 3]| -> Result<Vector3<f64>> {
             let mut v = Vector3::zeros();
             for (axis, (col, k)) in cols.into_iter().enumerate() {
@@ -277,10 +327,9 @@ fn import_with<R: Read>(mut csv: CsvInput<R>, spec: &ImuCsvSpec) -> Result<Vec<M
             mag_ut,
             orientation_wxyz: None,
         });
-        csv.check(&msg, line)?;
-        out.push(msg);
+        csv.push(msg, line)?;
     }
-    Ok(out)
+    Ok(csv.finish())
 }
 
 #[cfg(test)]

@@ -3,25 +3,42 @@
 //! Every importer is sans-IO over any `Read` (pass `text.as_bytes()` for a `&str`) plus a source
 //! name for errors, which read `FILE:LINE: what is wrong` (line 1 is the row of column names).
 //! Units are never guessed: they come from the column names (`Time (s)`, `t_ms`, `x [mm]`,
-//! `Accelerometer X (g)`) or from an explicit spec. Every imported message passes
-//! [`nomen_core::Message::validate`] and per-source strict time order (the same rules as the
-//! recording reader, without registry checks and without a global order requirement, since CSV
-//! files are often grouped per device); use [`crate::sort_for_writing`] before writing.
+//! `Accelerometer X (g)`), from a units file ([`ColumnUnits`]) or from an explicit spec; a time
+//! column without one is read as date-times when its first cell is one.
+//!
+//! Files are read as they come ([`CsvOptions`]): the delimiter (`,`, `;`, tab) and the decimal
+//! separator (`.`, or `,` between columns not separated by commas) are detected from the column
+//! names and the first rows ([`Dialect`]); rows of one source out of order by up to a window
+//! are sorted and rows at one time merged ([`OrderPolicy`]); an IMU that delivers its samples
+//! in batches is found and re-timed ([`Batching`]). What was done is reported
+//! ([`ImportReport`]). Every imported message passes [`nomen_core::Message::validate`] and each
+//! source comes out strictly increasing in time, the file's messages sorted by time.
 
+mod batch;
+mod dialect;
 mod imu;
+mod order;
 mod skeleton;
 mod units;
 
+pub use batch::{
+    BATCH_MEAN_OVER_MEDIAN, BatchPolicy, Batching, DROPOUT_GAP_OVER_MEDIAN, MIN_BATCH_SAMPLES,
+};
+pub use dialect::{DecimalSeparator, Dialect};
 pub use imu::{ImuColumn, ImuCsvSpec, ImuQuantity, import_imu, import_imu_auto};
+pub use order::{DEFAULT_REORDER_WINDOW_NS, Duplicates, ImportReport, OrderPolicy};
 pub use skeleton::{FixCsvSpec, SkeletonCsvSpec, SkeletonLayout, import_fixes, import_skeletons};
-pub use units::{AccelUnit, GyroUnit, LengthUnit, MagUnit, STANDARD_GRAVITY_MPS2, TimeUnit};
+pub use units::{
+    AccelUnit, ColumnUnits, GyroUnit, LengthUnit, MagUnit, STANDARD_GRAVITY_MPS2, TimeFormat,
+    TimeUnit, parse_utc_offset,
+};
 
-use crate::check::{Checker, DEFAULT_MAX_TIME_JUMP_NS};
 use crate::error::{Pos, RecordingError, Result};
 use csv::StringRecord;
 use nomen_core::bounded::{BoundedReader, Limits, MIB_BYTES, describe_bytes, limit_error};
-use nomen_core::{CoreError, Message, SessionTime};
-use std::io::Read;
+use nomen_core::{CoreError, Message};
+use order::Reorder;
+use std::io::{Chain, Cursor, Read};
 use std::sync::Arc;
 
 /// Most columns an imported table may have: a skeleton per row of 32 joints with positions,
@@ -44,26 +61,71 @@ pub const MAX_CSV_MESSAGE_BYTES: u64 = 512 * MIB_BYTES;
 /// The limits every CSV importer reads within.
 pub const CSV_LIMITS: Limits = Limits::text("a CSV file", MAX_CSV_LINE_BYTES, MAX_CSV_BYTES);
 
+/// How a CSV file is read, beyond which column holds what: its dialect, its time and order, and
+/// units for columns whose names carry none. The default detects the dialect, reads date-times
+/// without a zone as UTC, sorts rows within 1 s and averages repeated times.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct CsvOptions {
+    /// The column delimiter; `None`: detected (`,`, `;` or tab).
+    pub delimiter: Option<u8>,
+    /// The decimal separator; `None`: detected (a comma only between columns not separated by
+    /// commas).
+    pub decimal: Option<DecimalSeparator>,
+    /// The unit of a numeric time column whose name carries none (Unix-epoch milliseconds in a
+    /// column named `timestamp`); a spec's unit wins.
+    pub time_unit: Option<TimeUnit>,
+    /// Where date-times without a zone were written, s east of UTC (0: UTC).
+    pub utc_offset_s: i64,
+    /// Unsorted rows, repeated times, batched delivery.
+    pub order: OrderPolicy,
+    /// Units by column name, winning over units in the names.
+    pub units: ColumnUnits,
+}
+
+/// The messages of a CSV import, sorted by time, and what the import did to them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CsvImport {
+    /// The messages, each source strictly increasing in time.
+    pub messages: Vec<Message>,
+    /// The dialect, time format, sorting, merging and batching.
+    pub report: ImportReport,
+}
+
+/// What the CSV reader reads: the sampled start of the file again, then the rest.
+type Input<R> = Chain<Cursor<Vec<u8>>, BoundedReader<R>>;
+
 /// A CSV file being imported: the reader, the source name and the column names.
 pub(crate) struct CsvInput<R> {
-    reader: csv::Reader<BoundedReader<R>>,
+    reader: csv::Reader<Input<R>>,
     pub(crate) file: Arc<str>,
     pub(crate) headers: Vec<String>,
-    /// Validates imported messages and checks per-source time order.
-    checker: Checker,
-    /// The last two messages accepted, (time, line), oldest first: to name a row that jumped
-    /// ahead rather than the row after it.
-    recent: [Option<(SessionTime, u64)>; 2],
+    /// Per column, the unit the units file gives it.
+    pub(crate) units: Vec<Option<String>>,
+    dialect: Dialect,
+    /// The unit of a time column whose name has none, from the options.
+    time_unit: Option<TimeUnit>,
+    utc_offset_s: i64,
+    /// How the time column is read, once known.
+    pub(crate) time_format: Option<TimeFormat>,
+    /// The first row, read ahead to tell date-times from numbers.
+    peeked: Option<Result<Option<(StringRecord, u64)>>>,
+    /// Sorts, re-times and merges the messages.
+    reorder: Reorder,
     /// The bytes the messages imported so far take in memory.
     message_bytes: u64,
 }
 
 impl<R: Read> CsvInput<R> {
-    pub(crate) fn new(input: R, source: &str) -> Result<Self> {
+    pub(crate) fn new(input: R, source: &str, options: &CsvOptions) -> Result<Self> {
         let file: Arc<str> = Arc::from(source);
+        let mut bounded = BoundedReader::new(input, source, CSV_LIMITS);
+        let (sample, is_whole) = read_sample(&mut bounded).map_err(|e| io_error(&file, &e, 1))?;
+        let dialect = dialect::detect(&sample, is_whole, options.delimiter, options.decimal)
+            .map_err(|e| error_at(&file, 1, &e))?;
         let mut reader = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
-            .from_reader(BoundedReader::new(input, source, CSV_LIMITS));
+            .delimiter(dialect.delimiter)
+            .from_reader(Cursor::new(sample).chain(bounded));
         let headers = reader
             .headers()
             .map_err(|e| csv_error(&file, &e))?
@@ -89,36 +151,128 @@ impl<R: Read> CsvInput<R> {
                 ),
             ));
         }
-        // One column whose name holds another separator: the file is not comma-separated.
+        // One column whose name holds another separator: the delimiter given is not the
+        // file's (detection finds `,`, `;` and tab).
+        let given = char::from(dialect.delimiter);
         if let [only] = headers.as_slice()
-            && let Some(sep) = [';', '\t', '|'].into_iter().find(|c| only.contains(*c))
+            && let Some(sep) = [',', ';', '\t', '|']
+                .into_iter()
+                .find(|c| *c != given && only.contains(*c))
         {
             return Err(error_at(
                 &file,
                 1,
                 &format!(
-                    "the columns are separated by {sep:?}, not by commas: save the file as \
-                     comma-separated values"
+                    "the columns are separated by {sep:?}, not by {given:?}: give the file's \
+                     delimiter (nomen import --delimiter) or save it as comma-separated values"
                 ),
             ));
         }
+        if let Some(name) = options.units.unmatched(&headers) {
+            return Err(error_at(
+                &file,
+                1,
+                &format!("the units file names column '{name}', which the file does not have"),
+            ));
+        }
+        let units = headers
+            .iter()
+            .map(|h| options.units.unit_of(h).map(str::to_owned))
+            .collect();
+        let reorder = Reorder::new(options.order, &file);
         Ok(Self {
             reader,
             file,
             headers,
-            checker: Checker::new(None, i64::MAX),
-            recent: [None; 2],
+            units,
+            dialect,
+            time_unit: options.time_unit,
+            utc_offset_s: options.utc_offset_s,
+            time_format: None,
+            peeked: None,
+            reorder,
             message_bytes: 0,
         })
     }
 
-    /// Reads the next row into `record`; returns its line number, or `None` at the end.
-    pub(crate) fn next_row(&mut self, record: &mut StringRecord) -> Result<Option<u64>> {
+    fn read_row(&mut self, record: &mut StringRecord) -> Result<Option<u64>> {
         match self.reader.read_record(record) {
             Ok(true) => Ok(Some(record.position().map_or(0, |p| p.line()))),
             Ok(false) => Ok(None),
             Err(e) => Err(csv_error(&self.file, &e)),
         }
+    }
+
+    /// Reads the next row into `record`; returns its line number, or `None` at the end.
+    pub(crate) fn next_row(&mut self, record: &mut StringRecord) -> Result<Option<u64>> {
+        match self.peeked.take() {
+            Some(Ok(Some((first, line)))) => {
+                *record = first;
+                Ok(Some(line))
+            }
+            Some(Ok(None)) => Ok(None),
+            Some(Err(e)) => Err(e),
+            None => self.read_row(record),
+        }
+    }
+
+    /// The cell in column `col` of the first row, read ahead (`None` without one).
+    fn first_cell(&mut self, col: usize) -> Option<&str> {
+        if self.peeked.is_none() {
+            let mut record = StringRecord::new();
+            let row = self.read_row(&mut record);
+            self.peeked = Some(row.map(|line| line.map(|line| (record, line))));
+        }
+        match &self.peeked {
+            Some(Ok(Some((record, _)))) => record.get(col),
+            _ => None,
+        }
+    }
+
+    /// How the time column `col` is read: the unit its name (or the units file) gives, a
+    /// spec's unit or the options' for a name without one, else date-times if its first cell
+    /// is one; else an error naming the column.
+    pub(crate) fn time_format(
+        &mut self,
+        col: usize,
+        from_name: Option<&str>,
+        from_spec: Option<TimeUnit>,
+    ) -> Result<TimeFormat> {
+        let datetime = TimeFormat::DateTime {
+            utc_offset_s: self.utc_offset_s,
+        };
+        let format = match from_name {
+            Some(u) if TimeFormat::is_datetime_unit(u) => datetime,
+            Some(u) => TimeUnit::parse(u).map(TimeFormat::Epoch).ok_or_else(|| {
+                self.error(
+                    1,
+                    &format!("column '{}': unknown unit '{u}'", self.header(col)),
+                )
+            })?,
+            None => match from_spec.or(self.time_unit) {
+                Some(unit) => TimeFormat::Epoch(unit),
+                None if self
+                    .first_cell(col)
+                    .is_some_and(|c| datetime.cell_to_ns(c).is_some()) =>
+                {
+                    datetime
+                }
+                None => {
+                    return Err(self.error(
+                        1,
+                        &format!(
+                            "column '{}' has no unit: rename it like 't (s)' (the unit after an \
+                             underscore or in brackets), give it in a units file or as the time \
+                             unit (nomen import --units, --time-unit), or, from the library, in \
+                             the import spec; date-times are read as such",
+                            self.header(col)
+                        ),
+                    ));
+                }
+            },
+        };
+        self.time_format = Some(format);
+        Ok(format)
     }
 
     /// Finds the column whose base name (unit removed, lower case) is one of `bases`.
@@ -129,9 +283,11 @@ impl<R: Read> CsvInput<R> {
     ) -> Option<(usize, Option<String>)> {
         self.headers.iter().enumerate().find_map(|(i, h)| {
             let (base, unit) = units::split_unit(h, is_unit);
-            bases
-                .contains(&base.as_str())
-                .then(|| (i, unit.map(str::to_owned)))
+            let unit = match self.units.get(i) {
+                Some(Some(given)) => Some(given.clone()),
+                _ => unit.map(str::to_owned),
+            };
+            bases.contains(&base.as_str()).then_some((i, unit))
         })
     }
 
@@ -177,31 +333,21 @@ impl<R: Read> CsvInput<R> {
         })
     }
 
-    /// Checks an imported message (values and per-source order) at `line`. When it is out of
-    /// order because the row before it jumped ahead (that row is later than the row before it,
-    /// and later than this one by more than [`DEFAULT_MAX_TIME_JUMP_NS`]), the error names that
-    /// row: a corrupt time there, not here.
-    pub(crate) fn check(&mut self, msg: &Message, line: u64) -> Result<()> {
-        let Err(e) = self.checker.check(msg, &self.file, line) else {
-            self.recent = [self.recent[1], Some((msg.t(), line))];
-            return self.hold(msg, line);
-        };
-        if let RecordingError::SourceOrder { t, previous, .. } = &e
-            && let [Some((before, before_line)), Some((last, jumped_line))] = self.recent
-            && last == *previous
-            && before < *t
-            && previous.as_ns() - t.as_ns() > DEFAULT_MAX_TIME_JUMP_NS
-        {
-            return Err(self.error(
-                jumped_line,
-                &format!(
-                    "time {previous} is after both the row before it ({before}, line \
-                     {before_line}) and the row after it ({t}, line {line}): a corrupt time or \
-                     a row out of place"
-                ),
-            ));
-        }
-        Err(e)
+    /// Takes an imported message read at `line`: checks its values and the memory the import
+    /// holds, and hands it to the order policy (which refuses a row too far out of place).
+    pub(crate) fn push(&mut self, msg: Message, line: u64) -> Result<()> {
+        msg.validate().map_err(|source| RecordingError::Invalid {
+            at: Pos::new(&self.file, line),
+            source,
+        })?;
+        self.hold(&msg, line)?;
+        self.reorder.push(msg, line)
+    }
+
+    /// The messages in time order and the report ([`Reorder::finish`]).
+    pub(crate) fn finish(self) -> CsvImport {
+        let (messages, report) = self.reorder.finish(self.dialect, self.time_format);
+        CsvImport { messages, report }
     }
 
     /// Counts the memory `msg` takes once imported, refusing the import past
@@ -228,7 +374,7 @@ impl<R: Read> CsvInput<R> {
     /// Parses the number in column `col` of `record`.
     pub(crate) fn number(&self, record: &StringRecord, col: usize, line: u64) -> Result<f64> {
         let cell = record.get(col).unwrap_or_default();
-        cell.parse::<f64>().map_err(|_| {
+        self.with_point(cell).parse::<f64>().map_err(|_| {
             self.error(
                 line,
                 &format!(
@@ -237,6 +383,15 @@ impl<R: Read> CsvInput<R> {
                 ),
             )
         })
+    }
+
+    /// `cell` with its decimal comma, if the file writes one, turned into a point.
+    fn with_point<'a>(&self, cell: &'a str) -> std::borrow::Cow<'a, str> {
+        if self.dialect.decimal == DecimalSeparator::Comma && cell.contains(',') {
+            std::borrow::Cow::Owned(cell.replace(',', "."))
+        } else {
+            std::borrow::Cow::Borrowed(cell)
+        }
     }
 
     /// Parses an optional number: an empty cell is `None`.
@@ -253,17 +408,22 @@ impl<R: Read> CsvInput<R> {
         }
     }
 
-    /// Parses the time in column `col` with `unit`, adding `offset_ns`.
+    /// Parses the time in column `col` in `format`, adding `offset_ns`.
     pub(crate) fn time(
         &self,
         record: &StringRecord,
         col: usize,
-        unit: TimeUnit,
+        format: TimeFormat,
         offset_ns: i64,
         line: u64,
     ) -> Result<nomen_core::SessionTime> {
         let cell = record.get(col).unwrap_or_default();
-        unit.cell_to_ns(cell)
+        let number = match format {
+            TimeFormat::Epoch(_) => self.with_point(cell),
+            TimeFormat::DateTime { .. } => std::borrow::Cow::Borrowed(cell),
+        };
+        format
+            .cell_to_ns(&number)
             .and_then(|ns| ns.checked_add(offset_ns))
             .map(nomen_core::SessionTime::from_ns)
             .ok_or_else(|| {
@@ -301,7 +461,7 @@ impl<R: Read> CsvInput<R> {
                 self.error(
                     1,
                     &format!(
-                        "column '{}' has no unit: rename it like '{example}' (the unit after an underscore or in brackets), or, from the library, give the unit in the import spec",
+                        "column '{}' has no unit: rename it like '{example}' (the unit after an underscore or in brackets), give it in a units file (nomen import --units), or, from the library, in the import spec",
                         self.header(col)
                     ),
                 )
@@ -317,6 +477,57 @@ pub(crate) fn error_at(file: &Arc<str>, line: u64, detail: &str) -> RecordingErr
     }
 }
 
+/// Reads the start of a file for [`dialect::detect`]: the column names and
+/// [`dialect::NUM_SAMPLE_ROWS`] rows, within [`dialect::MAX_SAMPLE_BYTES`]; whether it is the
+/// whole file.
+fn read_sample(input: &mut impl Read) -> std::io::Result<(Vec<u8>, bool)> {
+    let mut sample = Vec::new();
+    let mut chunk = [0u8; 4096];
+    loop {
+        let lines = sample.iter().filter(|&&b| b == b'\n').count();
+        if lines > dialect::NUM_SAMPLE_ROWS || sample.len() >= dialect::MAX_SAMPLE_BYTES {
+            return Ok((sample, false));
+        }
+        match input.read(&mut chunk) {
+            Ok(0) => return Ok((sample, true)),
+            Ok(n) => sample.extend_from_slice(chunk.get(..n).unwrap_or_default()),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// A read error as the file's error at `line` (a limit names its own line).
+fn io_error(file: &Arc<str>, err: &std::io::Error, line: u64) -> RecordingError {
+    let detail = match limit_error(err) {
+        Some(CoreError::LineTooLong {
+            line,
+            max_line_bytes,
+            kind,
+            ..
+        }) => {
+            return error_at(
+                file,
+                *line,
+                &format!(
+                    "the line is longer than {}, the longest line {kind} may have",
+                    describe_bytes(*max_line_bytes)
+                ),
+            );
+        }
+        Some(CoreError::InputTooLarge {
+            max_input_bytes,
+            kind,
+            ..
+        }) => format!(
+            "the file holds more than {}, the most {kind} may have",
+            describe_bytes(*max_input_bytes)
+        ),
+        _ => format!("i/o error: {err}"),
+    };
+    error_at(file, line, &detail)
+}
+
 fn csv_error(file: &Arc<str>, e: &csv::Error) -> RecordingError {
     let line = e.position().map_or(1, |p| p.line());
     let detail = match e.kind() {
@@ -326,32 +537,7 @@ fn csv_error(file: &Arc<str>, e: &csv::Error) -> RecordingError {
             format!("row has {len} fields, expected {expected_len}")
         }
         csv::ErrorKind::Utf8 { err, .. } => format!("invalid utf-8 ({err})"),
-        csv::ErrorKind::Io(err) => match limit_error(err) {
-            Some(CoreError::LineTooLong {
-                line,
-                max_line_bytes,
-                kind,
-                ..
-            }) => {
-                return error_at(
-                    file,
-                    *line,
-                    &format!(
-                        "the line is longer than {}, the longest line {kind} may have",
-                        describe_bytes(*max_line_bytes)
-                    ),
-                );
-            }
-            Some(CoreError::InputTooLarge {
-                max_input_bytes,
-                kind,
-                ..
-            }) => format!(
-                "the file holds more than {}, the most {kind} may have",
-                describe_bytes(*max_input_bytes)
-            ),
-            _ => format!("i/o error: {err}"),
-        },
+        csv::ErrorKind::Io(err) => return io_error(file, err, line),
         _ => e.to_string().to_lowercase(),
     };
     error_at(file, line, &detail)

@@ -1,7 +1,7 @@
 //! Tag-fix and skeleton CSV import.
 
-use super::CsvInput;
-use super::units::{LengthUnit, TimeUnit};
+use super::units::{LengthUnit, TimeFormat, TimeUnit};
+use super::{CsvImport, CsvInput, CsvOptions};
 use crate::error::Result;
 use csv::StringRecord;
 use nalgebra::Point3;
@@ -64,24 +64,22 @@ pub struct FixCsvSpec {
 
 /// Imports RTLS fixes: columns `t` (or `time`), `tag`, `x`, `y`, `z` (world frame) and an
 /// optional `quality` in `0..=1` (an empty cell is no quality).
-pub fn import_fixes(input: impl Read, source: &str, spec: &FixCsvSpec) -> Result<Vec<Message>> {
-    let mut csv = CsvInput::new(input, source)?;
+pub fn import_fixes(
+    input: impl Read,
+    source: &str,
+    spec: &FixCsvSpec,
+    options: &CsvOptions,
+) -> Result<CsvImport> {
+    let mut csv = CsvInput::new(input, source, options)?;
     let (t_col, t_unit) = csv.require(&TIME_NAMES, is_time_unit)?;
-    let t_unit = csv.unit(
-        t_col,
-        t_unit.as_deref(),
-        TimeUnit::parse,
-        spec.time_unit,
-        "t (s)",
-    )?;
+    let t_format = csv.time_format(t_col, t_unit.as_deref(), spec.time_unit)?;
     let (tag_col, _) = csv.require(&["tag"], is_no_unit)?;
     let xyz = xyz_columns(&csv, spec.length_unit)?;
     let quality_col = csv.find(&["quality"], is_no_unit).map(|(c, _)| c);
 
-    let mut out = Vec::new();
     let mut record = StringRecord::new();
     while let Some(line) = csv.next_row(&mut record)? {
-        let t = csv.time(&record, t_col, t_unit, spec.time_offset_ns, line)?;
+        let t = csv.time(&record, t_col, t_format, spec.time_offset_ns, line)?;
         let tag = record.get(tag_col).unwrap_or_default();
         if tag.is_empty() {
             return Err(csv.error(line, "empty tag id"));
@@ -101,10 +99,9 @@ pub fn import_fixes(input: impl Read, source: &str, spec: &FixCsvSpec) -> Result
             quality,
             covariance_m2: None,
         });
-        csv.check(&msg, line)?;
-        out.push(msg);
+        csv.push(msg, line)?;
     }
-    Ok(out)
+    Ok(csv.finish())
 }
 
 /// How skeleton rows are laid out.
@@ -225,8 +222,9 @@ pub fn import_skeletons(
     input: impl Read,
     source: &str,
     spec: &SkeletonCsvSpec,
-) -> Result<Vec<Message>> {
-    let csv = CsvInput::new(input, source)?;
+    options: &CsvOptions,
+) -> Result<CsvImport> {
+    let csv = CsvInput::new(input, source, options)?;
     match spec.layout {
         SkeletonLayout::JointPerRow => import_joint_rows(csv, spec),
         SkeletonLayout::SkeletonPerRow => import_skeleton_rows(csv, spec),
@@ -235,20 +233,14 @@ pub fn import_skeletons(
 
 /// Columns common to both layouts.
 struct Common {
-    t: (usize, TimeUnit),
+    t: (usize, TimeFormat),
     camera: usize,
     track: usize,
 }
 
-fn common<R: Read>(csv: &CsvInput<R>, spec: &SkeletonCsvSpec) -> Result<Common> {
+fn common<R: Read>(csv: &mut CsvInput<R>, spec: &SkeletonCsvSpec) -> Result<Common> {
     let (t_col, t_unit) = csv.require(&TIME_NAMES, is_time_unit)?;
-    let t_unit = csv.unit(
-        t_col,
-        t_unit.as_deref(),
-        TimeUnit::parse,
-        spec.time_unit,
-        "t (s)",
-    )?;
+    let t_unit = csv.time_format(t_col, t_unit.as_deref(), spec.time_unit)?;
     let (camera, _) = csv.require(&["camera"], is_no_unit)?;
     let (track, _) = csv.require(&["track"], is_no_unit)?;
     Ok(Common {
@@ -319,17 +311,13 @@ fn observation<R: Read>(
     })
 }
 
-fn import_joint_rows<R: Read>(
-    mut csv: CsvInput<R>,
-    spec: &SkeletonCsvSpec,
-) -> Result<Vec<Message>> {
-    let c = common(&csv, spec)?;
+fn import_joint_rows<R: Read>(mut csv: CsvInput<R>, spec: &SkeletonCsvSpec) -> Result<CsvImport> {
+    let c = common(&mut csv, spec)?;
     let (joint_col, _) = csv.require(&["joint"], is_no_unit)?;
     let xyz = xyz_columns(&csv, spec.length_unit)?;
     let conf_col = csv.find(&["confidence"], is_no_unit).map(|(c, _)| c);
     let state_col = csv.find(&["state"], is_no_unit).map(|(c, _)| c);
 
-    let mut out = Vec::new();
     let mut record = StringRecord::new();
     let mut joints = JointCollector::new(spec.joint_set);
     // The skeleton being collected: key and the line it started on.
@@ -352,8 +340,7 @@ fn import_joint_rows<R: Read>(
                 track: TrackId(track),
                 joints: joints.take(),
             }));
-            csv.check(&msg, start)?;
-            out.push(msg);
+            csv.push(msg, start)?;
         }
         let (Some(line), Some((k, _))) = (row, key) else {
             break;
@@ -382,14 +369,14 @@ fn import_joint_rows<R: Read>(
             current = Some((k, line));
         }
     }
-    Ok(out)
+    Ok(csv.finish())
 }
 
 fn import_skeleton_rows<R: Read>(
     mut csv: CsvInput<R>,
     spec: &SkeletonCsvSpec,
-) -> Result<Vec<Message>> {
-    let c = common(&csv, spec)?;
+) -> Result<CsvImport> {
+    let c = common(&mut csv, spec)?;
     // Per joint: its reference, x/y/z columns with factors, confidence and state columns.
     type JointColumns = (JointRef, [(usize, f64); 3], Option<usize>, Option<usize>);
     let mut joint_cols: Vec<JointColumns> = Vec::new();
@@ -447,7 +434,6 @@ fn import_skeleton_rows<R: Read>(
         ));
     }
 
-    let mut out = Vec::new();
     let mut record = StringRecord::new();
     let mut joints = JointCollector::new(spec.joint_set);
     while let Some(line) = csv.next_row(&mut record)? {
@@ -468,8 +454,7 @@ fn import_skeleton_rows<R: Read>(
             track: TrackId(track),
             joints: joints.take(),
         }));
-        csv.check(&msg, line)?;
-        out.push(msg);
+        csv.push(msg, line)?;
     }
-    Ok(out)
+    Ok(csv.finish())
 }

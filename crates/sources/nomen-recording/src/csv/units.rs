@@ -53,6 +53,150 @@ impl TimeUnit {
     }
 }
 
+/// How the cells of a time column are read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TimeFormat {
+    /// Numbers in a unit since any origin: seconds of a logger's clock, or Unix-epoch seconds,
+    /// milliseconds, microseconds or nanoseconds (which stay Unix-epoch times).
+    Epoch(TimeUnit),
+    /// Date-times, ISO 8601 (`2019-09-12T14:03:21.250+02:00`) or `2019-09-12 14:03:21.250`;
+    /// those without a zone are local time `utc_offset_s` east of UTC.
+    DateTime {
+        /// The UTC offset of date-times without a zone, s (7200 for `+02:00`).
+        utc_offset_s: i64,
+    },
+}
+
+impl TimeFormat {
+    /// Converts one cell to nanoseconds (since the Unix epoch for date-times); `None` if it is
+    /// not a time in this format.
+    pub fn cell_to_ns(self, cell: &str) -> Option<i64> {
+        match self {
+            Self::Epoch(unit) => unit.cell_to_ns(cell),
+            Self::DateTime { utc_offset_s } => {
+                nomen_core::time::parse_datetime_ns(cell, utc_offset_s)
+            }
+        }
+    }
+
+    /// Whether `unit`, as a units file may give it for a time column, names date-times.
+    pub(crate) fn is_datetime_unit(unit: &str) -> bool {
+        matches!(
+            unit.trim().to_lowercase().as_str(),
+            "datetime" | "date-time" | "iso8601" | "iso 8601"
+        )
+    }
+}
+
+impl std::fmt::Display for TimeFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Epoch(unit) => write!(
+                f,
+                "in {}",
+                match unit {
+                    TimeUnit::Seconds => "seconds",
+                    TimeUnit::Milliseconds => "milliseconds",
+                    TimeUnit::Microseconds => "microseconds",
+                    TimeUnit::Nanoseconds => "nanoseconds",
+                }
+            ),
+            Self::DateTime { utc_offset_s } => {
+                let sign = if *utc_offset_s < 0 { '-' } else { '+' };
+                let abs = utc_offset_s.unsigned_abs();
+                write!(
+                    f,
+                    "as date-times, UTC{sign}{:02}:{:02} where they name no zone",
+                    abs / 3600,
+                    abs % 3600 / 60
+                )
+            }
+        }
+    }
+}
+
+/// Parses a UTC offset as `--timezone` takes it: `Z`, `UTC`, `+02:00`, `-0530`, `+2`; seconds
+/// east of UTC, or `None`.
+pub fn parse_utc_offset(text: &str) -> Option<i64> {
+    let t = text.trim();
+    if t.eq_ignore_ascii_case("z") || t.eq_ignore_ascii_case("utc") {
+        return Some(0);
+    }
+    let t = t.strip_prefix("UTC").unwrap_or(t);
+    let (sign, rest) = match t.as_bytes().first()? {
+        b'+' => (1, t.get(1..)?),
+        b'-' => (-1, t.get(1..)?),
+        _ => return None,
+    };
+    let (h, m) = match rest.split_once(':') {
+        Some((h, m)) => (h, m),
+        None if rest.len() == 4 => (rest.get(..2)?, rest.get(2..)?),
+        None => (rest, "0"),
+    };
+    let digits = |s: &str| !s.is_empty() && s.len() <= 2 && s.bytes().all(|b| b.is_ascii_digit());
+    if !digits(h) || !digits(m) {
+        return None;
+    }
+    let (h, m): (i64, i64) = (h.parse().ok()?, m.parse().ok()?);
+    (h <= 14 && m < 60).then_some(sign * (h * 3600 + m * 60))
+}
+
+/// Units by column name, for columns whose names carry none (or the wrong one): what a units
+/// file gives (`nomen import --units FILE`). A name ending in `*` gives the unit to every column
+/// that starts with the rest (`acc_*`); an exact name wins over a pattern, a longer pattern over
+/// a shorter one. Names compare without case and surrounding spaces. A unit given here wins over
+/// one in the column's name.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct ColumnUnits {
+    entries: Vec<(String, String)>,
+}
+
+impl ColumnUnits {
+    /// Units from (column name or pattern, unit) pairs.
+    pub fn new(entries: impl IntoIterator<Item = (String, String)>) -> Self {
+        Self {
+            entries: entries
+                .into_iter()
+                .map(|(c, u)| (c.trim().to_lowercase(), u.trim().to_owned()))
+                .collect(),
+        }
+    }
+
+    /// Whether no unit is given.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// The unit given for `column`.
+    pub(crate) fn unit_of(&self, column: &str) -> Option<&str> {
+        let column = column.trim().to_lowercase();
+        let exact = self.entries.iter().find(|(c, _)| *c == column);
+        let pattern = || {
+            self.entries
+                .iter()
+                .filter_map(|(c, u)| {
+                    let prefix = c.strip_suffix('*')?;
+                    column.starts_with(prefix).then_some((prefix.len(), u))
+                })
+                .max_by_key(|(n, _)| *n)
+                .map(|(_, u)| u)
+        };
+        exact.map(|(_, u)| u).or_else(pattern).map(String::as_str)
+    }
+
+    /// The first name or pattern that no column of `headers` matches (a typo in the units file).
+    pub(crate) fn unmatched(&self, headers: &[String]) -> Option<&str> {
+        let headers: Vec<String> = headers.iter().map(|h| h.trim().to_lowercase()).collect();
+        self.entries
+            .iter()
+            .find(|(c, _)| match c.strip_suffix('*') {
+                Some(prefix) => !headers.iter().any(|h| h.starts_with(prefix)),
+                None => !headers.contains(c),
+            })
+            .map(|(c, _)| c.as_str())
+    }
+}
+
 /// Unit of a length column.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LengthUnit {
@@ -231,6 +375,31 @@ mod tests {
         assert_eq!(TimeUnit::Milliseconds.cell_to_ns("12"), Some(12_000_000));
         assert_eq!(TimeUnit::Seconds.cell_to_ns("NaN"), None);
         assert_eq!(TimeUnit::Seconds.cell_to_ns("1e12"), None);
+    }
+
+    #[test]
+    fn utc_offsets_read_as_seconds_east() {
+        assert_eq!(parse_utc_offset("+02:00"), Some(7200));
+        assert_eq!(parse_utc_offset("-0530"), Some(-19_800));
+        assert_eq!(parse_utc_offset("UTC+1"), Some(3600));
+        assert_eq!(parse_utc_offset("Z"), Some(0));
+        for bad in ["02:00", "+25:00", "+02:75", "Europe/Rome", "+", ""] {
+            assert_eq!(parse_utc_offset(bad), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn an_exact_column_name_wins_over_a_pattern() {
+        let units = ColumnUnits::new([
+            ("acc_*".to_owned(), "m/s^2".to_owned()),
+            ("ACC_Z".to_owned(), "g".to_owned()),
+            ("gyr_*".to_owned(), "rad/s".to_owned()),
+        ]);
+        assert_eq!(units.unit_of("acc_x"), Some("m/s^2"));
+        assert_eq!(units.unit_of("acc_z"), Some("g"));
+        assert_eq!(units.unit_of("mag_x"), None);
+        let headers = ["t_s".to_owned(), "acc_x".to_owned(), "acc_z".to_owned()];
+        assert_eq!(units.unmatched(&headers), Some("gyr_*"));
     }
 
     #[test]
