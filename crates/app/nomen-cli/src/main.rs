@@ -37,9 +37,11 @@ enum Command {
     Run(cmd::run::RunArgs),
     /// Simulate a scenario: people from real motion capture under cameras, wearing sensors.
     Simulate(cmd::simulate::SimulateArgs),
-    /// Import CSV files (IMU, tag fixes, skeletons) into a recording.
+    /// Import CSV files (IMU, tag fixes, skeletons) and vendor formats into a recording.
     #[command(subcommand)]
     Import(cmd::import::ImportCommand),
+    /// Merge imported sources into one recording by time, their ids checked against a registry.
+    Assemble(cmd::assemble::AssembleArgs),
     /// Triangulate 2D keypoints (OpenPose, COCO, MMPose) of calibrated cameras into a recording
     /// of world-frame skeletons with track ids.
     Triangulate(cmd::triangulate::TriangulateArgs),
@@ -88,6 +90,7 @@ fn main() -> ExitCode {
         Command::Run(a) => cmd::run::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Import(c) => cmd::import::run(c),
+        Command::Assemble(a) => cmd::assemble::run(a),
         Command::Triangulate(a) => cmd::triangulate::run(a),
         Command::Validate(a) => cmd::validate::run(a),
         Command::Eval(a) => cmd::eval::run(a),

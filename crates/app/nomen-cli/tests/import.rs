@@ -1,7 +1,7 @@
 //! `nomen import` on files as devices write them (`docs/import.md`): the samples of
 //! `docs/samples/` (a batched watch with `;`, decimal commas and local date-times; tag fixes
 //! with tabs, swapped and repeated rows), fixtures written here, the shared BROAD recording with
-//! a units file.
+//! a units file, and `nomen assemble` of the imports with a TOML registry.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod common;
@@ -222,4 +222,77 @@ fn broad_imports_with_the_units_file_and_names_the_column_without() {
     assert!(o.status.success(), "{}", text(&o.stderr));
     let rows = std::fs::read_to_string(&broad).unwrap().lines().count() - 1;
     assert_eq!(times(&out).len(), rows);
+}
+
+#[test]
+fn assemble_merges_the_imports_by_time_and_names_an_id_missing_from_the_registry() {
+    let tmp = tempfile::tempdir().unwrap();
+    let watch = tmp.path().join("watch.jsonl");
+    let tag = tmp.path().join("tag.jsonl");
+    for (kind, file, out, extra) in [
+        (
+            "imu",
+            "watch_batched.csv",
+            &watch,
+            vec!["--device", "watch"],
+        ),
+        ("fixes", "tag_fixes.tsv", &tag, vec![]),
+    ] {
+        let mut args = vec!["import", kind];
+        let file = sample(file);
+        args.push(&file);
+        args.extend_from_slice(&extra);
+        args.extend_from_slice(&["--timezone", "+02:00", "--out", out.to_str().unwrap()]);
+        let o = nomen(&args);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+    }
+    let session = tmp.path().join("session.jsonl");
+    let registry = sample("registry.toml");
+    let o = nomen(&[
+        "assemble",
+        "--registry",
+        &registry,
+        watch.to_str().unwrap(),
+        tag.to_str().unwrap(),
+        "--out",
+        session.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(text(&o.stderr).contains("wrote 600 messages from 2 sources"));
+    let t = times(&session);
+    assert_eq!(t.len(), 600);
+    assert!(t.windows(2).all(|w| w[1] >= w[0]));
+    assert!(!tmp.path().join("session.jsonl.partial").exists());
+    let o = nomen(&["validate", session.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+
+    // A tag the registry does not list: named with its source and line, nothing written.
+    let stranger = tmp.path().join("stranger.csv");
+    std::fs::write(&stranger, "t_s,tag,x_m,y_m,z_m\n1568289802,tag2,1,2,1\n").unwrap();
+    let stranger_rec = tmp.path().join("stranger.jsonl");
+    let o = nomen(&[
+        "import",
+        "fixes",
+        stranger.to_str().unwrap(),
+        "--out",
+        stranger_rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let bad = tmp.path().join("bad.jsonl");
+    let o = nomen(&[
+        "assemble",
+        "--registry",
+        &registry,
+        watch.to_str().unwrap(),
+        stranger_rec.to_str().unwrap(),
+        "--out",
+        bad.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let stderr = text(&o.stderr);
+    assert!(
+        stderr.contains("stranger.jsonl:2: rtls tag 'tag2' is not in the registry"),
+        "{stderr}"
+    );
+    assert!(!bad.exists());
 }

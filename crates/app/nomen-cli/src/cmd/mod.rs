@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod assemble;
 pub mod bench;
 pub mod calibrate;
 pub mod calibrate_confidence;

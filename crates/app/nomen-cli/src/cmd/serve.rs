@@ -225,8 +225,18 @@ pub fn run(args: ServeArgs) -> Result<()> {
     Ok(())
 }
 
-/// A registry from a JSON file holding one, or from the header of a recording.
+/// A registry from a TOML file (`.toml`) or a JSON file holding one, or from the header of a
+/// recording.
 pub fn load_registry(path: &Path) -> Result<Registry> {
+    if path.extension().is_some_and(|e| e == "toml") {
+        let text = crate::io::read_settings(path)?;
+        let registry: Registry = toml::from_str(&text)
+            .with_context(|| format!("{}: not a registry (TOML)", path.display()))?;
+        registry
+            .validate()
+            .with_context(|| format!("{}: invalid registry", path.display()))?;
+        return Ok(registry);
+    }
     if let Ok(reader) = RecordingReader::open(path) {
         return match &reader.header().registry {
             Some(registry) => Ok(registry.clone()),
