@@ -58,6 +58,12 @@ run nomen mocap convert ../shared/data/mocap/cmu-asfamc/02_05.amc --asf ../share
 # CSV and vendor formats → recording.
 run nomen import imu ../shared/data/imu/xio/sensor_data.csv --device xio --out out/xio.jsonl
 run nomen import skeletons docs/samples/kinect_v2_joints.csv --joint-set kinect-v2 --out out/kinect.jsonl
+# Files as devices write them, and one session assembled from them (docs/import.md).
+run nomen import imu docs/samples/watch_batched.csv --device watch --timezone +02:00 --out out/watch.jsonl
+run nomen import fixes docs/samples/tag_fixes.tsv --timezone +02:00 --out out/tag.jsonl
+run nomen import imu ../shared/data/imu/broad/07_undisturbed_fast_rotation_B.csv --device broad \
+  --units docs/samples/broad_units.toml --out out/broad.jsonl
+run nomen assemble --registry docs/samples/registry.toml out/watch.jsonl out/tag.jsonl --out out/session.jsonl
 run nomen import azure-kinect docs/adapters/azure_kinect_offline.json --camera kinect --out out/kinect_bt.jsonl
 run nomen import tracker docs/adapters/tracker_overhead.csv --camera counter --scale 0.0153 --z-m 1.7 --out out/counter.jsonl
 run nomen import pozyx docs/adapters/pozyx_tags.jsonl --out out/pozyx.jsonl

@@ -8,7 +8,7 @@ pub(crate) const NUM_SAMPLE_ROWS: usize = 8;
 
 /// The most bytes detection reads from the start of a file: 64 KiB (the column names and eight
 /// rows of the widest real file take 12 kB).
-pub(crate) const MAX_SAMPLE_BYTES: usize = 64 * 1024;
+pub const MAX_DIALECT_SAMPLE_BYTES: usize = 64 * 1024;
 
 /// The character between a number's integer and fraction digits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

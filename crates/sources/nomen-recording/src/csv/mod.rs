@@ -24,7 +24,7 @@ mod units;
 pub use batch::{
     BATCH_MEAN_OVER_MEDIAN, BatchPolicy, Batching, DROPOUT_GAP_OVER_MEDIAN, MIN_BATCH_SAMPLES,
 };
-pub use dialect::{DecimalSeparator, Dialect};
+pub use dialect::{DecimalSeparator, Dialect, MAX_DIALECT_SAMPLE_BYTES};
 pub use imu::{ImuColumn, ImuCsvSpec, ImuQuantity, import_imu, import_imu_auto};
 pub use order::{DEFAULT_REORDER_WINDOW_NS, Duplicates, ImportReport, OrderPolicy};
 pub use skeleton::{FixCsvSpec, SkeletonCsvSpec, SkeletonLayout, import_fixes, import_skeletons};
@@ -478,14 +478,14 @@ pub(crate) fn error_at(file: &Arc<str>, line: u64, detail: &str) -> RecordingErr
 }
 
 /// Reads the start of a file for [`dialect::detect`]: the column names and
-/// [`dialect::NUM_SAMPLE_ROWS`] rows, within [`dialect::MAX_SAMPLE_BYTES`]; whether it is the
+/// [`dialect::NUM_SAMPLE_ROWS`] rows, within [`MAX_DIALECT_SAMPLE_BYTES`]; whether it is the
 /// whole file.
 fn read_sample(input: &mut impl Read) -> std::io::Result<(Vec<u8>, bool)> {
     let mut sample = Vec::new();
     let mut chunk = [0u8; 4096];
     loop {
         let lines = sample.iter().filter(|&&b| b == b'\n').count();
-        if lines > dialect::NUM_SAMPLE_ROWS || sample.len() >= dialect::MAX_SAMPLE_BYTES {
+        if lines > dialect::NUM_SAMPLE_ROWS || sample.len() >= MAX_DIALECT_SAMPLE_BYTES {
             return Ok((sample, false));
         }
         match input.read(&mut chunk) {
