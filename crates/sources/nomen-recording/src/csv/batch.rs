@@ -93,8 +93,8 @@ pub(crate) fn detect(t_ns: &[i64]) -> Option<BatchFit> {
         return None;
     }
     let (first, last) = (*t_ns.first()?, *t_ns.last()?);
-    let mean = (last - first) as f64 / (n - 1) as f64;
-    let mut intervals: Vec<i64> = t_ns.windows(2).map(|w| w[1] - w[0]).collect();
+    let mean = last.saturating_sub(first) as f64 / (n - 1) as f64;
+    let mut intervals: Vec<i64> = t_ns.windows(2).map(|w| w[1].saturating_sub(w[0])).collect();
     let mid = intervals.len() / 2;
     let median = *intervals.select_nth_unstable(mid).1 as f64;
     if mean <= 0.0 || median * BATCH_MEAN_OVER_MEDIAN > mean {
@@ -103,7 +103,7 @@ pub(crate) fn detect(t_ns: &[i64]) -> Option<BatchFit> {
     let mut ends: Vec<usize> = t_ns
         .windows(2)
         .enumerate()
-        .filter(|(_, w)| (w[1] - w[0]) as f64 > mean / 2.0)
+        .filter(|(_, w)| w[1].saturating_sub(w[0]) as f64 > mean / 2.0)
         .map(|(i, _)| i + 1)
         .collect();
     ends.push(n);
@@ -114,7 +114,7 @@ pub(crate) fn detect(t_ns: &[i64]) -> Option<BatchFit> {
     let shares: Vec<(f64, f64)> = ends
         .windows(2)
         .map(|w| {
-            let gap = t_ns[w[1] - 1] - t_ns[w[0] - 1];
+            let gap = t_ns[w[1] - 1].saturating_sub(t_ns[w[0] - 1]);
             (gap as f64, (w[1] - w[0]) as f64)
         })
         .collect();
@@ -147,12 +147,12 @@ pub(crate) fn retime(t_ns: &mut [i64], fit: &BatchFit) {
         };
         let num = (end - start) as f64;
         let step = match previous_end {
-            Some(p) => fit.period_ns.min((anchor - p) as f64 / num),
+            Some(p) => fit.period_ns.min(anchor.saturating_sub(p) as f64 / num),
             None => fit.period_ns,
         };
         for (k, t) in t_ns.iter_mut().enumerate().take(end).skip(start) {
             let back = (end - 1 - k) as f64 * step;
-            *t = anchor - back.round() as i64;
+            *t = anchor.saturating_sub(back.round() as i64);
         }
         previous_end = Some(anchor);
         start = end;
@@ -231,5 +231,36 @@ mod tests {
             .collect();
         assert_eq!(detect(&t), None);
         assert_eq!(detect(&[0, 1, 2]), None);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn any_sorted_times_are_judged_without_panic_and_retimed_in_order(
+            mut t in proptest::collection::vec(-4_000_000_000_000_000_000i64..4_000_000_000_000_000_000, 0..200),
+        ) {
+            t.sort_unstable();
+            if let Some(fit) = detect(&t) {
+                let mut re = t.clone();
+                retime(&mut re, &fit);
+                proptest::prop_assert!(re.windows(2).all(|w| w[1] >= w[0]));
+            }
+        }
+
+        #[test]
+        fn batches_of_any_size_are_retimed_strictly_in_order(
+            sizes in proptest::collection::vec(1usize..12, 20..80),
+        ) {
+            let mut t = Vec::new();
+            for (b, &k) in sizes.iter().enumerate() {
+                let sent = (b as i64 + 1) * 50_000_000;
+                for i in 0..k {
+                    t.push(sent - (k - 1 - i) as i64 * 300_000);
+                }
+            }
+            if let Some(fit) = detect(&t) {
+                retime(&mut t, &fit);
+                proptest::prop_assert!(t.windows(2).all(|w| w[1] > w[0]), "{:?}", t);
+            }
+        }
     }
 }
