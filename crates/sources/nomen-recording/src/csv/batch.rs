@@ -20,7 +20,8 @@ pub const DROPOUT_GAP_OVER_MEDIAN: f64 = 1.5;
 /// What an import does with a source it finds batched.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum BatchPolicy {
-    /// Re-time its samples at the fitted rate ([`retime`]) and report it.
+    /// Re-time its samples at the fitted rate (the last of each batch keeps its time, the
+    /// others step back at the fitted period) and report it.
     #[default]
     Retime,
     /// Keep the file's times and report it.
