@@ -113,6 +113,15 @@ fn swapped_and_repeated_rows_are_sorted_merged_and_counted() {
         text(&o.stderr)
     );
     assert_eq!(times(&out)[0], 1_568_289_801_250_000_000);
+    // Onto a session clock that starts at the first fix.
+    let o = import(&[
+        "--timezone",
+        "+02:00",
+        "--time-offset-ns",
+        "-1568289801250000000",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert_eq!(times(&out)[..2], [0, 100_000_000]);
     let o = import(&["--timezone", "Europe/Rome"]);
     assert!(!o.status.success());
     assert!(text(&o.stderr).contains("expected a UTC offset"));

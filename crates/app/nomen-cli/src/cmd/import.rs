@@ -81,6 +81,10 @@ pub struct CsvArgs {
     /// The UTC offset of date-times that name no zone, e.g. `+02:00` or `-0530`.
     #[arg(long, default_value = "UTC", value_parser = parse_timezone)]
     timezone: i64,
+    /// Added to every time to give session time, ns (a watch's Unix-epoch times onto a
+    /// camera's clock).
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    time_offset_ns: i64,
     /// Rows of one source up to this much earlier than an earlier row are sorted into place;
     /// a row further back is an error naming its line, s.
     #[arg(long, default_value_t = 1.0)]
@@ -153,6 +157,7 @@ impl CsvArgs {
             decimal: self.decimal,
             time_unit: self.time_unit.map(time_unit),
             utc_offset_s: self.timezone,
+            time_offset_ns: self.time_offset_ns,
             order: OrderPolicy {
                 window_ns: (self.reorder_window_s * 1e9).round().min(9e18) as i64,
                 duplicates: match self.duplicates {

@@ -76,6 +76,9 @@ pub struct CsvOptions {
     pub time_unit: Option<TimeUnit>,
     /// Where date-times without a zone were written, s east of UTC (0: UTC).
     pub utc_offset_s: i64,
+    /// Added to every time after conversion, ns, with a spec's own offset: maps the file's
+    /// clock onto the session clock (a watch's Unix-epoch stamps onto a camera's seconds).
+    pub time_offset_ns: i64,
     /// Unsorted rows, repeated times, batched delivery.
     pub order: OrderPolicy,
     /// Units by column name, winning over units in the names.
@@ -105,6 +108,8 @@ pub(crate) struct CsvInput<R> {
     /// The unit of a time column whose name has none, from the options.
     time_unit: Option<TimeUnit>,
     utc_offset_s: i64,
+    /// Added to every time, from the options.
+    time_offset_ns: i64,
     /// How the time column is read, once known.
     pub(crate) time_format: Option<TimeFormat>,
     /// The first row, read ahead to tell date-times from numbers.
@@ -188,6 +193,7 @@ impl<R: Read> CsvInput<R> {
             dialect,
             time_unit: options.time_unit,
             utc_offset_s: options.utc_offset_s,
+            time_offset_ns: options.time_offset_ns,
             time_format: None,
             peeked: None,
             reorder,
@@ -408,7 +414,7 @@ impl<R: Read> CsvInput<R> {
         }
     }
 
-    /// Parses the time in column `col` in `format`, adding `offset_ns`.
+    /// Parses the time in column `col` in `format`, adding `offset_ns` and the options' offset.
     pub(crate) fn time(
         &self,
         record: &StringRecord,
@@ -424,7 +430,7 @@ impl<R: Read> CsvInput<R> {
         };
         format
             .cell_to_ns(&number)
-            .and_then(|ns| ns.checked_add(offset_ns))
+            .and_then(|ns| ns.checked_add(offset_ns)?.checked_add(self.time_offset_ns))
             .map(nomen_core::SessionTime::from_ns)
             .ok_or_else(|| {
                 self.error(
