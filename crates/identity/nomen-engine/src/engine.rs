@@ -690,6 +690,13 @@ pub struct Engine {
     warmup_sync_ns: i64,
     /// The window end at which the warm-up's observations were sent, once reached.
     warm_release: Option<i64>,
+    /// The latest decision's window end at which more people were in view than subjects whose
+    /// wearables stream ([`EngineConfig::open_set_min_name_probability`]).
+    open_set_seen_at: Option<i64>,
+    /// The recent decisions' window ends that saw more people than streaming subjects.
+    surplus_ends: VecDeque<i64>,
+    /// Whether the latest decision counts the room as holding people who wear nothing.
+    is_open_set: bool,
     next_end: Option<i64>,
     global_max: Option<i64>,
     /// Which [`DATA_SLOT_NS`]-long slots of session time hold a message, from where a window
@@ -853,6 +860,9 @@ impl Engine {
             warmup_ns: ns(config.warmup_s),
             warmup_sync_ns: ns(config.warmup_sync_s),
             warm_release: None,
+            open_set_seen_at: None,
+            surplus_ends: VecDeque::new(),
+            is_open_set: false,
             next_end: None,
             global_max: None,
             data_slots: BTreeSet::new(),
@@ -1804,23 +1814,35 @@ impl Engine {
         let confidence = self.confidence_map.apply(is_named, raw);
         // A name less likely to be right than the run accepts goes out anonymous, with the
         // confidence of an anonymous frame whose best candidate is that subject.
-        let (identity, confidence, is_named, decided) =
-            if is_named && confidence < self.config.min_name_probability {
-                let raw = runner_up
-                    .into_iter()
-                    .chain(name)
-                    .map(|(_, v)| v)
-                    .fold(f64::NEG_INFINITY, f64::max);
-                let raw = (1.0 - raw).clamp(0.0, 1.0);
-                let decided = Decided {
-                    rule: DecisionRule::Improbable,
-                    ..decided
-                };
-                let confidence = self.confidence_map.apply(false, raw);
-                (Identity::Anonymous, confidence, false, decided)
-            } else {
-                (identity, confidence, is_named, decided)
+        // The confidence map is fitted on motion evidence: a name that also rests on a tag's
+        // position or reads keeps the run's own minimum.
+        let is_motion_only = name.is_some_and(|(s, _)| {
+            !tr.tag_evidence.contains_key(&s) && !tr.rssi_evidence.contains_key(&s)
+        });
+        let min_probability = if self.is_open_set && is_motion_only {
+            self.config
+                .min_name_probability
+                .max(self.config.open_set_min_name_probability)
+        } else {
+            self.config.min_name_probability
+        };
+        let (identity, confidence, is_named, decided) = if is_named && confidence < min_probability
+        {
+            let raw = runner_up
+                .into_iter()
+                .chain(name)
+                .map(|(_, v)| v)
+                .fold(f64::NEG_INFINITY, f64::max);
+            let raw = (1.0 - raw).clamp(0.0, 1.0);
+            let decided = Decided {
+                rule: DecisionRule::Improbable,
+                ..decided
             };
+            let confidence = self.confidence_map.apply(false, raw);
+            (Identity::Anonymous, confidence, false, decided)
+        } else {
+            (identity, confidence, is_named, decided)
+        };
         let evidence = shown
             .and_then(|s| self.subject_imus.get(s))
             .map(|imus| {

@@ -191,6 +191,15 @@
 //!    paired with a wrongly named view stays anonymous.
 //!    Where the name is sent, one last rule: a name whose calibrated probability of being
 //!    right is below [`EngineConfig::min_name_probability`] goes out anonymous (`improbable`).
+//!    Once the room is known to hold people who wear nothing, the minimum is
+//!    [`EngineConfig::open_set_min_name_probability`] (0.5) instead: at each decision the
+//!    engine counts the people in view (every camera's tracks at one time, two cameras'
+//!    tracks whose torsos lie within 0.4 m of each other counted once) against the subjects
+//!    whose wearables streamed in the last 5 s (and those whose tags are only heard near an
+//!    antenna); three decisions within 10 s that see more people than that make the room
+//!    open for [`EngineConfig::open_set_memory_s`] (60 s). Where everyone in view may be a
+//!    wearer, a name that barely leads is usually right (the assignment has a subject for
+//!    every person); where some wear nothing, it is usually an intruder's.
 //!
 //! Every output carries a [`nomen_core::DecisionTrace`]: the rule that gave its identity
 //! ([`nomen_core::DecisionRule`]), the decision's window end, the named subject's pooled score

@@ -2934,7 +2934,12 @@ fn a_minimum_name_probability_withholds_exactly_the_names_below_it() {
     people.push(Person::new(Some("ben"), 1.3, 2.5, 3));
     let msgs = recording(&people, 20.0);
     let reg = registry(&people);
-    let (plain, _) = run_batch(&reg, &msgs, &EngineConfig::default()).unwrap();
+    // Dan wears nothing: without this, the open-set minimum would already withhold names.
+    let plain_config = EngineConfig {
+        open_set_min_name_probability: 0.0,
+        ..EngineConfig::default()
+    };
+    let (plain, _) = run_batch(&reg, &msgs, &plain_config).unwrap();
     let identified = |out: &[Message]| -> Vec<IdentifiedSkeleton> {
         out.iter()
             .filter_map(|m| match m {
@@ -2955,7 +2960,7 @@ fn a_minimum_name_probability_withholds_exactly_the_names_below_it() {
     let minimum = 0.5 * (lowest + highest);
     let config = EngineConfig {
         min_name_probability: minimum,
-        ..EngineConfig::default()
+        ..plain_config
     };
     let (gated, _) = run_batch(&reg, &msgs, &config).unwrap();
     let gated = identified(&gated);
@@ -2985,4 +2990,59 @@ fn a_minimum_name_probability_withholds_exactly_the_names_below_it() {
         ..EngineConfig::default()
     };
     assert!(run_batch(&reg, &msgs, &bad).is_err());
+}
+
+#[test]
+fn with_more_people_in_view_than_subjects_streaming_a_name_less_likely_than_not_is_withheld() {
+    // Ana and Ben wear bands; Dan, beside Ana, wears nothing and swings much like her. Three
+    // people are in view and two subjects stream, so the room holds someone who wears
+    // nothing: once the engine has counted that, a name whose calibrated probability is below
+    // `open_set_min_name_probability` goes out anonymous (rule `improbable`), and nothing else
+    // changes. When Dan wears a band too, everyone in view streams and the option changes
+    // nothing.
+    let mut people = ana_and_her_look_alike(0.8);
+    people.push(Person::new(Some("ben"), 1.3, 2.5, 3));
+    let identified = |people: &[Person], minimum: f64| -> Vec<IdentifiedSkeleton> {
+        let config = EngineConfig {
+            open_set_min_name_probability: minimum,
+            ..EngineConfig::default()
+        };
+        let (out, _) = run_batch(&registry(people), &recording(people, 20.0), &config).unwrap();
+        out.iter()
+            .filter_map(|m| match m {
+                Message::Identified(id) => Some((**id).clone()),
+                _ => None,
+            })
+            .collect()
+    };
+    let plain = identified(&people, 0.0);
+    let named: Vec<f64> = plain
+        .iter()
+        .filter(|id| matches!(id.identity, Identity::Subject(_)))
+        .map(|id| id.confidence)
+        .collect();
+    let lowest = named.iter().copied().fold(f64::INFINITY, f64::min);
+    let highest = named.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    assert!(lowest < highest, "named confidences {lowest}..{highest}");
+    let minimum = 0.5 * (lowest + highest);
+    let gated = identified(&people, minimum);
+    assert_eq!(plain.len(), gated.len());
+    let mut num_withheld = 0;
+    for (before, after) in plain.iter().zip(&gated) {
+        let is_withheld = matches!(before.identity, Identity::Subject(_))
+            && before.confidence < minimum
+            && after.identity == Identity::Anonymous;
+        if is_withheld {
+            num_withheld += 1;
+            let d = after.decision.as_ref().unwrap();
+            assert_eq!(d.rule, DecisionRule::Improbable);
+        } else {
+            assert_eq!(before, after);
+        }
+    }
+    assert!(num_withheld > 0, "no name withheld");
+    // Dan registered, with a band of his own.
+    let dan = people.iter_mut().find(|p| p.subject.is_none()).unwrap();
+    dan.subject = Some("dan");
+    assert_eq!(identified(&people, 0.0), identified(&people, minimum));
 }

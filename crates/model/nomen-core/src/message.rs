@@ -76,7 +76,8 @@ pub enum DecisionRule {
     /// Anonymous: no evidence about any subject yet.
     NoEvidence,
     /// Anonymous: a rule gave a name whose calibrated probability of being right is below the
-    /// run's minimum (the engine's `min_name_probability`).
+    /// run's minimum (the engine's `min_name_probability`, or `open_set_min_name_probability`
+    /// where more people were seen than subjects whose wearables stream).
     Improbable,
 }
 

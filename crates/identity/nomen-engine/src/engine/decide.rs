@@ -7,9 +7,25 @@ use super::{
     CAMERA_PAIR_MAX_DT_NS, CAMERA_PAIR_MIN_FRAMES, Decided, Engine, TORSO_ANCHORS, TrackKey,
     TrackState, VIEW_NAMES_AFTER_END_NS, WarmDecision, best_of, sample_range, spans_overlap,
 };
+use nalgebra::Point3;
 use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
 use nomen_core::{DecisionRule, TrackId};
 use std::collections::BTreeMap;
+
+/// People are counted this long before a decision's window end (its frames are settled), ns.
+const PRESENT_NS: i64 = 500_000_000;
+/// Two tracks of different cameras whose torsos keep within this distance show one person
+/// when people are counted, m.
+const SAME_PERSON_M: f64 = 0.4;
+/// The room holds people who wear nothing once this many decisions within `SURPLUS_SPAN_NS`
+/// saw more people than streaming subjects (one miscounted decision is not enough).
+const SURPLUS_DECISIONS: usize = 3;
+/// See `SURPLUS_DECISIONS`, ns.
+const SURPLUS_SPAN_NS: i64 = 10_000_000_000;
+/// Two views are compared at times this close, ns.
+const SAME_TIME_NS: i64 = 50_000_000;
+/// A wearable that sent something this close before a decision's window end streams, ns.
+const STREAMING_NS: i64 = 5_000_000_000;
 
 impl Engine {
     /// The tracks of other cameras that show the same person as each of `active` (see
@@ -90,6 +106,7 @@ impl Engine {
             .map(|(k, _)| *k)
             .collect();
         let CameraPairs { partners, distance } = self.camera_partners(&active, end);
+        self.note_open_set(&active, end);
         // No observation older than this is still to be sent: a view that ended more than
         // `VIEW_NAMES_AFTER_END_NS` before it can name nothing any more.
         let oldest_unsent = self.pending_out.first().map_or(i64::MAX, |(t, _, _)| *t);
@@ -279,6 +296,104 @@ impl Engine {
                 }
             }
         }
+    }
+
+    /// Counts the people in view at `end − PRESENT_NS` (the tracks of `active` with a settled
+    /// frame within `SAME_TIME_NS` of it; two cameras' tracks whose torsos lie within
+    /// `SAME_PERSON_M` are one person) against the subjects whose wearables stream, and updates
+    /// whether the room counts as holding people who wear nothing
+    /// ([`EngineConfig::open_set_min_name_probability`](crate::EngineConfig::open_set_min_name_probability)).
+    fn note_open_set(&mut self, active: &[TrackKey], end: i64) {
+        // Each track's torso at its settled frame nearest `end − PRESENT_NS`.
+        let at = end - PRESENT_NS;
+        let torsos: Vec<(usize, i64, [Option<Point3<f64>>; TORSO_ANCHORS.len()])> = active
+            .iter()
+            .filter_map(|k| {
+                let tr = self.tracks.get(k)?;
+                let path = anchor_path(tr, at - SAME_TIME_NS, at + SAME_TIME_NS);
+                let (t, anchors) = path.iter().min_by_key(|(t, _)| (t - at).abs())?;
+                Some((k.0, *t, *anchors))
+            })
+            .collect();
+        // One person per group of tracks of different cameras whose torsos are that close.
+        let mut group: Vec<usize> = (0..torsos.len()).collect();
+        let mut people = torsos.len();
+        for (i, (ca, ta, pa)) in torsos.iter().enumerate() {
+            for (j, (cb, tb, pb)) in torsos.iter().enumerate().skip(i + 1) {
+                let (Some(&a), Some(&b)) = (group.get(i), group.get(j)) else {
+                    continue;
+                };
+                // The first anchor both views see.
+                let apart = pa
+                    .iter()
+                    .zip(pb)
+                    .find_map(|(x, y)| Some((x.as_ref()? - y.as_ref()?).norm()));
+                if ca == cb
+                    || a == b
+                    || (ta - tb).abs() > SAME_TIME_NS
+                    || apart.is_none_or(|d| d > SAME_PERSON_M)
+                {
+                    continue;
+                }
+                for g in &mut group {
+                    if *g == b {
+                        *g = a;
+                    }
+                }
+                people -= 1;
+            }
+        }
+        if people > self.num_streaming_subjects(end) {
+            self.surplus_ends.push_back(end);
+        }
+        while self
+            .surplus_ends
+            .front()
+            .is_some_and(|&t| t < end - SURPLUS_SPAN_NS)
+        {
+            self.surplus_ends.pop_front();
+        }
+        if self.surplus_ends.len() >= SURPLUS_DECISIONS {
+            self.open_set_seen_at = Some(end);
+        }
+        let memory_ns = (self.config.open_set_memory_s * 1e9) as i64;
+        self.is_open_set = self
+            .open_set_seen_at
+            .is_some_and(|seen| end - seen <= memory_ns);
+    }
+
+    /// The subjects that may be in view: those with a wearable that sent something within
+    /// `STREAMING_NS` of `end`, and those whose wearables are only heard when near an antenna
+    /// (RFID/BLE tags read by RSSI) or that wear nothing that streams.
+    fn num_streaming_subjects(&self, end: i64) -> usize {
+        let mut streaming = vec![false; self.subjects.len()];
+        let mut streams = vec![false; self.subjects.len()];
+        for imu in &self.imus {
+            if let Some(slot) = streams.get_mut(imu.subject) {
+                *slot = true;
+            }
+            let recent = imu
+                .newest
+                .is_some_and(|t| t.saturating_add(imu.offset_ns) >= end - STREAMING_NS);
+            if recent && let Some(slot) = streaming.get_mut(imu.subject) {
+                *slot = true;
+            }
+        }
+        for tag in &self.tags {
+            if let Some(slot) = streams.get_mut(tag.subject) {
+                *slot = true;
+            }
+            if tag.newest.is_some_and(|t| t >= end - STREAMING_NS)
+                && let Some(slot) = streaming.get_mut(tag.subject)
+            {
+                *slot = true;
+            }
+        }
+        streaming
+            .iter()
+            .zip(&streams)
+            .filter(|(on, has)| **on || !**has)
+            .count()
     }
 
     /// A track's span as seen from the observations before `end` only (all of them have
