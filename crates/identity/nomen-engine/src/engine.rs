@@ -2331,6 +2331,21 @@ fn accumulate(acc: &mut Accumulator, score: f64, decay_per_hop: f64) {
     acc.weight = w + 1.0;
 }
 
+/// [`accumulate`] with a window of weight `weight` (1 for a whole window's evidence, 0 for none):
+/// a window of weight 0 leaves the mean where it was while older windows age.
+fn accumulate_weighted(acc: &mut Accumulator, score: f64, weight: f64, decay_per_hop: f64) {
+    let w = acc.weight * decay_per_hop;
+    let weight = if weight.is_finite() {
+        weight.max(0.0)
+    } else {
+        0.0
+    };
+    if w + weight > 0.0 {
+        acc.mean = (acc.mean * w + score * weight) / (w + weight);
+    }
+    acc.weight = w + weight;
+}
+
 /// A track: its camera's index and its id.
 type TrackKey = (usize, TrackId);
 
@@ -2361,5 +2376,27 @@ fn covered_span(tr: &TrackState, lo: i64, hi: i64) -> i64 {
     ) {
         (Some(first), Some(last)) if b > a => last.t - first.t,
         _ => 0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_window_of_no_weight_leaves_the_evidence_where_it_was() {
+        let mut acc = Accumulator::default();
+        accumulate(&mut acc, 0.6, 0.5);
+        accumulate_weighted(&mut acc, 0.1, 0.0, 0.5);
+        assert!((acc.mean - 0.6).abs() < 1e-12 && (acc.weight - 0.5).abs() < 1e-12);
+        // A whole window counts as `accumulate` counts it.
+        let mut whole = acc;
+        accumulate_weighted(&mut whole, 0.1, 1.0, 0.5);
+        accumulate(&mut acc, 0.1, 0.5);
+        assert!((whole.mean - acc.mean).abs() < 1e-12 && (whole.weight - acc.weight).abs() < 1e-12);
+        // Nothing yet and no weight: still nothing.
+        let mut empty = Accumulator::default();
+        accumulate_weighted(&mut empty, 0.9, f64::NAN, 0.5);
+        assert_eq!(empty.weight, 0.0);
     }
 }

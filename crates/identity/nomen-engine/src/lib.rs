@@ -44,8 +44,12 @@
 //! SDKs also swap the ids of two people who pass close to each other: when a track's
 //! observation jumps farther than a person moves in the time since its last one (0.08 m plus
 //! 2 m/s) onto within half that jump of where another track of the camera was last seen (both
-//! seen within the last second), the engine exchanges the two tracks' people (their joint
-//! history and filters, evidence and label), so each identity stays with its person; frames
+//! seen within the last second), or, failing that, the same with both tracks' people moved on
+//! from their last observations at their walking velocity (people who cross in depth hide each
+//! other for a few frames, and the SDK's swap shows when they come out, where the other was
+//! heading; [`EngineConfig::stitch_velocity_span_s`]), the engine exchanges the two tracks'
+//! people (their joint history and filters, evidence and label), so each identity stays with
+//! its person; frames
 //! from before the swap still waiting for their decision are decided for the person they
 //! showed ([`EngineStats::num_swaps`]). The check runs as observations settle, in time order
 //! across the camera's tracks, so it does not depend on the order they arrived in.
@@ -145,7 +149,10 @@
 //!    `either_side` is compared at its site and at the mirror image (the lag search keeps the
 //!    larger curve at each lag, a window the better-fitting site), and the side its fits on
 //!    its wearer's tracks lead to is reported ([`EngineStats::imu_sides`]). Tag fixes score by their distance to the
-//!    tag's key joint over the last [`EngineConfig::tag_window_s`]; RSSI by the likelihood of
+//!    tag's key joint over the last [`EngineConfig::tag_window_s`], each fix weighted by how
+//!    well it tells the camera's tracks apart (a fix between two people who pass close fits
+//!    both and weighs nearly nothing, so the evidence from before the pass holds through it;
+//!    `tags`); RSSI by the likelihood of
 //!    the filtered reads at the person's position against the background. Each modality is
 //!    accumulated per (track, subject) by an exponentially weighted mean with its own half-life
 //!    (motion: [`EngineConfig::evidence_half_life_s`], or the shorter

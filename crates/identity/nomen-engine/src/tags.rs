@@ -7,8 +7,17 @@
 //! `exp(−½ q)`, `q = (Δx² + Δy²)/σ_h² + Δz²/σ_v²`, where `σ² = σ_tag² + σ_joint²` per axis group
 //! (`σ_tag` from the fix's covariance when the system reports one, else
 //! [`crate::EngineConfig::tag_sigma_horizontal_m`] / [`crate::EngineConfig::tag_sigma_vertical_m`]).
-//! The window score is the mean over the paired fixes: about 0.6 for the wearer's key joint, near
-//! 0 for anyone a metre away. A fix far off (an NLOS jump of metres) only costs its own frame.
+//! The window score is about 0.6 for the wearer's key joint, near 0 for anyone a metre away. A
+//! fix far off (an NLOS jump of metres) only costs its own frame.
+//!
+//! Each fix also has a weight: how well it tells apart the tracks of the camera seen at its
+//! time ([`fix_informativeness`]), one minus the ratio of its second-best similarity to its
+//! best. A fix near one person and far from everyone else weighs 1; a fix between two people
+//! who pass within a few decimetres of each other weighs nearly 0, since it fits both alike.
+//! The window score is the weighted mean of the fixes' similarities, and the window enters the
+//! track's accumulated evidence with the mean weight of its fixes. So the evidence a track
+//! gathered before a close pass holds through it, instead of being replaced by scores that fit
+//! both people: an identity changes only on fixes that tell the two apart.
 //!
 //! **Correction.** A fix whose tag's wearer is the label of a track that has the key joint at
 //! that time is replaced by the inverse-variance weighted mean of the fix and the joint (joints
@@ -116,6 +125,24 @@ pub(crate) fn fix_similarity(fix: &Fix, joint_world_m: &Point3<f64>, joint_sigma
     if q.is_finite() { (-0.5 * q).exp() } else { 0.0 }
 }
 
+/// How well a fix tells apart the tracks it was compared with, from its similarities to them
+/// (any order): `1 − s₂/s₁` for the best `s₁` and the second best `s₂` (0 without a second
+/// track), in `0..=1`. 1 when no track fits it at all (an outlier says as much about every
+/// track as before).
+pub(crate) fn fix_informativeness(similarities: impl Iterator<Item = f64>) -> f64 {
+    let (best, second) =
+        similarities
+            .filter(|s| s.is_finite())
+            .fold((0.0f64, 0.0f64), |(b, s2), s| {
+                if s > b { (s, b) } else { (b, s2.max(s)) }
+            });
+    if best > 0.0 {
+        (1.0 - second / best).clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
 /// The inverse-variance weighted mean of a fix and a key joint, per axis group.
 pub(crate) fn corrected_position(
     fix: &Fix,
@@ -158,6 +185,24 @@ mod tests {
         assert!(near > 0.9, "{near}");
         assert!(metre < 0.01, "{metre}");
         assert!(jump.abs() < 1e-12, "{jump}");
+    }
+
+    #[test]
+    fn a_fix_between_two_people_weighs_nothing_and_one_near_a_single_person_weighs_fully() {
+        let fix = fix_at(0.0);
+        let sim = |x: f64| fix_similarity(&fix, &Point3::new(x, 0.0, 1.0), 0.03);
+        // Two people 0.1 m either side of the fix: it fits both alike.
+        let between = fix_informativeness([sim(-0.1), sim(0.1), sim(2.0)].into_iter());
+        assert!(between < 1e-9, "{between}");
+        // One person 0.1 m away, the next 1.5 m away.
+        let alone = fix_informativeness([sim(1.5), sim(0.1)].into_iter());
+        assert!(alone > 0.99, "{alone}");
+        // The nearer of two people 0.2 and 0.6 m away: it still tells them apart, less surely.
+        let nearer = fix_informativeness([sim(0.2), sim(0.6)].into_iter());
+        assert!(nearer > 0.5 && nearer < 0.99, "{nearer}");
+        assert_eq!(fix_informativeness([sim(0.3)].into_iter()), 1.0);
+        assert_eq!(fix_informativeness(std::iter::empty()), 1.0);
+        assert_eq!(fix_informativeness([0.0, f64::NAN].into_iter()), 1.0);
     }
 
     #[test]

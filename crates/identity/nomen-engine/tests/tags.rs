@@ -376,3 +376,17 @@ fn rssi_reads_are_checked_and_without_a_model_counted_not_used() {
     // The unknown antenna and the tag of the wrong kind.
     assert_eq!(engine.stats().rejected.num_unknown_device, 2);
 }
+
+#[test]
+fn two_tagged_walkers_who_pass_a_fifth_of_a_metre_apart_keep_their_names() {
+    // Ana and Ben walk lines 0.2 m apart, Ben a little slower: Ana catches up with him and the
+    // two walk side by side for seconds, their fixes fitting both alike, before she leaves him
+    // behind.
+    let mut walkers = three_walkers();
+    walkers[1].y_m = 1.2;
+    walkers[1].speed_mps = 1.1;
+    let msgs = recording(&walkers, 30.0);
+    let (out, stats) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    let acc = accuracy(&walkers, &out, 1.0);
+    assert!(acc > 0.98, "accuracy {acc}, stats {stats:?}");
+}

@@ -4,12 +4,12 @@
 use super::{
     Engine, MAX_IMU_GAP_NS, OrientationTerms, SIDE_MIN_MEAN_VOTE, SIDE_MIN_VOTES,
     SILENT_WEARER_SLACK_NS, TrackKey, TrackState, WINDOW_MIN_TRACK_SAMPLES, accumulate,
-    covered_span, sample_range, scaled_count,
+    accumulate_weighted, covered_span, sample_range, scaled_count,
 };
 use crate::config::MotionScore;
 use crate::signal::imu_window_on_grid;
 use crate::stats::HeadingEstimate;
-use crate::tags::{MAX_PAIR_DT_NS, TagState, fix_similarity};
+use crate::tags::{MAX_PAIR_DT_NS, TagState, fix_informativeness, fix_similarity};
 use nalgebra::{Point3, Vector3};
 use nomen_core::skeleton::Joints;
 use nomen_core::{Joint, TrackId};
@@ -146,6 +146,18 @@ impl Engine {
                 }
                 None => Vec::new(),
             };
+            let tag_matrix = {
+                let tracks: Vec<Option<&TrackState>> =
+                    keys.iter().map(|k| self.tracks.get(k)).collect();
+                tag_window_scores(
+                    &self.tags,
+                    &tracks,
+                    end - self.tag_window_ns,
+                    end,
+                    self.config.joint_noise_std_m,
+                    self.subjects.len(),
+                )
+            };
             for (row, key) in keys.iter().enumerate() {
                 let Some(tr) = self.tracks.get_mut(key) else {
                     continue;
@@ -161,14 +173,8 @@ impl Engine {
                         tr.evidence.remove(b);
                     }
                 }
-                let tag_scores = tag_window_scores(
-                    &self.tags,
-                    tr,
-                    end - self.tag_window_ns,
-                    end,
-                    self.config.joint_noise_std_m,
-                    self.subjects.len(),
-                );
+                let no_tags = Vec::new();
+                let tag_scores = tag_matrix.get(row).unwrap_or(&no_tags);
                 let no_rssi = Vec::new();
                 let rssi_scores = rssi_matrix.get(row).unwrap_or(&no_rssi);
                 for (b, tag_score) in tag_scores.iter().enumerate() {
@@ -184,8 +190,13 @@ impl Engine {
                     {
                         accumulate(tr.evidence.entry(b).or_default(), v, decay);
                     }
-                    if let Some(v) = tag_score {
-                        accumulate(tr.tag_evidence.entry(b).or_default(), *v, tag_decay);
+                    if let Some((v, weight)) = tag_score {
+                        accumulate_weighted(
+                            tr.tag_evidence.entry(b).or_default(),
+                            *v,
+                            *weight,
+                            tag_decay,
+                        );
                     }
                     if let Some(v) = rssi_scores.get(b).copied().flatten() {
                         accumulate(tr.rssi_evidence.entry(b).or_default(), v, rssi_decay);
@@ -817,36 +828,63 @@ fn is_scored(tr: &TrackState, start: i64, end: i64, min_samples: usize, min_span
     b >= a + min_samples && covered_span(tr, start, end) >= min_span
 }
 
-/// Per subject, the mean over their tags of the tag-versus-track window score (see
-/// [`crate::tags`]); `None` for a subject without a tag or without enough paired fixes in the
-/// window.
+/// Per track of one camera (`tracks`, the rows) and per subject, the tag-versus-track window
+/// score with its weight (see [`crate::tags`]): for each of the subject's tags, the mean of its
+/// fixes' similarities to the track, each fix weighted by how well it tells the camera's
+/// tracks apart ([`fix_informativeness`]), and the window's weight the mean of those weights;
+/// over several tags, the means of both. `None` for a subject without a tag, or a track with
+/// fewer than [`MIN_TAG_PAIRS`] fixes paired with it in the window.
 pub(super) fn tag_window_scores(
     tags: &[TagState],
-    tr: &TrackState,
+    tracks: &[Option<&TrackState>],
     start: i64,
     end: i64,
     joint_sigma_m: f64,
     num_subjects: usize,
-) -> Vec<Option<f64>> {
-    let mut sums = vec![(0.0, 0usize); num_subjects];
+) -> Vec<Vec<Option<(f64, f64)>>> {
+    // Per row and subject: sums of scores and weights over tags, and the number of tags.
+    let mut sums = vec![vec![(0.0, 0.0, 0usize); num_subjects]; tracks.len()];
+    // Per row, one fix's similarity (`None`: the track has no joint near the fix's time), and
+    // per row its weighted sum, weight sum and count of paired fixes over the tag's fixes.
+    let mut similarity: Vec<Option<f64>> = vec![None; tracks.len()];
+    let mut per_row = vec![(0.0, 0.0, 0usize); tracks.len()];
     for tag in tags {
-        let (mut sum, mut n) = (0.0, 0usize);
+        per_row.fill((0.0, 0.0, 0));
         for fix in tag.fixes_in(start, end) {
-            if let Some((joint, extra_m)) = key_joint_or_ancestor(tr, tag.site, fix.t) {
-                let sigma = joint_sigma_m.hypot(extra_m);
-                sum += fix_similarity(fix, &joint, sigma);
-                n += 1;
+            for (sim, tr) in similarity.iter_mut().zip(tracks) {
+                *sim = tr
+                    .and_then(|tr| key_joint_or_ancestor(tr, tag.site, fix.t))
+                    .map(|(joint, extra_m)| {
+                        fix_similarity(fix, &joint, joint_sigma_m.hypot(extra_m))
+                    });
+            }
+            let weight = fix_informativeness(similarity.iter().flatten().copied());
+            for (acc, sim) in per_row.iter_mut().zip(&similarity) {
+                if let Some(sim) = sim {
+                    acc.0 += weight * sim;
+                    acc.1 += weight;
+                    acc.2 += 1;
+                }
             }
         }
-        if n >= MIN_TAG_PAIRS
-            && let Some(cell) = sums.get_mut(tag.subject)
-        {
-            cell.0 += sum / n as f64;
-            cell.1 += 1;
+        for (row, &(sum, weight, n)) in per_row.iter().enumerate() {
+            if n < MIN_TAG_PAIRS {
+                continue;
+            }
+            let score = if weight > 0.0 { sum / weight } else { 0.0 };
+            if let Some(cell) = sums.get_mut(row).and_then(|r| r.get_mut(tag.subject)) {
+                cell.0 += score;
+                cell.1 += weight / n as f64;
+                cell.2 += 1;
+            }
         }
     }
     sums.into_iter()
-        .map(|(sum, n)| (n > 0).then(|| sum / n as f64))
+        .map(|row| {
+            row.into_iter()
+                .map(|(score, weight, n)| (n > 0).then(|| (score / n as f64, weight / n as f64)))
+                .collect()
+        })
         .collect()
 }
 

@@ -238,7 +238,10 @@ impl Engine {
     /// observation at `x` (joint centroid) lies farther from `track`'s last settled one than a
     /// person moves in the time between (`SWAP_NOISE_M` + `SWAP_SPEED_MPS` × elapsed), and
     /// within half that jump of another track's last settled observation (which also fits that
-    /// track's elapsed time). Both must be at most `SWAP_MAX_GAP_NS` old.
+    /// track's elapsed time). Both must be at most `SWAP_MAX_GAP_NS` old. Failing that, the same
+    /// with every track's person moved on from its last observation by its walking velocity
+    /// ([`heading_point`]): people who cross in depth hide each other, and the one who comes out
+    /// under the other's id shows up where the other was heading, not where it was last seen.
     ///
     /// Failing that, two returns from occlusion: another track came back from a gap
     /// (`SWAP_RETURN_GAP_NS`) at most `SWAP_RETURN_WINDOW_NS` ago, while `track` was still
@@ -280,6 +283,28 @@ impl Engine {
             .map(|(k, _)| (k, None));
         if onto_last.is_some() {
             return onto_last;
+        }
+        // Two people crossing in depth hide each other, and the SDK gives the one that comes
+        // out the other's id a few frames later: by then the other has walked on from where it
+        // was last seen. The same test, with each track's person moved on by its walking
+        // velocity over the time since its last observation ([`heading_point`]).
+        let heading = |tr: &TrackState| {
+            let last = tr.samples.back()?;
+            heading_point(tr, last, t - last.t, &self.config)
+        };
+        if let Some(my_jump) = heading(me).map(|h| (x - h).norm())
+            && reach(me).is_some_and(|r| my_jump > r)
+        {
+            let onto_heading = others()
+                .filter_map(|(k, tr)| {
+                    let d = (x - heading(tr)?).norm();
+                    (d <= reach(tr)? && d < 0.5 * my_jump.min(jump)).then_some((*k, d))
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(k, _)| (k, None));
+            if onto_heading.is_some() {
+                return onto_heading;
+            }
         }
         // Both people unseen for a while and back under each other's ids: the other track
         // came back just before, where this one was, and this observation lies where the
