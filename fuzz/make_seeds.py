@@ -190,3 +190,43 @@ write("recording", "no_registry.jsonl", '{"type":"header","format":"nomen-record
       '{"type":"identified","t":0,"camera":"cam","track":1,"identity":{"subject":"ana"},"confidence":0.9,'
       '"decision":{"rule":"assigned","decided_at":5,"named":{"subject":"ana","score":0.5}}}\n'
       '{"type":"truth_tag","t":1,"tag":"ana_tag","position_m":[1.0,2.0,1.3]}\n')
+
+
+def mcap(messages):
+    """An unchunked MCAP file (https://mcap.dev/spec) of `messages`, (topic, JSON text) pairs,
+    each topic its own JSON channel; no summary section."""
+    import struct
+
+    def string(s):
+        b = s.encode()
+        return struct.pack("<I", len(b)) + b
+
+    def record(opcode, content):
+        return struct.pack("<BQ", opcode, len(content)) + content
+
+    out = bytearray(b"\x89MCAP0\r\n")
+    out += record(0x01, string("nomen") + string("make_seeds.py"))
+    channels = {}
+    for topic, _ in messages:
+        if topic not in channels:
+            channels[topic] = len(channels) + 1
+            out += record(0x03, struct.pack("<H", channels[topic]) + string(topic) + string("jsonschema")
+                          + string('{"type":"object"}'))
+            out += record(0x04, struct.pack("<HH", channels[topic], channels[topic]) + string(topic)
+                          + string("json") + struct.pack("<I", 0))
+    for k, (topic, text) in enumerate(messages):
+        out += record(0x05, struct.pack("<HIQQ", channels[topic], k, 1000 + k, 1000 + k) + text.encode())
+    out += record(0x0F, struct.pack("<I", 0))
+    out += record(0x02, struct.pack("<QQI", 0, 0, 0))
+    out += b"\x89MCAP0\r\n"
+    return bytes(out)
+
+
+# The recording above as MCAP: the registry, then every input on its kind's channel.
+inputs = [("nomen/in/registry", REGISTRY)]
+for line in lines[1:]:
+    kind = line.split('"type":"', 1)[1].split('"', 1)[0]
+    inputs.append(("nomen/in/" + kind, line))
+os.makedirs(os.path.join(ROOT, "mcap"), exist_ok=True)
+with open(os.path.join(ROOT, "mcap", "every_kind.mcap"), "wb") as f:
+    f.write(mcap(inputs))

@@ -26,6 +26,13 @@ pub struct ServeConfig {
     /// published (`docs/live.md` has the schema), relative to the configuration file's folder
     /// and inside it. `--log` (any path) overrides it. Default: none.
     pub log: Option<PathBuf>,
+    /// A folder to record each session to, as MCAP files (`docs/live.md`), relative to the
+    /// configuration file's folder and inside it. `--record` (any path) overrides it. Default:
+    /// none.
+    pub record: Option<PathBuf>,
+    /// A recorded file that passes this size, MiB, is closed and the session goes on in a new
+    /// one, within 1..=1048576. Default 1024. `--record-max-mb` overrides it.
+    pub record_max_mb: u64,
     /// The MQTT client id of the service. Default `nomen-serve`.
     pub client_id: String,
     /// Decoded messages the input queue holds before it drops (and counts) what comes next.
@@ -58,6 +65,8 @@ impl Default for ServeConfig {
             embedded_listen: "127.0.0.1:1883".to_owned(),
             registry: None,
             log: None,
+            record: None,
+            record_max_mb: 1024,
             client_id: "nomen-serve".to_owned(),
             queue_capacity: 16_384,
             publish_capacity: 4_096,
@@ -93,6 +102,11 @@ impl ServeConfig {
             || !(1..=MAX_CAPACITY).contains(&self.publish_capacity)
         {
             return bad("queue_capacity and publish_capacity must be within 1..=1000000");
+        }
+        if !(crate::record::MIN_RECORD_MB..=crate::record::MAX_RECORD_MB)
+            .contains(&self.record_max_mb)
+        {
+            return bad("record_max_mb must be within 1..=1048576");
         }
         if !(self.health_period_s.is_finite() && (0.01..=3600.0).contains(&self.health_period_s)) {
             return bad("health_period_s must be within 0.01..=3600");

@@ -49,6 +49,9 @@ pub enum LiveError {
         /// What went wrong.
         why: String,
     },
+    /// Writing the MCAP recording (`--record`).
+    #[error("recording: {0}")]
+    Record(String),
     /// The engine refused its registry or configuration.
     #[error("engine: {0}")]
     Engine(String),

@@ -14,6 +14,8 @@ mod error;
 pub mod events;
 pub mod health;
 pub mod log;
+pub mod outbox;
+pub mod record;
 pub mod replay;
 mod serve;
 pub mod session;

@@ -2,15 +2,14 @@
 //! its topic (`nomen/in/<kind>/<source>`), the header's registry first, retained.
 
 use crate::broker::BrokerAddr;
+use crate::outbox::{ConnectionCounts, Outbox};
 use crate::topics::{REGISTRY_TOPIC, input_topic};
 use crate::{LiveError, Result};
 use nomen_core::SessionTime;
-use nomen_recording::RecordingReader;
 use rumqttc::{Client, Event, Outgoing, Packet, QoS};
 use std::path::Path;
 use std::str::FromStr;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::sync_channel;
 use std::time::{Duration, Instant};
 
@@ -93,7 +92,13 @@ pub struct ReplaySummary {
     pub has_registry: bool,
     /// Wall time from the first publish to the broker's last acknowledgement, s.
     pub elapsed_s: f64,
+    /// Messages published again after a reconnection (the broker had not acknowledged them).
+    pub num_published_again: u64,
 }
+
+/// The most publishes a replay holds unacknowledged before it waits for the broker (while the
+/// broker is away, the replay pauses here instead of reading on).
+const MAX_PENDING: usize = 4096;
 
 /// How long the end of a replay waits for the broker's acknowledgements.
 const ACK_TIMEOUT: Duration = Duration::from_secs(60);
@@ -101,27 +106,32 @@ const ACK_TIMEOUT: Duration = Duration::from_secs(60);
 /// Publishes `recording` to the broker: its registry (retained, QoS 1) when the header carries
 /// one, then every input message at its time (QoS 1), and waits until the broker has
 /// acknowledged them all. A bad line stops the replay with its error, after what came before it.
+/// Publishes go through an [`Outbox`]: after the broker restarts, what it had not acknowledged is
+/// published again (at least once).
 pub fn replay(recording: &Path, options: &ReplayOptions) -> Result<ReplaySummary> {
-    let mut reader = RecordingReader::open(recording)?;
+    let mut reader =
+        nomen_mcap::open_recording(recording, nomen_recording::ReadOptions::default())?;
     let mqtt = options.broker.client_options(&options.client_id);
     let (client, mut connection) = Client::new(mqtt, 1024);
-    let num_acked = Arc::new(AtomicU64::new(0));
+    let counts = Arc::new(ConnectionCounts::default());
     let (connected_tx, connected) = sync_channel(1);
     let network = {
-        let num_acked = Arc::clone(&num_acked);
+        let counts = Arc::clone(&counts);
         std::thread::Builder::new()
             .name("nomen-replay".to_owned())
             .spawn(move || {
                 let mut is_first = true;
                 for event in connection.iter() {
                     match event {
-                        Ok(Event::Incoming(Packet::ConnAck(_))) if is_first => {
-                            is_first = false;
-                            let _ = connected_tx.try_send(Ok(()));
+                        Ok(Event::Incoming(Packet::ConnAck(_))) => {
+                            counts.connected();
+                            if is_first {
+                                is_first = false;
+                                let _ = connected_tx.try_send(Ok(()));
+                            }
                         }
-                        Ok(Event::Incoming(Packet::PubAck(_))) => {
-                            num_acked.fetch_add(1, Ordering::Relaxed);
-                        }
+                        Ok(Event::Incoming(Packet::PubAck(_))) => counts.acked(),
+                        Ok(Event::Outgoing(Outgoing::Publish(_))) => counts.written(),
                         Ok(Event::Outgoing(Outgoing::Disconnect)) => return,
                         Ok(_) => {}
                         Err(e) => {
@@ -129,6 +139,7 @@ pub fn replay(recording: &Path, options: &ReplayOptions) -> Result<ReplaySummary
                                 let _ = connected_tx.try_send(Err(e.to_string()));
                                 return;
                             }
+                            counts.disconnected();
                             std::thread::sleep(Duration::from_millis(500));
                         }
                     }
@@ -153,13 +164,25 @@ pub fn replay(recording: &Path, options: &ReplayOptions) -> Result<ReplaySummary
             )));
         }
     }
-    let publish = |topic: String, retain: bool, payload: Vec<u8>| {
-        client
-            .publish(topic, QoS::AtLeastOnce, retain, payload)
-            .map_err(|e| LiveError::Mqtt {
-                what: "publish".to_owned(),
-                why: e.to_string(),
-            })
+    let mut outbox = Outbox::new();
+    // The registry is retained; every publish is kept until acknowledged.
+    let publish = |outbox: &mut Outbox, topic: Option<String>, payload: Vec<u8>| {
+        if let Some(topic) = topic {
+            outbox.push(topic, payload, true);
+        }
+        outbox.sync(&counts.state(), |topic: &str, payload: &[u8]| {
+            client
+                .publish(
+                    topic,
+                    QoS::AtLeastOnce,
+                    topic == REGISTRY_TOPIC,
+                    payload.to_vec(),
+                )
+                .map_err(|e| LiveError::Mqtt {
+                    what: "publish".to_owned(),
+                    why: e.to_string(),
+                })
+        })
     };
     let started = Instant::now();
     let mut summary = ReplaySummary {
@@ -167,12 +190,15 @@ pub fn replay(recording: &Path, options: &ReplayOptions) -> Result<ReplaySummary
         num_not_inputs: 0,
         has_registry: false,
         elapsed_s: 0.0,
+        num_published_again: 0,
     };
-    let mut num_sent = 0u64;
     if let Some(registry) = &reader.header().registry {
-        publish(REGISTRY_TOPIC.to_owned(), true, to_json(registry))?;
+        publish(
+            &mut outbox,
+            Some(REGISTRY_TOPIC.to_owned()),
+            to_json(registry),
+        )?;
         summary.has_registry = true;
-        num_sent += 1;
     }
     let mut pacer = Pacer::new(options.speed);
     let mut read_error = None;
@@ -192,26 +218,53 @@ pub fn replay(recording: &Path, options: &ReplayOptions) -> Result<ReplaySummary
         if !wait.is_zero() {
             std::thread::sleep(wait);
         }
-        publish(topic, false, to_json(&m))?;
+        publish(&mut outbox, Some(topic), to_json(&m))?;
         summary.num_published += 1;
-        num_sent += 1;
+        let waiting = Instant::now();
+        while outbox.len() > MAX_PENDING {
+            if waiting.elapsed() > ACK_TIMEOUT {
+                return Err(LiveError::Mqtt {
+                    what: "replay".to_owned(),
+                    why: format!(
+                        "the broker acknowledged nothing for {} s",
+                        ACK_TIMEOUT.as_secs()
+                    ),
+                });
+            }
+            std::thread::sleep(Duration::from_millis(5));
+            publish(&mut outbox, None, Vec::new())?;
+        }
     }
+    // Until the broker has acknowledged everything (settled twice 20 ms apart: a publish handed
+    // before a reconnection may come after the counts matched).
     let waiting = Instant::now();
-    while num_acked.load(Ordering::Relaxed) < num_sent && waiting.elapsed() < ACK_TIMEOUT {
+    let mut settled_since = None;
+    while waiting.elapsed() < ACK_TIMEOUT {
+        publish(&mut outbox, None, Vec::new())?;
+        if outbox.is_settled(&counts.state()) {
+            let since = *settled_since.get_or_insert_with(Instant::now);
+            if since.elapsed() >= Duration::from_millis(20) {
+                break;
+            }
+        } else {
+            settled_since = None;
+        }
         std::thread::sleep(Duration::from_millis(2));
     }
     summary.elapsed_s = started.elapsed().as_secs_f64();
-    let num_acked = num_acked.load(Ordering::Relaxed);
+    summary.num_published_again = outbox.num_handed_again();
+    let is_settled = outbox.is_settled(&counts.state());
     let _ = client.disconnect();
     let _ = network.join();
     if let Some(e) = read_error {
         return Err(e.into());
     }
-    if num_acked < num_sent {
+    if !is_settled {
         return Err(LiveError::Mqtt {
             what: "replay".to_owned(),
             why: format!(
-                "the broker acknowledged {num_acked} of {num_sent} messages in {} s",
+                "the broker had not acknowledged {} messages after {} s",
+                outbox.len(),
                 ACK_TIMEOUT.as_secs()
             ),
         });

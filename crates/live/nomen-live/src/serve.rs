@@ -5,12 +5,14 @@ use crate::broker::BrokerAddr;
 use crate::decode::{Input, decode_all};
 use crate::health::{Health, HealthReport};
 use crate::log::IdentityLog;
+use crate::outbox::{ConnectionCounts, Outbox};
+use crate::record::{RecordOptions, Recorder};
 use crate::session::{IDLE_TICK, Output, Refusal, Session};
 use crate::topics::{EVENT_TOPIC, HEALTH_TOPIC, INPUT_FILTER, input_source, output_topic};
 use crate::{LiveError, Result};
 use nomen_core::{Message, Registry, SkeletonObservation};
 use rumqttc::{Client, Connection, Event, Outgoing, Packet, QoS};
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, SyncSender, TrySendError, sync_channel};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
@@ -52,6 +54,8 @@ pub struct ServeOptions {
     pub health_period: Duration,
     /// How long to wait for the first connection.
     pub connect_timeout: Duration,
+    /// Record each session to MCAP files (`--record`); `None`: no recording.
+    pub record: Option<RecordOptions>,
 }
 
 /// What a finished `serve` did.
@@ -63,6 +67,8 @@ pub struct ServeSummary {
     pub num_decisions: u64,
     /// Events published.
     pub num_events: u64,
+    /// The MCAP files recorded, in order.
+    pub recorded: Vec<std::path::PathBuf>,
 }
 
 /// How long a stopping service waits for the broker to acknowledge its last publishes.
@@ -76,8 +82,8 @@ type SharedHealth = Arc<Mutex<Health>>;
 struct Shared {
     /// Messages in the input queue (counted before they are queued).
     in_queue: AtomicUsize,
-    /// The broker's acknowledgements of the service's publishes.
-    num_acked: AtomicU64,
+    /// The connection, for the outbox.
+    connection: ConnectionCounts,
     /// A registry that found the input queue full.
     pending_registry: Mutex<Option<Box<Registry>>>,
 }
@@ -148,13 +154,17 @@ pub fn serve(
         }
     }
     let mut out = Vec::new();
+    let recorder = options.record.clone().map(Recorder::new).transpose()?;
     let mut publisher = Publisher {
         client: &client,
+        shared: &shared,
+        outbox: Outbox::new(),
         num_decisions: 0,
         num_events: 0,
-        num_sent: 0,
         logged_session: 0,
         observed_session: 0,
+        recorder,
+        recorded_session: 0,
     };
     if let Some(registry) = registry {
         session.set_registry(registry, &mut out);
@@ -178,19 +188,28 @@ pub fn serve(
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
             .take();
-        if let Some(registry) = pending {
-            session.set_registry(*registry, &mut out);
-        }
-        let input = queue.recv_timeout(wait);
-        if input.is_ok() {
-            shared.in_queue.fetch_sub(1, Ordering::Relaxed);
-        }
+        // A registry that waited in its own slot is this turn's input (its outputs are
+        // published at the end of the turn, before the new session takes a message).
+        let input = match pending {
+            Some(registry) => Ok(Input::Registry(registry)),
+            None => {
+                let input = queue.recv_timeout(wait);
+                if input.is_ok() {
+                    shared.in_queue.fetch_sub(1, Ordering::Relaxed);
+                }
+                input
+            }
+        };
         match input {
             Ok(Input::Registry(registry)) => session.set_registry(*registry, &mut out),
             Ok(Input::Message(m)) => {
                 last_message = Instant::now();
                 match session.push(&m, last_message, &mut out) {
                     Ok(()) => {
+                        if let Err(e) = publisher.record_input(&m, last_message) {
+                            result = Err(e);
+                            break;
+                        }
                         if let Message::Skeleton(s) = &m {
                             if let Some(log) = log.as_mut() {
                                 log.observe(s);
@@ -248,24 +267,33 @@ pub fn serve(
             publisher.health(&report, &mut observer)?;
         }
     }
-    // Stopped: take what is queued, then flush the engine.
-    while let Ok(input) = queue.try_recv() {
+    // Stopped: take what is queued, then flush the engine (each turn's outputs published
+    // before the next, so that a new registry's session starts after its predecessor's end).
+    loop {
+        let input = queue.try_recv().ok();
+        let is_end = input.is_none();
         match input {
-            Input::Registry(registry) => session.set_registry(*registry, &mut out),
-            Input::Message(m) => {
-                let _ = session.push(&m, Instant::now(), &mut out);
+            Some(Input::Registry(registry)) => session.set_registry(*registry, &mut out),
+            Some(Input::Message(m)) => {
+                let now = Instant::now();
+                if session.push(&m, now, &mut out).is_ok() {
+                    publisher.record_input(&m, now)?;
+                }
             }
+            None => session.finish(&mut out),
+        }
+        publisher.publish(
+            &mut out,
+            &session,
+            &mut sink,
+            &mut log,
+            &mut observer,
+            &health,
+        )?;
+        if is_end {
+            break;
         }
     }
-    session.finish(&mut out);
-    publisher.publish(
-        &mut out,
-        &session,
-        &mut sink,
-        &mut log,
-        &mut observer,
-        &health,
-    )?;
     if let Some(sink) = sink {
         sink.finish().map_err(|e| LiveError::Io {
             what: "cannot write the decisions".to_owned(),
@@ -280,17 +308,31 @@ pub fn serve(
         options.queue_capacity,
     );
     publisher.health(&report, &mut observer)?;
+    let recorded = match publisher.recorder.take() {
+        Some(recorder) => recorder.finish()?,
+        None => Vec::new(),
+    };
     let summary = ServeSummary {
         health: report,
         num_decisions: publisher.num_decisions,
         num_events: publisher.num_events,
+        recorded,
     };
     // Wait for the broker's acknowledgements first: a socket closed with unread acks is reset,
-    // and a broker may then drop the last publishes it had not read yet.
+    // and a broker may then drop the last publishes it had not read yet. Settled twice 20 ms
+    // apart: a publish handed before a reconnection may still come after the counts matched.
     let waiting = Instant::now();
-    while shared.num_acked.load(Ordering::Relaxed) < publisher.num_sent
-        && waiting.elapsed() < ACK_TIMEOUT
-    {
+    let mut settled_since = None;
+    while waiting.elapsed() < ACK_TIMEOUT {
+        publisher.sync()?;
+        if publisher.outbox.is_settled(&shared.connection.state()) {
+            let since = *settled_since.get_or_insert_with(Instant::now);
+            if since.elapsed() >= Duration::from_millis(20) {
+                break;
+            }
+        } else {
+            settled_since = None;
+        }
         std::thread::sleep(Duration::from_millis(2));
     }
     // The disconnect goes after every publish queued before it; the client thread ends on it.
@@ -319,14 +361,19 @@ fn report(
 
 struct Publisher<'a> {
     client: &'a Client,
+    shared: &'a Shared,
+    /// What was published and not yet acknowledged.
+    outbox: Outbox,
     num_decisions: u64,
     num_events: u64,
-    /// Publishes handed to the client (each acknowledged by the broker, QoS 1).
-    num_sent: u64,
     /// The session the log's rows go to (0: none yet).
     logged_session: u64,
     /// The session the observer was last told of (0: none yet).
     observed_session: u64,
+    /// The MCAP recording (`--record`).
+    recorder: Option<Recorder>,
+    /// The session the recording's file is of (0: none yet).
+    recorded_session: u64,
 }
 
 impl Publisher<'_> {
@@ -339,6 +386,7 @@ impl Publisher<'_> {
         observer: &mut Option<&mut dyn Observer>,
         health: &SharedHealth,
     ) -> Result<()> {
+        self.sync()?;
         if !out.is_empty() {
             if let Some(log) = log.as_mut() {
                 // Written and committed before anything is published.
@@ -346,6 +394,9 @@ impl Publisher<'_> {
             }
             if let Some(observer) = observer.as_mut() {
                 observer.outputs(out);
+            }
+            if let Some(recorder) = self.recorder.as_mut() {
+                recorder.outputs(out, Instant::now())?;
             }
             self.send_all(out, session, sink, health)?;
         }
@@ -365,7 +416,21 @@ impl Publisher<'_> {
             log.begin_session(registry, unix_ms)?;
             self.logged_session = session.num_sessions();
         }
+        if let (Some(recorder), Some(registry)) = (self.recorder.as_mut(), session.registry())
+            && session.num_sessions() != self.recorded_session
+        {
+            recorder.begin_session(session.num_sessions(), registry, Instant::now())?;
+            self.recorded_session = session.num_sessions();
+        }
         Ok(())
+    }
+
+    /// An input the engine took, arrived at `at`, to the recording.
+    fn record_input(&mut self, msg: &Message, at: Instant) -> Result<()> {
+        match self.recorder.as_mut() {
+            Some(recorder) => recorder.input(msg, at),
+            None => Ok(()),
+        }
     }
 
     fn send_all(
@@ -382,11 +447,11 @@ impl Publisher<'_> {
                     let Some(topic) = output_topic(m) else {
                         continue;
                     };
-                    self.send(topic, to_json(m))?;
+                    self.send(topic, to_json(m), true)?;
                     num_decisions += 1;
                 }
                 Output::Event(e) => {
-                    self.send(EVENT_TOPIC.to_owned(), to_json(e))?;
+                    self.send(EVENT_TOPIC.to_owned(), to_json(e), true)?;
                     self.num_events += 1;
                 }
             }
@@ -419,17 +484,38 @@ impl Publisher<'_> {
         if let Some(observer) = observer.as_mut() {
             observer.health(report);
         }
-        self.send(HEALTH_TOPIC.to_owned(), to_json(report))
+        if let Some(recorder) = self.recorder.as_mut() {
+            recorder.health(report, Instant::now())?;
+        }
+        // A report made while the broker is away is stale before it could be sent.
+        if !self.shared.connection.is_connected() {
+            return Ok(());
+        }
+        self.send(HEALTH_TOPIC.to_owned(), to_json(report), false)
     }
 
-    fn send(&mut self, topic: String, payload: Vec<u8>) -> Result<()> {
-        self.num_sent += 1;
-        self.client
-            .publish(topic, QoS::AtLeastOnce, false, payload)
-            .map_err(|e| LiveError::Mqtt {
-                what: "publish".to_owned(),
-                why: e.to_string(),
-            })
+    /// Publishes (QoS 1) through the outbox: `is_kept_on_loss`, published again after a
+    /// reconnection unless the broker acknowledged it.
+    fn send(&mut self, topic: String, payload: Vec<u8>, is_kept_on_loss: bool) -> Result<()> {
+        self.outbox.push(topic, payload, is_kept_on_loss);
+        self.sync()
+    }
+
+    /// Forgets what the broker acknowledged, publishes again after a reconnection, hands what
+    /// waits to the client.
+    fn sync(&mut self) -> Result<()> {
+        let client = self.client;
+        self.outbox.sync(
+            &self.shared.connection.state(),
+            |topic: &str, payload: &[u8]| {
+                client
+                    .publish(topic, QoS::AtLeastOnce, false, payload.to_vec())
+                    .map_err(|e| LiveError::Mqtt {
+                        what: "publish".to_owned(),
+                        why: e.to_string(),
+                    })
+            },
+        )
     }
 }
 
@@ -452,6 +538,7 @@ fn run_client(
     for event in connection.iter() {
         match event {
             Ok(Event::Incoming(Packet::ConnAck(_))) => {
+                shared.connection.connected();
                 // Never blocks: the request queue is drained by this very loop.
                 let _ = client.try_subscribe(INPUT_FILTER, QoS::AtLeastOnce);
                 if is_first {
@@ -499,7 +586,10 @@ fn run_client(
                 Err(reason) => lock(health).malformed(&p.topic, &reason),
             },
             Ok(Event::Incoming(Packet::PubAck(_))) => {
-                shared.num_acked.fetch_add(1, Ordering::Relaxed);
+                shared.connection.acked();
+            }
+            Ok(Event::Outgoing(Outgoing::Publish(_))) => {
+                shared.connection.written();
             }
             Ok(Event::Outgoing(Outgoing::Disconnect)) => return,
             Ok(_) => {}
@@ -508,6 +598,7 @@ fn run_client(
                     let _ = connected.try_send(Err(e.to_string()));
                     return;
                 }
+                shared.connection.disconnected();
                 lock(health).connection_error(&e.to_string());
                 // rumqttc reconnects on the next poll; do not spin while the broker is away.
                 std::thread::sleep(Duration::from_millis(500));

@@ -52,6 +52,7 @@ fn a_flood_into_a_small_queue_is_taken_or_dropped_and_counted_never_buffered() {
                 publish_capacity: 64,
                 health_period: Duration::from_millis(50),
                 connect_timeout: Duration::from_secs(10),
+                record: None,
             };
             serve(&options, session, None, None, None, None, &stop).unwrap()
         })

@@ -32,7 +32,7 @@ pub fn run(args: ReplayArgs) -> Result<()> {
     };
     let s = replay(&args.recording, &options)?;
     eprintln!(
-        "{}: published {} messages to {} in {:.2} s ({:.0} messages/s){}{}",
+        "{}: published {} messages to {} in {:.2} s ({:.0} messages/s){}{}{}",
         crate::io::source_name(&args.recording),
         s.num_published,
         options.broker,
@@ -42,6 +42,14 @@ pub fn run(args: ReplayArgs) -> Result<()> {
             ", the registry retained on nomen/in/registry"
         } else {
             ", no registry in the header"
+        },
+        if s.num_published_again > 0 {
+            format!(
+                "; published {} again after the broker came back",
+                s.num_published_again
+            )
+        } else {
+            String::new()
         },
         if s.num_not_inputs > 0 {
             format!(

@@ -26,7 +26,9 @@ use std::time::{Duration, Instant};
 /// Arguments of `nomen run`.
 #[derive(Debug, Args)]
 pub struct RunArgs {
-    /// The recording (`-` for stdin). Its header must carry the registry.
+    /// The recording (`-` for stdin): JSON lines whose header carries the registry, or an MCAP
+    /// file (`nomen serve --record`) whose `nomen/in/registry` channel does, read in log-time
+    /// order.
     pub recording: PathBuf,
     /// Engine configuration (TOML); defaults documented in `nomen-engine`.
     #[arg(long)]
@@ -282,7 +284,7 @@ pub fn run_baseline_file(
     baseline: &Baseline,
     skip: Option<SkipLimit>,
 ) -> Result<String> {
-    let mut reader = RecordingReader::open_with_options(
+    let mut reader = nomen_mcap::open_recording(
         recording,
         ReadOptions::with_policy(read_policy(skip)).holding_all(),
     )?;
@@ -423,7 +425,7 @@ impl Input {
         let (sender, received) = mpsc::sync_channel(4096);
         let path = recording.to_path_buf();
         let reading = std::thread::spawn(move || {
-            let mut reader = match RecordingReader::open_with_options(&path, options) {
+            let mut reader = match nomen_mcap::open_recording(&path, options) {
                 Ok(reader) => reader,
                 Err(e) => {
                     let _ = header_sender.send(Err(e));
@@ -515,6 +517,8 @@ fn progress_bar(recording: &Path, live: bool) -> ProgressBar {
         .then(|| std::fs::metadata(recording).ok())
         .flatten()
         .filter(|m| m.is_file())
+        // An MCAP file's bytes are compressed: its lines' count says nothing of its size.
+        .filter(|_| !nomen_mcap::is_mcap_file(recording))
         .map(|m| m.len());
     let Some(size) = size else {
         return ProgressBar::hidden();
@@ -586,9 +590,7 @@ pub fn run_file(
     let mut input = if extras.live {
         Input::live(recording, options)?
     } else {
-        Input::Reader(Box::new(RecordingReader::open_with_options(
-            recording, options,
-        )?))
+        Input::Reader(Box::new(nomen_mcap::open_recording(recording, options)?))
     };
     let Some(registry) = input.header().registry.clone() else {
         bail!(

@@ -11,7 +11,7 @@ use nomen_live::ServeOptions;
 use nomen_live::broker::{BrokerAddr, start_embedded};
 use nomen_live::session::{Session, SessionOptions};
 use nomen_live::{DecisionSink, Observer, ServeConfig};
-use nomen_recording::{Header, RecordingReader, RecordingWriter};
+use nomen_recording::{Header, RecordingWriter};
 use nomen_viewer::{Viewer, ViewerOptions};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -38,6 +38,15 @@ pub struct ServeArgs {
     /// published; `nomen log query FILE` reads it.
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
+    /// Record each session to MCAP files in this folder (created if missing): the inputs the
+    /// engine took, its decisions, the events and the health reports, one file per session, a
+    /// new one past `--record-max-mb`; `nomen run FILE.mcap` reads one back.
+    #[arg(long, value_name = "DIR")]
+    pub record: Option<PathBuf>,
+    /// With `--record`: a file that passes this size, MiB, is closed and the session goes on
+    /// in a new one (default 1024, or `record_max_mb` in the configuration).
+    #[arg(long, value_name = "MiB", requires = "record")]
+    pub record_max_mb: Option<u64>,
     /// Also write every decision to this file, as `nomen run --out` does (a recording).
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -125,6 +134,16 @@ pub fn run(args: ServeArgs) -> Result<()> {
         Some(path) => Some(path.clone()),
         None => in_config(&config.log, "log of serve.toml")?,
     };
+    let record_dir = match &args.record {
+        Some(path) => Some(path.clone()),
+        None => in_config(&config.record, "record of serve.toml")?,
+    };
+    let record_max_mb = args.record_max_mb.unwrap_or(config.record_max_mb);
+    if !(nomen_live::record::MIN_RECORD_MB..=nomen_live::record::MAX_RECORD_MB)
+        .contains(&record_max_mb)
+    {
+        bail!("--record-max-mb must be within 1..=1048576");
+    }
     let registry = registry_path.as_deref().map(load_registry).transpose()?;
     let broker = match args.mqtt.as_ref().or(config.mqtt.as_ref()) {
         Some(url) => BrokerAddr::parse(url)?,
@@ -174,6 +193,10 @@ pub fn run(args: ServeArgs) -> Result<()> {
         publish_capacity: config.publish_capacity,
         health_period: Duration::from_secs_f64(config.health_period_s),
         connect_timeout: CONNECT_TIMEOUT,
+        record: record_dir.map(|dir| nomen_live::record::RecordOptions {
+            dir,
+            max_file_bytes: record_max_mb << 20,
+        }),
     };
     let stop = Arc::new(AtomicBool::new(false));
     nomen_live::signals::stop_on_signals(Arc::clone(&stop))?;
@@ -213,6 +236,9 @@ pub fn run(args: ServeArgs) -> Result<()> {
         summary.num_decisions,
         summary.num_events
     );
+    for path in &summary.recorded {
+        eprintln!("nomen serve: recorded {}", path.display());
+    }
     if let Some(sink) = &sink
         && let Some(path) = &args.out
     {
@@ -237,7 +263,7 @@ pub fn load_registry(path: &Path) -> Result<Registry> {
             .with_context(|| format!("{}: invalid registry", path.display()))?;
         return Ok(registry);
     }
-    if let Ok(reader) = RecordingReader::open(path) {
+    if let Ok(reader) = nomen_mcap::open_recording(path, nomen_recording::ReadOptions::default()) {
         return match &reader.header().registry {
             Some(registry) => Ok(registry.clone()),
             None => bail!(

@@ -5,8 +5,8 @@ use crate::skip::read_policy;
 use anyhow::{Result, bail};
 use clap::Args;
 use nomen_core::{Message, SessionTime};
+use nomen_recording::ReadOptions;
 use nomen_recording::plausibility::Plausibility;
-use nomen_recording::{ReadOptions, RecordingReader};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::PathBuf;
@@ -52,10 +52,8 @@ impl Summary {
 pub fn run(args: ValidateArgs) -> Result<()> {
     crate::io::check_whole(&args.file)?;
     let skip = args.skip_bad.then_some(args.max_skipped);
-    let mut reader = RecordingReader::open_with_options(
-        &args.file,
-        ReadOptions::with_policy(read_policy(skip)),
-    )?;
+    let mut reader =
+        nomen_mcap::open_recording(&args.file, ReadOptions::with_policy(read_policy(skip)))?;
     let mut summary = Summary::default();
     let mut plausibility = Plausibility::new(reader.header().registry.as_ref());
     let mut implausible = Vec::new();
