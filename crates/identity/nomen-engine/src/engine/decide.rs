@@ -7,7 +7,6 @@ use super::{
     CAMERA_PAIR_MAX_DT_NS, CAMERA_PAIR_MIN_FRAMES, Decided, Engine, TORSO_ANCHORS, TrackKey,
     TrackState, VIEW_NAMES_AFTER_END_NS, WarmDecision, best_of, sample_range, spans_overlap,
 };
-use nalgebra::Point3;
 use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
 use nomen_core::{DecisionRule, TrackId};
 use std::collections::BTreeMap;
@@ -306,20 +305,20 @@ impl Engine {
     fn note_open_set(&mut self, active: &[TrackKey], end: i64) {
         // Each track's torso at its settled frame nearest `end − PRESENT_NS`.
         let at = end - PRESENT_NS;
-        let torsos: Vec<(usize, i64, [Option<Point3<f64>>; TORSO_ANCHORS.len()])> = active
+        let torsos: Vec<(usize, AnchorSample)> = active
             .iter()
             .filter_map(|k| {
                 let tr = self.tracks.get(k)?;
                 let path = anchor_path(tr, at - SAME_TIME_NS, at + SAME_TIME_NS);
                 let (t, anchors) = path.iter().min_by_key(|(t, _)| (t - at).abs())?;
-                Some((k.0, *t, *anchors))
+                Some((k.0, (*t, *anchors)))
             })
             .collect();
         // One person per group of tracks of different cameras whose torsos are that close.
         let mut group: Vec<usize> = (0..torsos.len()).collect();
         let mut people = torsos.len();
-        for (i, (ca, ta, pa)) in torsos.iter().enumerate() {
-            for (j, (cb, tb, pb)) in torsos.iter().enumerate().skip(i + 1) {
+        for (i, (ca, (ta, pa))) in torsos.iter().enumerate() {
+            for (j, (cb, (tb, pb))) in torsos.iter().enumerate().skip(i + 1) {
                 let (Some(&a), Some(&b)) = (group.get(i), group.get(j)) else {
                     continue;
                 };
