@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{data_dir, nomen, text};
+use common::{data_dir, nomen, simulate_file, text};
 
 /// A family small enough for a debug build: two wearers and one person wearing nothing, 20 s.
 const TINY: &str = r#"
@@ -42,15 +42,7 @@ fn generate_writes_scenarios_that_simulate_and_refuses_bad_requests() {
     );
     // Each file is a scenario: it simulates, and the people wearing nothing are in its truth.
     let sim = tmp.path().join("sim");
-    let o = nomen(&[
-        "simulate",
-        first.to_str().unwrap(),
-        "--out",
-        sim.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    simulate_file(&first, &sim, &data);
     let truth = std::fs::read_to_string(sim.join("truth.jsonl")).unwrap();
     assert!(
         truth.contains("\"subject\":null"),

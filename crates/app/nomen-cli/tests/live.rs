@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{data_dir, free_port, nomen, nomen_command, repo, text, wait_for_port};
+use common::{data_dir, free_port, nomen, nomen_command, short_scene, text, wait_for_port};
 use rumqttc::{Client, Event, MqttOptions, Packet, QoS};
 use serde_json::Value;
 
@@ -19,26 +19,6 @@ use std::time::{Duration, Instant};
 const SCENE_S: f64 = 20.0;
 /// How long a test waits for the service to take every message.
 const TIMEOUT: Duration = Duration::from_secs(120);
-
-/// `scenarios/imu_wrist_2.toml` cut to [`SCENE_S`] and simulated into `dir`: its recording.
-fn short_scene(dir: &Path, data: &Path) -> PathBuf {
-    let scenario = std::fs::read_to_string(repo().join("scenarios/imu_wrist_2.toml")).unwrap();
-    let scenario = scenario.replace("duration_s = 60.0", &format!("duration_s = {SCENE_S}"));
-    assert!(scenario.contains(&format!("duration_s = {SCENE_S}")));
-    let path = dir.join("short.toml");
-    std::fs::write(&path, scenario).unwrap();
-    let scene = dir.join("scene");
-    let o = nomen(&[
-        "simulate",
-        path.to_str().unwrap(),
-        "--out",
-        scene.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
-    scene.join("recording.jsonl")
-}
 
 /// The message lines of a recording (header left out).
 fn message_lines(path: &Path) -> Vec<String> {
@@ -359,7 +339,7 @@ fn run_file(input: &Path, out: &Path) -> std::process::Output {
 /// The scene simulated and run through `nomen run`, or `None` without the shared data.
 fn scene_and_run(dir: &Path) -> Option<(PathBuf, PathBuf)> {
     let data = data_dir()?;
-    let recording = short_scene(dir, &data);
+    let recording = short_scene(dir, &data, SCENE_S);
     let expected = dir.join("run.jsonl");
     let o = run_file(&recording, &expected);
     assert!(o.status.success(), "{}", text(&o.stderr));
@@ -671,7 +651,7 @@ fn after_kill_9_the_identity_log_holds_every_published_decision() {
     let Some(data) = data_dir() else {
         return;
     };
-    let recording = short_scene(tmp.path(), &data);
+    let recording = short_scene(tmp.path(), &data, SCENE_S);
     let port = free_port();
     write_config(
         tmp.path(),

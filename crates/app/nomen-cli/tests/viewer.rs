@@ -6,7 +6,10 @@
 
 mod common;
 
-use common::{data_dir, free_port, nomen, nomen_command, repo, text, wait_for_port};
+use common::{
+    data_dir, free_port, nomen, nomen_command, repo, short_scene, simulate_file, text,
+    wait_for_port,
+};
 use serde_json::Value;
 use std::collections::BTreeSet;
 use std::io::{Read, Write};
@@ -194,26 +197,8 @@ impl Drop for Serve {
     }
 }
 
-/// `scenarios/imu_wrist_2.toml` cut to [`SCENE_S`] and simulated into `dir`: its recording.
-fn short_scene(dir: &Path, data: &Path) -> PathBuf {
-    let scenario = std::fs::read_to_string(repo().join("scenarios/imu_wrist_2.toml")).unwrap();
-    let scenario = scenario.replace("duration_s = 60.0", &format!("duration_s = {SCENE_S}"));
-    assert!(scenario.contains(&format!("duration_s = {SCENE_S}")));
-    let path = dir.join("short.toml");
-    std::fs::write(&path, scenario).unwrap();
-    simulate(&path, &dir.join("scene"), data)
-}
-
 fn simulate(scenario: &Path, out: &Path, data: &Path) -> PathBuf {
-    let o = nomen(&[
-        "simulate",
-        scenario.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    simulate_file(scenario, out, data);
     out.join("recording.jsonl")
 }
 
@@ -264,7 +249,7 @@ fn the_page_names_the_people_the_service_named() {
         return;
     };
     let tmp = tempfile::tempdir().unwrap();
-    let recording = short_scene(tmp.path(), &data);
+    let recording = short_scene(tmp.path(), &data, SCENE_S);
     // `nomen run` makes as many decisions as the service (docs/live.md): how many to wait for.
     let expected = tmp.path().join("run.jsonl");
     let o = nomen(&[

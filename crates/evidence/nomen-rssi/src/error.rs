@@ -79,9 +79,6 @@ pub enum RssiError {
     /// A numerical step failed (singular system, filter update).
     #[error("numerical failure: {0}")]
     Numerical(String),
-    /// The assignment solver failed.
-    #[error("assignment: {0}")]
-    Assign(#[from] nomen_assign::AssignError),
     /// A fit from `nomen-fit` failed.
     #[error(transparent)]
     Fit(#[from] nomen_fit::FitError),

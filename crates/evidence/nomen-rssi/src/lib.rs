@@ -1,4 +1,4 @@
-//! RSSI tag evidence (passive UHF RFID, BLE): Llorca's path-loss models, automatic calibration from vision, Kalman-filtered RSSI, likelihoods and Llorca's association.
+//! RSSI tag evidence (passive UHF RFID, BLE): Llorca's path-loss models, automatic calibration from vision, Kalman-filtered RSSI and likelihoods.
 //!
 //! Where people carry a passive RFID tag or a BLE beacon there are no positions, only received
 //! signal strength at a few antennas. After Llorca et al. (stereo pedestrian detection with
@@ -14,8 +14,6 @@
 //! - [`likelihood`]: the log-likelihood of a person's position given a tag's filtered RSSI, in
 //!   the RSSI domain, with silence treated as a censored read, and `[0, 1]` scores against a
 //!   background hypothesis;
-//! - [`llorca`]: Llorca's association (global nearest neighbour with a 0.5 floor, per-pair
-//!   counters, locks), sans-IO, plus [`run_llorca`];
 //! - [`kolakowski`]: validation of the models on the Kolakowski BLE recordings.
 //!
 //! Units are SI and dBm with the unit in the name; RSSI values are checked at ingest
@@ -53,7 +51,6 @@ pub mod fit;
 pub mod kalman;
 pub mod kolakowski;
 pub mod likelihood;
-pub mod llorca;
 pub mod model;
 pub mod read;
 
@@ -64,6 +61,5 @@ pub use kalman::{RssiEstimate, RssiKalman, RssiKalmanConfig};
 pub use likelihood::{
     LikelihoodConfig, NotHeard, background_log_likelihood, log_likelihood, pair_score, posterior,
 };
-pub use llorca::{Llorca, LlorcaConfig, LlorcaStats, run_llorca, run_llorca_with};
 pub use model::{AntennaModel, ModelKind, NoiseModel, RssiModel, TagPlacement};
 pub use read::RssiUnit;

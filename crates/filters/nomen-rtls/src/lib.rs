@@ -7,8 +7,6 @@
 //!   uses as UWB evidence; the key joint per tag.
 //! - [`baptizo`]: Bazo's Baptizo (FUSE, INIT, SENSOR_FUSION with the persistence map, ghosting)
 //!   as a sans-IO struct and [`run_baptizo`] for `method = "baptizo"`.
-//! - [`lias`]: position-error evaluation on the LIAS UWB recordings (parsed by
-//!   `nomen_fit::load`).
 //!
 //! Nothing here opens files or reads clocks.
 
@@ -16,7 +14,6 @@ mod error;
 pub use error::{Result, RtlsError};
 
 pub mod baptizo;
-pub mod lias;
 pub mod likelihood;
 pub mod multilat;
 pub mod track;

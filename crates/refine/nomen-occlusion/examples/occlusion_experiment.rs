@@ -4,9 +4,7 @@
 //! [`OcclusionExperimentConfig`] as JSON; seeds run on as many threads as there are cores).
 #![allow(clippy::print_stdout)]
 
-use nomen_occlusion::experiment::{
-    OcclusionExperimentConfig, OcclusionReport, run_occlusion_experiment, summarize,
-};
+use nomen_occlusion::experiment::{OcclusionExperimentConfig, run_seeds, summarize};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut config = OcclusionExperimentConfig::default();
@@ -34,25 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let seeds: Vec<u64> = (first..=last).collect();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut reports: Vec<OcclusionReport> = Vec::new();
-    for chunk in seeds.chunks(threads) {
-        let results: Vec<_> = std::thread::scope(|s| {
-            let handles: Vec<_> = chunk
-                .iter()
-                .map(|&seed| {
-                    let config = OcclusionExperimentConfig {
-                        seed,
-                        ..config.clone()
-                    };
-                    s.spawn(move || run_occlusion_experiment(&config))
-                })
-                .collect();
-            handles.into_iter().map(|h| h.join()).collect()
-        });
-        for r in results {
-            reports.push(r.map_err(|_| "experiment thread panicked")??);
-        }
-    }
+    let reports = run_seeds(&config, &seeds, threads)?;
     for r in &reports {
         for v in &r.variants {
             println!(

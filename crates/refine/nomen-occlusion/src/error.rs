@@ -25,6 +25,18 @@ pub enum OcclusionError {
         /// What failed.
         what: String,
     },
+    /// One seed of an experiment run over several failed.
+    #[error("occlusion experiment, seed {seed}")]
+    Seed {
+        /// The seed.
+        seed: u64,
+        /// What went wrong.
+        #[source]
+        source: Box<OcclusionError>,
+    },
+    /// A run panicked (a bug, not bad data).
+    #[error("the run panicked")]
+    Panicked,
 }
 
 /// `Result` with [`OcclusionError`].

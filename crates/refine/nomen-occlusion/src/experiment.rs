@@ -183,6 +183,55 @@ fn reduction(new: Option<f64>, old: Option<f64>) -> Option<f64> {
     }
 }
 
+/// Runs [`run_occlusion_experiment`] once per seed of `seeds` (each with `config` and that seed),
+/// `num_threads` seeds at a time on scoped threads that end before it returns; the reports come
+/// back in the order of `seeds`, whatever the thread count.
+///
+/// # Errors
+/// [`crate::OcclusionError::Seed`] naming the first seed (in the order of `seeds`) whose run
+/// failed or panicked.
+pub fn run_seeds(
+    config: &OcclusionExperimentConfig,
+    seeds: &[u64],
+    num_threads: usize,
+) -> Result<Vec<OcclusionReport>> {
+    let mut reports = Vec::with_capacity(seeds.len());
+    for chunk in seeds.chunks(num_threads.max(1)) {
+        let results: Vec<_> = std::thread::scope(|s| {
+            let handles: Vec<_> = chunk
+                .iter()
+                .map(|&seed| {
+                    let config = OcclusionExperimentConfig {
+                        seed,
+                        ..config.clone()
+                    };
+                    s.spawn(move || run_occlusion_experiment(&config))
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join()).collect()
+        });
+        for (&seed, r) in chunk.iter().zip(results) {
+            let report = match r {
+                Ok(Ok(report)) => report,
+                Ok(Err(e)) => {
+                    return Err(crate::OcclusionError::Seed {
+                        seed,
+                        source: Box::new(e),
+                    });
+                }
+                Err(_) => {
+                    return Err(crate::OcclusionError::Seed {
+                        seed,
+                        source: Box::new(crate::OcclusionError::Panicked),
+                    });
+                }
+            };
+            reports.push(report);
+        }
+    }
+    Ok(reports)
+}
+
 /// Runs the experiment: simulate the scene once, feed the same observations to every variant.
 ///
 /// # Errors

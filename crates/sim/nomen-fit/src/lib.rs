@@ -11,6 +11,8 @@
 //! - the I/O edge in [`dataset`]: `fit_*_file(s)` helpers for the CLI and [`fit_all`], which
 //!   reads the shared data directory and returns [`FittedModels`] (serde + a markdown report
 //!   via `Display`).
+//! - [`rtls_lias`]: `nomen-rtls`'s multilateration and tag tracking evaluated on the LIAS
+//!   recordings (position error against the mocap).
 //!
 //! Units are SI with the unit in the field name (`_m`, `_s`, `_radps`, `_mps2`, `_dbm`);
 //! noise terms whose unit depends on the sensor say so in the surrounding struct.
@@ -22,6 +24,7 @@ pub mod imu;
 pub mod load;
 pub mod models;
 pub mod rssi;
+pub mod rtls_lias;
 pub mod stats;
 mod table;
 pub mod uwb;

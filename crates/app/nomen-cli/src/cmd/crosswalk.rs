@@ -9,9 +9,8 @@ use clap::Args;
 use nomen_core::{Message, Registry};
 use nomen_engine::{EngineConfig, run_batch_with_rssi};
 use nomen_eval::identity::{EvalConfig, SceneData, evaluate};
-use nomen_rssi::{
-    CalibrationConfig, CalibrationReport, ModelKind, RssiModel, calibrate, run_llorca,
-};
+use nomen_llorca::run_llorca;
+use nomen_rssi::{CalibrationConfig, CalibrationReport, ModelKind, RssiModel, calibrate};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::io::Write;

@@ -4,12 +4,12 @@
 //! variants, an unconstrained filter as a floor, and nomen's complete filter, over one or more
 //! seeds, beside the figures the thesis reports; with box plots.
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
 use nomen_occlusion::experiment::{
     GOAL_ERROR_REDUCTION, GOAL_VOLUME_REDUCTION, OcclusionExperimentConfig, OcclusionReport,
-    OcclusionSummary, PUBLISHED_ERROR_REDUCTION, PUBLISHED_VOLUME_REDUCTION, Spread,
-    run_occlusion_experiment, summarize,
+    OcclusionSummary, PUBLISHED_ERROR_REDUCTION, PUBLISHED_VOLUME_REDUCTION, Spread, run_seeds,
+    summarize,
 };
 use nomen_occlusion::plots::render_boxplots;
 use serde::Serialize;
@@ -63,33 +63,6 @@ struct Output<'a> {
 }
 
 /// Runs the seeds, as many at a time as there are cores.
-fn run_seeds(config: &OcclusionExperimentConfig, seeds: &[u64]) -> Result<Vec<OcclusionReport>> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut reports = Vec::with_capacity(seeds.len());
-    for chunk in seeds.chunks(threads) {
-        let results: Vec<_> = std::thread::scope(|s| {
-            let handles: Vec<_> = chunk
-                .iter()
-                .map(|&seed| {
-                    let config = OcclusionExperimentConfig {
-                        seed,
-                        ..config.clone()
-                    };
-                    s.spawn(move || run_occlusion_experiment(&config))
-                })
-                .collect();
-            handles.into_iter().map(|h| h.join()).collect()
-        });
-        for (seed, r) in chunk.iter().zip(results) {
-            let Ok(r) = r else {
-                bail!("occlusion experiment, seed {seed}: the run panicked");
-            };
-            reports.push(r.with_context(|| format!("occlusion experiment, seed {seed}"))?);
-        }
-    }
-    Ok(reports)
-}
-
 /// Runs `nomen experiment occlusion`.
 pub fn run(args: &OcclusionArgs) -> Result<()> {
     let (first, last) = match (args.seed, args.seeds) {
@@ -102,7 +75,8 @@ pub fn run(args: &OcclusionArgs) -> Result<()> {
     config.scene.num_cycles = args.cycles;
     config.filter.num_particles = args.particles;
     config.published_filter.num_particles = args.particles;
-    let reports = run_seeds(&config, &seeds)?;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let reports = run_seeds(&config, &seeds, threads)?;
     let summary = summarize(&reports);
     let json = serde_json::to_string_pretty(&Output {
         summary: &summary,

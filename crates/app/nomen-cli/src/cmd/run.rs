@@ -123,7 +123,7 @@ pub enum Method {
     Nomen,
     /// Bazo's Baptizo on UWB tag fixes, as published (`nomen_rtls::run_baptizo`).
     Baptizo,
-    /// Llorca's RSSI association (`nomen_rssi::run_llorca`); needs `--rssi-model`.
+    /// Llorca's RSSI association (`nomen_llorca::run_llorca`); needs `--rssi-model`.
     Llorca,
 }
 
@@ -335,7 +335,7 @@ pub fn run_baseline_file(
     let mut decided = match baseline {
         Baseline::Baptizo => nomen_rtls::run_baptizo(&registry, &messages)
             .with_context(|| format!("{}: baptizo", crate::io::source_name(recording)))?,
-        Baseline::Llorca(model) => nomen_rssi::run_llorca(&registry, model, &messages)
+        Baseline::Llorca(model) => nomen_llorca::run_llorca(&registry, model, &messages)
             .with_context(|| format!("{}: llorca", crate::io::source_name(recording)))?,
     };
     // The writer wants time order; a stable sort keeps each time's messages in decision order.

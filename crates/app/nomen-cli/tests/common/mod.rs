@@ -1,5 +1,5 @@
 //! Helpers shared by the CLI's end-to-end tests: run the binary, find the shared data, simulate a
-//! library scenario, count messages in a recording, find a free port and wait for a server.
+//! library scenario (or one cut short), count messages in a recording, find a free port and wait for a server.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 use std::net::{TcpListener, TcpStream};
@@ -42,15 +42,7 @@ pub fn text(bytes: &[u8]) -> String {
 
 /// Simulates `scenarios/NAME` into `out` (default seed), failing the test with stderr if it fails.
 pub fn simulate_library(name: &str, out: &Path, data: &Path) {
-    let o = nomen(&[
-        "simulate",
-        repo().join("scenarios").join(name).to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    simulate_file(&repo().join("scenarios").join(name), out, data);
 }
 
 /// A temporary directory with `scenarios/NAME` simulated into its `scene` folder, or `None`
@@ -61,6 +53,32 @@ pub fn simulated_scene(name: &str) -> Option<(tempfile::TempDir, PathBuf)> {
     let scene = tmp.path().join("scene");
     simulate_library(name, &scene, &data);
     Some((tmp, scene))
+}
+
+/// `scenarios/imu_wrist_2.toml` cut to `scene_s` seconds and simulated into `dir/scene`: its
+/// recording.
+pub fn short_scene(dir: &Path, data: &Path, scene_s: f64) -> PathBuf {
+    let scenario = std::fs::read_to_string(repo().join("scenarios/imu_wrist_2.toml")).unwrap();
+    let scenario = scenario.replace("duration_s = 60.0", &format!("duration_s = {scene_s}"));
+    assert!(scenario.contains(&format!("duration_s = {scene_s}")));
+    let path = dir.join("short.toml");
+    std::fs::write(&path, scenario).unwrap();
+    let scene = dir.join("scene");
+    simulate_file(&path, &scene, data);
+    scene.join("recording.jsonl")
+}
+
+/// Simulates the scenario file `scenario` into `out`, failing the test with stderr if it fails.
+pub fn simulate_file(scenario: &Path, out: &Path, data: &Path) {
+    let o = nomen(&[
+        "simulate",
+        scenario.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
 }
 
 /// Number of messages of type `kind` in a recording file.

@@ -12,15 +12,15 @@
 //! in the plane at the tag's median true height ([`HeightConstraint::Fixed`]) and errors are
 //! horizontal.
 
-use crate::error::{Result, RtlsError};
-use crate::multilat::{
-    AnchorRange, HeightConstraint, MultilaterationConfig, RangeBias, RangeTruth, solve_twr,
-};
-use crate::track::{FixOutcome, TagFilterConfig, TagTrack};
+use crate::load::UwbRecording;
+use crate::uwb::{RangeErrors, UwbSetup};
 use nalgebra::{Isometry3, Point3};
 use nomen_core::SessionTime;
-use nomen_fit::load::UwbRecording;
-use nomen_fit::uwb::{RangeErrors, UwbSetup};
+use nomen_rtls::multilat::{
+    AnchorRange, HeightConstraint, MultilaterationConfig, RangeBias, RangeTruth, solve_twr,
+};
+use nomen_rtls::track::{FixOutcome, TagFilterConfig, TagTrack};
+use nomen_rtls::{Result, RtlsError};
 use serde::{Deserialize, Serialize};
 
 /// Summary of a set of errors, m.
@@ -194,7 +194,7 @@ pub fn tag_in_world(
     Some(world_from_body * Point3::from(*offset))
 }
 
-/// Range-truth samples from `nomen_fit`'s range errors (for [`crate::multilat::estimate_range_bias`]).
+/// Range-truth samples from `nomen_fit`'s range errors (for [`nomen_rtls::multilat::estimate_range_bias`]).
 pub fn range_truths(errors: &RangeErrors) -> Vec<RangeTruth> {
     errors
         .samples

@@ -1,4 +1,9 @@
-//! Llorca's association of RSSI tags with tracked people, as a sans-IO state machine.
+//! Llorca's association of RSSI tags with tracked people: global nearest neighbour with a 0.5 floor, per-(track, tag) counters and locks, untagged people anonymous.
+//!
+//! A sans-IO state machine over `nomen-rssi`'s evidence and `nomen-assign`'s solver, after
+//! Llorca et al. (stereo pedestrian detection with passive UHF RFID and BLE tags at
+//! crosswalks); [`run_llorca`] backs `nomen run --method llorca` and `nomen experiment
+//! crosswalk`.
 //!
 //! Per camera frame (all skeletons one camera reports at one instant):
 //!
@@ -19,18 +24,16 @@
 //! Messages are pushed in time order. A frame is decided when a later message arrives (so
 //! reads at the frame's own instant count) or at [`Llorca::finish`].
 
-use crate::bank::FilterBank;
-use crate::calibrate::{tag_position, tag_site};
-use crate::error::{Result, RssiError};
-use crate::kalman::{RssiEstimate, RssiKalmanConfig};
-use crate::likelihood::{LikelihoodConfig, background_log_likelihood, log_likelihood, posterior};
-use crate::model::RssiModel;
-use crate::read::RssiUnit;
 use nalgebra::Point3;
 use nomen_assign::{AssignConfig, CostMatrix, Objective, solve};
 use nomen_core::{
     CameraId, DeviceKind, Evidence, IdentifiedSkeleton, Identity, Joint, Message, Registry,
     SessionTime, SkeletonObservation, SubjectId, TagId, TrackId,
+};
+use nomen_rssi::calibrate::{tag_position, tag_site};
+use nomen_rssi::{
+    FilterBank, LikelihoodConfig, Result, RssiError, RssiEstimate, RssiKalmanConfig, RssiModel,
+    RssiUnit, background_log_likelihood, log_likelihood, posterior,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;

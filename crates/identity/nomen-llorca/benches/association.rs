@@ -1,7 +1,7 @@
 //! Per-frame cost of Llorca's association with 50 people, 20 tags and 4 antennas (the issue's
 //! workload), single thread, on synthetic data (no shared data needed).
 //!
-//! `cargo bench -p nomen-rssi` prints the median wall time per camera frame of `Llorca::push`
+//! `cargo bench -p nomen-llorca` prints the median wall time per camera frame of `Llorca::push`
 //! (the reads that arrive between two frames at 25 Hz, then the frame: 50 × 20 likelihoods over
 //! 4 antennas, the posterior, the assignment, counters) and, separately, of the 50 × 20
 //! log-likelihood matrix alone.
@@ -18,10 +18,10 @@ use nomen_core::{
     Antenna, AntennaId, Camera, CameraId, DeviceId, DeviceKind, Joint, JointObservation, Message,
     Registry, RssiRead, SessionTime, SkeletonObservation, Subject, SubjectId, TrackId, Wearable,
 };
+use nomen_llorca::{Llorca, LlorcaConfig};
 use nomen_rssi::fit::{FitConfig, Sample, fit_antenna};
 use nomen_rssi::{
-    FilterBank, LikelihoodConfig, Llorca, LlorcaConfig, ModelKind, RssiModel, TagPlacement,
-    log_likelihood,
+    FilterBank, LikelihoodConfig, ModelKind, RssiModel, TagPlacement, log_likelihood,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -3,8 +3,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use nomen_fit::load::{UwbCsvFormat, parse_mocap_csv, parse_uwb_csv};
+use nomen_fit::rtls_lias::{BiasMode, evaluate_recording, range_truths, tag_in_world};
 use nomen_fit::uwb::{UwbSetup, check_quat_convention, interpolate_pose, range_errors_mocap};
-use nomen_rtls::lias::{BiasMode, evaluate_recording, range_truths, tag_in_world};
 use nomen_rtls::multilat::{MultilaterationConfig, estimate_range_bias};
 use nomen_rtls::track::TagFilterConfig;
 use std::path::{Path, PathBuf};

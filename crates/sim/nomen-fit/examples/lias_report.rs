@@ -2,15 +2,17 @@
 //! static and dynamic, with no bias correction, a constant bias and per-anchor biases (biases
 //! estimated on the dynamic `mid` run with its mocap truth, so that row is in-sample).
 //!
-//! `cargo run -p nomen-rtls --example lias_report [DATA_DIR]` (default `$NOMEN_DATA`, else
+//! `cargo run -p nomen-fit --example lias_report [DATA_DIR]` (default `$NOMEN_DATA`, else
 //! `../shared/data`).
 
 #![allow(clippy::print_stdout)]
 
 use nomen_fit::dataset::static_world_from_body;
 use nomen_fit::load::{UwbCsvFormat, parse_mocap_csv, parse_uwb_csv};
+use nomen_fit::rtls_lias::{
+    BiasMode, evaluate_recording, range_truths, render_report, tag_in_world,
+};
 use nomen_fit::uwb::{UwbSetup, check_quat_convention, interpolate_pose, range_errors_mocap};
-use nomen_rtls::lias::{BiasMode, evaluate_recording, range_truths, render_report, tag_in_world};
 use nomen_rtls::multilat::{MultilaterationConfig, estimate_range_bias};
 use nomen_rtls::track::TagFilterConfig;
 use std::path::PathBuf;

@@ -10,9 +10,9 @@ use nomen_core::{
     Message, Registry, RssiRead, SessionTime, SkeletonObservation, Subject, SubjectId, TrackId,
     Wearable,
 };
+use nomen_llorca::{Llorca, LlorcaConfig, run_llorca, run_llorca_with};
 use nomen_rssi::{
-    CalibrationConfig, Llorca, LlorcaConfig, ModelKind, RssiError, RssiModel, RssiUnit,
-    TagPlacement, calibrate, run_llorca, run_llorca_with,
+    CalibrationConfig, ModelKind, RssiError, RssiModel, RssiUnit, TagPlacement, calibrate,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
