@@ -94,7 +94,8 @@ run nomen simulate scenarios/hospital_room.toml --out out/h --seed 1
 run nomen run out/h/recording.jsonl --refine-joints --environment out/h/obstacles.obj --out out/h/refined.jsonl
 run nomen run out/w4/recording.jsonl --cnn models/cnn_small --out out/w4/cnn.jsonl
 run nomen simulate scenarios/uwb_1.toml --out out/u1 --seed 1
-run nomen calibrate frames out/u1/recording.jsonl
+run nomen calibrate frames out/u1/recording.jsonl --out out/u1/calibration.toml
+run nomen run out/u1/recording.jsonl --calibration out/u1/calibration.toml --out out/u1/calibrated.jsonl
 run nomen calibrate confidence --scenes out/w4 out/u2
 
 # One command per paper table.

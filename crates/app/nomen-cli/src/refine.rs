@@ -13,8 +13,8 @@ use nalgebra::{Isometry3, Point3};
 use nomen_core::bounded::BoundedReader;
 use nomen_core::skeleton::{JointState, Joints};
 use nomen_core::{
-    CameraId, IdentifiedSkeleton, JointObservation, Registry, SessionTime, SkeletonObservation,
-    TrackId,
+    CameraId, ClockModel, IdentifiedSkeleton, JointObservation, Registry, SessionTime,
+    SkeletonObservation, TrackId,
 };
 use nomen_occlusion::environment::{Environment, OBJ_LIMITS, PLY_LIMITS, parse_obj, parse_ply};
 use nomen_occlusion::{JointRefiner, RefinerConfig};
@@ -27,7 +27,8 @@ const MIN_ESTIMATE_STD_M: f64 = 0.03;
 
 /// Refines identified skeletons from the observations they were decided on.
 pub struct Refinement {
-    world_from_camera: BTreeMap<CameraId, Isometry3<f64>>,
+    /// Each camera's `world_from_camera`, scale (metres per camera-frame unit) and clock.
+    cameras: BTreeMap<CameraId, (Isometry3<f64>, f64, ClockModel)>,
     environment: Option<Environment>,
     /// Observations waiting for their decision, by track then time.
     observations: BTreeMap<(CameraId, TrackId, SessionTime), Joints<JointObservation>>,
@@ -45,10 +46,13 @@ impl Refinement {
             None => None,
         };
         Ok(Refinement {
-            world_from_camera: registry
+            cameras: registry
                 .cameras
                 .iter()
-                .map(|c| (c.id.clone(), c.world_from_camera.to_isometry()))
+                .map(|c| {
+                    let pose = (c.world_from_camera.to_isometry(), c.scale, c.clock);
+                    (c.id.clone(), pose)
+                })
                 .collect(),
             environment,
             observations: BTreeMap::new(),
@@ -57,10 +61,15 @@ impl Refinement {
         })
     }
 
-    /// Remembers a skeleton observation until its decision comes out.
+    /// Remembers a skeleton observation until its decision comes out (which carries its
+    /// session time: the stamp on the camera's clock).
     pub fn observe(&mut self, s: &SkeletonObservation) {
+        let t = self
+            .cameras
+            .get(&s.camera)
+            .map_or(s.t, |(_, _, clock)| clock.to_session(s.t.as_ns()));
         self.observations
-            .insert((s.camera.clone(), s.track, s.t), s.joints.clone());
+            .insert((s.camera.clone(), s.track, t), s.joints.clone());
     }
 
     /// Fills `id.joints` with the refined joints of the observation it was decided on (camera
@@ -70,7 +79,7 @@ impl Refinement {
         let Some(observed) = self.observations.remove(&key) else {
             return Ok(());
         };
-        let Some(world_from_camera) = self.world_from_camera.get(&id.camera).copied() else {
+        let Some((world_from_camera, scale, _)) = self.cameras.get(&id.camera).copied() else {
             return Ok(());
         };
         let mut world = Joints::new();
@@ -78,7 +87,10 @@ impl Refinement {
             let usable =
                 o.state != JointState::Missing && o.position_m.iter().all(|v| v.is_finite());
             if usable {
-                world.insert(j, world_from_camera * o.position_m);
+                world.insert(
+                    j,
+                    world_from_camera * Point3::from(o.position_m.coords * scale),
+                );
             }
         }
         let refiner = match self.refiners.entry((id.camera.clone(), id.track)) {
@@ -103,14 +115,14 @@ impl Refinement {
                 // A particle cloud that collapsed (every survivor resampled from one particle)
                 // is not certainty: never report less than the camera's own joint noise.
                 let c = c + nalgebra::Matrix3::identity() * MIN_ESTIMATE_STD_M.powi(2);
-                let c = rotation.matrix() * c * rotation.matrix().transpose();
+                let c = rotation.matrix() * c * rotation.matrix().transpose() / (scale * scale);
                 [
                     [c[(0, 0)], c[(0, 1)], c[(0, 2)]],
                     [c[(1, 0)], c[(1, 1)], c[(1, 2)]],
                     [c[(2, 0)], c[(2, 1)], c[(2, 2)]],
                 ]
             });
-            let position: Point3<f64> = camera_from_world * r.position_m;
+            let position = Point3::from((camera_from_world * r.position_m).coords / scale);
             if position.iter().all(|v| v.is_finite()) {
                 out.insert(
                     j,

@@ -529,7 +529,7 @@ fn serve_and_replay_ride_out_a_mosquitto_restart() {
         return;
     };
     let tmp = tempfile::tempdir().unwrap();
-    let recording = short_scene(tmp.path(), &data);
+    let recording = short_scene(tmp.path(), &data, SCENE_S);
     let port = free_port();
     let conf = format!(
         "persistence true\npersistence_location {}/\nautosave_interval 1\n",

@@ -275,6 +275,10 @@ pub struct FitQualityConfig {
     pub min_spread_m: f64,
     /// A similarity scale further than this from 1 is a warning (a unit mistake?). Default 0.05.
     pub max_scale_deviation: f64,
+    /// A median residual over all pairs above this is a warning, m: most pairs disagree with the
+    /// fit. Default 0.05 m for surveyed points; use about three times the median a good fit
+    /// leaves when fitting noisy fixes.
+    pub max_median_m: f64,
 }
 
 impl Default for FitQualityConfig {
@@ -285,16 +289,29 @@ impl Default for FitQualityConfig {
             min_inlier_fraction: 0.7,
             min_spread_m: 0.3,
             max_scale_deviation: 0.05,
+            max_median_m: 0.05,
         }
     }
 }
 
 impl FitQualityConfig {
+    /// The rule for a tagged walk, where the targets are location fixes with about 0.4 m of 3D
+    /// noise rather than surveyed points: an inlier RMS above 0.5 m or a median residual above
+    /// 1 m (about three times the 0.35 m median a right fit leaves against UWB fixes) is poor.
+    pub fn for_location_fixes() -> Self {
+        Self {
+            max_rmse_m: 0.5,
+            max_median_m: 1.0,
+            ..Self::default()
+        }
+    }
+
     /// Checks every field.
     pub fn validate(&self) -> Result<()> {
         check_positive("max_rmse_m", self.max_rmse_m)?;
         check_positive("min_spread_m", self.min_spread_m)?;
         check_positive("max_scale_deviation", self.max_scale_deviation)?;
+        check_positive("max_median_m", self.max_median_m)?;
         if !(0.0..=1.0).contains(&self.min_inlier_fraction) {
             return Err(CalibError::InvalidParameter {
                 name: "min_inlier_fraction",
@@ -342,6 +359,28 @@ pub enum FitWarning {
         /// Fitted scale.
         scale: f64,
     },
+    /// The median residual over all pairs is large.
+    LargeMedianResidual {
+        /// Median residual, m.
+        median_m: f64,
+        /// Threshold, m.
+        max_median_m: f64,
+    },
+}
+
+impl FitWarning {
+    /// Whether the warning says that the transform does not explain the pairs (too few
+    /// inliers, few inliers, a large inlier or median residual), rather than that it may be
+    /// poorly determined (nearly collinear points) or surprising (a scale far from 1).
+    pub fn is_disqualifying(&self) -> bool {
+        match self {
+            Self::TooFewPoints { .. }
+            | Self::LargeResidual { .. }
+            | Self::FewInliers { .. }
+            | Self::LargeMedianResidual { .. } => true,
+            Self::NearlyCollinear { .. } | Self::ScaleNotOne { .. } => false,
+        }
+    }
 }
 
 impl std::fmt::Display for FitWarning {
@@ -380,6 +419,15 @@ impl std::fmt::Display for FitWarning {
             Self::ScaleNotOne { scale } => write!(
                 f,
                 "scale {scale:.4} differs from 1: are both frames in metres?"
+            ),
+            Self::LargeMedianResidual {
+                median_m,
+                max_median_m,
+            } => write!(
+                f,
+                "median residual {:.1} cm exceeds {:.1} cm",
+                median_m * 100.0,
+                max_median_m * 100.0
             ),
         }
     }
@@ -436,7 +484,8 @@ impl ResidualReport {
     /// fit). The fit is **poor** when any of these holds (each adds a [`FitWarning`]): fewer
     /// than `min_points` inliers; inlier RMS above `max_rmse_m`; inlier fraction below
     /// `min_inlier_fraction`; second principal spread of the inlier source points below
-    /// `min_spread_m`; for a similarity, `|scale − 1| > max_scale_deviation`.
+    /// `min_spread_m`; for a similarity, `|scale − 1| > max_scale_deviation`; median residual
+    /// over all pairs above `max_median_m`.
     pub fn new(
         transform: &SimilarityTransform,
         kind: FitKind,
@@ -503,12 +552,19 @@ impl ResidualReport {
                 scale: transform.scale,
             });
         }
+        let median_m = percentile_sorted(&finite, 0.5);
+        if median_m.is_nan() || median_m > config.max_median_m {
+            warnings.push(FitWarning::LargeMedianResidual {
+                median_m,
+                max_median_m: config.max_median_m,
+            });
+        }
         Self {
             num_points: finite.len(),
             num_inliers,
             rmse_inliers_m,
             rmse_all_m: rms(finite.iter().copied()),
-            median_m: percentile_sorted(&finite, 0.5),
+            median_m,
             p95_m: percentile_sorted(&finite, 0.95),
             max_m: finite.last().copied().unwrap_or(f64::NAN),
             spread_m,
@@ -520,6 +576,13 @@ impl ResidualReport {
     /// True when the fit triggered any warning.
     pub fn is_poor(&self) -> bool {
         !self.warnings.is_empty()
+    }
+
+    /// True when a warning says the transform does not explain the pairs
+    /// ([`FitWarning::is_disqualifying`]): `nomen calibrate frames` then writes nothing and
+    /// fails unless told to accept it.
+    pub fn is_disqualified(&self) -> bool {
+        self.warnings.iter().any(FitWarning::is_disqualifying)
     }
 }
 

@@ -12,7 +12,10 @@ use crate::error::{CalibError, Result};
 use crate::fit::{FitKind, FitQualityConfig, ResidualReport, SimilarityTransform};
 use crate::ransac::{RansacConfig, fit_ransac};
 use nalgebra::Point3;
-use nomen_core::{CameraId, DeviceKind, Joint, Message, Registry, TagId};
+use nomen_core::{
+    Calibration, CameraCalibration, CameraId, ClockModel, DeviceKind, Joint, Message, Registry,
+    TagId,
+};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -187,6 +190,40 @@ pub fn calibrate_streams(
     })
 }
 
+/// What `calibration` found about `camera`, as a [`Calibration`] for the registry: the
+/// camera's pose and scale in the RTLS frame, which the engine takes for the world frame
+/// (location fixes are world positions), and its clock offset onto the session clock through
+/// `tag`'s (`session = camera stamp + offset`, so the camera offset is the tag's registry
+/// offset minus the searched camera − tag offset; drift as the registry has it). Errors when
+/// `camera` is not registered.
+pub fn camera_calibration(
+    registry: &Registry,
+    camera: &CameraId,
+    tag: &TagId,
+    calibration: &FramesCalibration,
+) -> Result<Calibration> {
+    let Some(registered) = registry.camera(camera) else {
+        return Err(CalibError::InvalidParameter {
+            name: "camera",
+            reason: format!("camera '{camera}' is not in the registry"),
+        });
+    };
+    let tag_offset_ns = registry.wearer(tag).map_or(0, |(_, w)| w.clock.offset_ns);
+    let t = &calibration.rtls_from_camera;
+    Ok(Calibration {
+        cameras: vec![CameraCalibration {
+            id: camera.clone(),
+            world_from_camera: Some(t.to_rigid_transform()),
+            scale: Some(t.scale),
+            clock: Some(ClockModel {
+                offset_ns: tag_offset_ns.saturating_sub(calibration.clock.offset_ns),
+                drift_ppm: registered.clock.drift_ppm,
+            }),
+        }],
+        devices: Vec::new(),
+    })
+}
+
 /// [`key_joint_streams`] then [`calibrate_streams`].
 pub fn calibrate_from_recording(
     registry: &Registry,
@@ -202,6 +239,125 @@ pub fn calibrate_from_recording(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+    use nomen_core::{Camera, RigidTransform, SessionTime, Subject, Wearable};
+
+    /// A people counter in its own units (0.0153 m per unit), turned and moved, stamping 0.7 s
+    /// later than the tag: a walker on a 4 × 3 m loop for 60 s, the tag's fixes exact at 10 Hz.
+    fn counter_walk() -> (Registry, KeyJointStreams, SimilarityTransform) {
+        let world_from_counter = SimilarityTransform {
+            scale: 0.0153,
+            isometry: Isometry3::from_parts(
+                Translation3::new(1.0, -2.0, 0.3),
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.6),
+            ),
+        };
+        let counter_from_world = world_from_counter.inverse();
+        let at = |t: f64| {
+            let a = 2.0 * std::f64::consts::PI * t / 12.0;
+            Point3::new(
+                3.0 + 2.0 * a.cos(),
+                2.0 + 1.5 * a.sin(),
+                1.7 + 0.05 * (3.0 * a).sin(),
+            )
+        };
+        let stamp = |t: f64| SessionTime::from_secs_f64(t).unwrap();
+        let camera_points = (0..240)
+            .map(|k| {
+                let t = k as f64 * 0.25;
+                TimedPoint {
+                    t: stamp(t + 0.7),
+                    position_m: counter_from_world.apply(&at(t)),
+                }
+            })
+            .collect();
+        let tag_points = (0..600)
+            .map(|k| {
+                let t = k as f64 * 0.1;
+                TimedPoint {
+                    t: stamp(t),
+                    position_m: at(t),
+                }
+            })
+            .collect();
+        let registry = Registry {
+            subjects: vec![Subject {
+                id: "ana".into(),
+                name: None,
+                wears: vec![Wearable {
+                    device: "tag1".into(),
+                    kind: DeviceKind::UwbTag,
+                    site: Joint::Head,
+                    either_side: false,
+                    clock: ClockModel {
+                        offset_ns: 100_000_000,
+                        drift_ppm: 0.0,
+                    },
+                }],
+            }],
+            cameras: vec![Camera::new("counter", RigidTransform::IDENTITY)],
+            ..Default::default()
+        };
+        let streams = KeyJointStreams {
+            camera: Some(CameraId::new("counter")),
+            tag: Some(TagId::new("tag1")),
+            key_joint: Some(Joint::Head),
+            camera_points,
+            tag_points,
+            num_crowded_frames: 0,
+        };
+        (registry, streams, world_from_counter)
+    }
+
+    fn config(kind: FitKind) -> FramesCalibrationConfig {
+        let mut config = FramesCalibrationConfig {
+            quality: FitQualityConfig::for_location_fixes(),
+            ..Default::default()
+        };
+        config.clock.kind = kind;
+        config
+    }
+
+    #[test]
+    fn a_rigid_fit_of_a_counter_in_its_own_units_is_disqualified() {
+        let (_, streams, _) = counter_walk();
+        let cal = calibrate_streams(&streams, &config(FitKind::Rigid)).unwrap();
+        assert!(cal.report.is_disqualified(), "{:?}", cal.report);
+        let cal = calibrate_streams(&streams, &config(FitKind::Similarity)).unwrap();
+        assert!(!cal.report.is_disqualified(), "{:?}", cal.report);
+    }
+
+    #[test]
+    fn a_counter_calibration_puts_it_in_the_world_and_on_the_tags_session_clock() {
+        let (registry, streams, truth) = counter_walk();
+        let cal = calibrate_streams(&streams, &config(FitKind::Similarity)).unwrap();
+        let camera = CameraId::new("counter");
+        let found = camera_calibration(&registry, &camera, &TagId::new("tag1"), &cal).unwrap();
+        let mut calibrated = registry.clone();
+        calibrated.apply_calibration(&found).unwrap();
+        let c = calibrated.camera(&camera).unwrap();
+        // The 4-Hz positions are interpolated along chords of the loop, a little inside it:
+        // the scale comes out a few tenths of a percent large.
+        assert!((c.scale / truth.scale - 1.0).abs() < 0.01, "{}", c.scale);
+        // Counter stamps are 0.7 s after the tag's of the same instant, and the tag's session
+        // time is its stamp + 0.1 s: a counter stamp + (0.1 − 0.7) s is session time.
+        assert!(
+            (c.clock.offset_ns + 600_000_000).abs() <= 10_000_000,
+            "{:?}",
+            c.clock
+        );
+        let p = Point3::new(300.0, -120.0, 40.0);
+        assert!(
+            (c.to_world(&p) - truth.apply(&p)).norm() < 0.05,
+            "{}",
+            c.to_world(&p)
+        );
+        // A camera the registry does not have is named.
+        let err = camera_calibration(&registry, &CameraId::new("door"), &TagId::new("tag1"), &cal)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("'door'"), "{err}");
+    }
 
     #[test]
     fn the_camera_or_tag_to_calibrate_is_chosen_or_the_choices_are_named() {

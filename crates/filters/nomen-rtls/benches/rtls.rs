@@ -61,6 +61,7 @@ fn baptizo_per_frame(num_people: usize, rng: &mut ChaCha8Rng) {
         cameras: vec![Camera {
             id: camera.clone(),
             world_from_camera: Default::default(),
+            scale: 1.0,
             intrinsics: None,
             fps_hz: Some(FPS_HZ),
             clock: Default::default(),

@@ -159,7 +159,8 @@ struct Pair {
 pub struct Baptizo {
     config: BaptizoConfig,
     tags: BTreeMap<TagId, TagInfo>,
-    cameras: BTreeMap<CameraId, Isometry3<f64>>,
+    /// Each camera's `world_from_camera` and scale (metres per camera-frame unit).
+    cameras: BTreeMap<CameraId, (Isometry3<f64>, f64)>,
     tracker: TagTracker,
     phase: Phase,
     /// Per camera: tag → pair.
@@ -196,7 +197,7 @@ impl Baptizo {
         let cameras = registry
             .cameras
             .iter()
-            .map(|c| (c.id.clone(), c.world_from_camera.to_isometry()))
+            .map(|c| (c.id.clone(), (c.world_from_camera.to_isometry(), c.scale)))
             .collect();
         Ok(Self {
             tracker: TagTracker::new(config.filter)?,
@@ -310,7 +311,7 @@ impl Baptizo {
             decision: None,
             joints: Joints::new(),
         };
-        let Some(world_from_camera) = self.cameras.get(camera).copied() else {
+        let Some((world_from_camera, scale)) = self.cameras.get(camera).copied() else {
             self.stats.num_unknown_camera_skeletons += skeletons.len() as u64;
             self.stats.num_anonymous += skeletons.len() as u64;
             return skeletons.iter().map(anonymous).collect();
@@ -329,7 +330,7 @@ impl Baptizo {
                 let mut j = Joints::new();
                 for joint in Joint::ALL {
                     if let Some(p) = s.position(joint) {
-                        let w = world_from_camera * p;
+                        let w = world_from_camera * Point3::from(p.coords * scale);
                         if w.iter().all(|v| v.is_finite()) {
                             j.insert(joint, w);
                         }

@@ -39,6 +39,7 @@ fn registry(wears: &[(&str, &[&str])]) -> Registry {
         cameras: vec![Camera {
             id: CameraId::new("cam"),
             world_from_camera: Default::default(),
+            scale: 1.0,
             intrinsics: None,
             fps_hz: Some(30.0),
             clock: Default::default(),

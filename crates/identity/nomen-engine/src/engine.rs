@@ -17,8 +17,8 @@ use decide::pooled_mean;
 use nalgebra::{Isometry3, Matrix3, Point3, UnitQuaternion, Vector3};
 use nomen_core::skeleton::{JointState, Joints};
 use nomen_core::{
-    AntennaId, CameraId, Candidate, DecisionRule, DecisionTrace, DeviceId, DeviceKind, Evidence,
-    IdentifiedSkeleton, Identity, ImuSample, Joint, Message, Registry, RssiRead, RtlsFix,
+    AntennaId, CameraId, Candidate, ClockModel, DecisionRule, DecisionTrace, DeviceId, DeviceKind,
+    Evidence, IdentifiedSkeleton, Identity, ImuSample, Joint, Message, Registry, RssiRead, RtlsFix,
     SessionTime, SkeletonObservation, SubjectId, TagCorrection, TrackId,
 };
 use nomen_evidence::PairScorer;
@@ -239,6 +239,10 @@ impl TimeJumpGuard {
 struct CameraState {
     id: CameraId,
     world_from_camera: Isometry3<f64>,
+    /// Metres per camera-frame unit: a joint `p` is at `world_from_camera * (scale · p)`.
+    scale: f64,
+    /// The registry's clock of the camera: a frame stamped `t` is at `clock.to_session(t)`.
+    clock: ClockModel,
     newest: Option<i64>,
     frontier: i64,
     /// The first distinct frame times settled, until there are [`CAMERA_RATE_FRAMES`].
@@ -678,6 +682,9 @@ pub struct Engine {
     antennas: BTreeSet<AntennaId>,
     /// Subject and site of every RFID/BLE tag, for RSSI reads.
     rssi_tags: BTreeMap<DeviceId, (usize, Joint)>,
+    /// The registry's clock of every RFID/BLE tag: a read stamped `t` is at
+    /// `clock.to_session(t)`.
+    rssi_clocks: BTreeMap<DeviceId, ClockModel>,
     /// The kind of every registered device (for clear errors on mismatched messages).
     device_kinds: BTreeMap<DeviceId, DeviceKind>,
     tracks: BTreeMap<(usize, TrackId), TrackState>,
@@ -736,6 +743,7 @@ impl Engine {
         let mut tag_index = DeviceIndex::default();
         let mut device_kinds = BTreeMap::new();
         let mut rssi_tags = BTreeMap::new();
+        let mut rssi_clocks = BTreeMap::new();
         let mut subject_imus = Vec::new();
         for (s, subject) in registry.subjects.iter().enumerate() {
             let mut mine = Vec::new();
@@ -743,10 +751,11 @@ impl Engine {
                 device_kinds.insert(w.device.clone(), w.kind);
                 if matches!(w.kind, DeviceKind::UwbTag | DeviceKind::BleTag) {
                     tag_index.insert(w.device.clone(), tags.len());
-                    tags.push(TagState::new(w.device.clone(), s, w.site));
+                    tags.push(TagState::new(w.device.clone(), s, w.site, w.clock));
                 }
                 if matches!(w.kind, DeviceKind::RfidTag | DeviceKind::BleTag) {
                     rssi_tags.insert(w.device.clone(), (s, w.site));
+                    rssi_clocks.insert(w.device.clone(), w.clock);
                 }
                 if w.kind != DeviceKind::Imu {
                     continue;
@@ -810,6 +819,8 @@ impl Engine {
             .map(|c| CameraState {
                 id: c.id.clone(),
                 world_from_camera: c.world_from_camera.to_isometry(),
+                scale: c.scale,
+                clock: c.clock,
                 newest: None,
                 frontier: i64::MIN,
                 first_frame_times: Vec::new(),
@@ -853,6 +864,7 @@ impl Engine {
             pair_scorer: None,
             antennas: registry.antennas.iter().map(|a| a.id.clone()).collect(),
             rssi_tags,
+            rssi_clocks,
             device_kinds,
             tracks: BTreeMap::new(),
             pending_out: BTreeSet::new(),
@@ -984,28 +996,29 @@ impl Engine {
     /// The session time of `msg` if it is a message the engine would take at the start of a
     /// session (of a kind it uses, from a known source, with valid values); `None` otherwise.
     fn vouching_time(&self, msg: &Message) -> Option<i64> {
-        // Session time is the stamp, but for an IMU's clock offset.
-        let offset_ns = match msg {
-            Message::Imu(s) => {
+        // Session time is the stamp on its source's clock (an IMU's at its current offset).
+        let t = msg.t().as_ns();
+        let session = match msg {
+            Message::Imu(s) => t.saturating_add(
                 self.imu_index
                     .get(&s.device)
                     .and_then(|&i| self.imus.get(i))?
-                    .offset_ns
+                    .offset_ns,
+            ),
+            Message::Skeleton(s) => {
+                let &c = self.camera_index.get(&s.camera)?;
+                self.cameras.get(c)?.clock.to_session(t).as_ns()
             }
-            Message::Skeleton(s) if self.camera_index.contains_key(&s.camera) => 0,
-            Message::RtlsFix(f) if self.tag_index.contains_key(&f.tag) => 0,
-            Message::Rssi(r)
-                if self.rssi.is_some()
-                    && self.rssi_tags.contains_key(&r.tag)
-                    && self.antennas.contains(&r.antenna) =>
-            {
-                0
+            Message::RtlsFix(f) => {
+                let &i = self.tag_index.get(&f.tag)?;
+                self.tags.get(i)?.clock.to_session(t).as_ns()
+            }
+            Message::Rssi(r) if self.rssi.is_some() && self.antennas.contains(&r.antenna) => {
+                self.rssi_clocks.get(&r.tag)?.to_session(t).as_ns()
             }
             _ => return None,
         };
-        msg.validate()
-            .is_ok()
-            .then(|| msg.t().as_ns().saturating_add(offset_ns))
+        msg.validate().is_ok().then_some(session)
     }
 
     /// [`Engine::push`] after the first message's check: takes `msg` or counts its refusal.
@@ -1110,7 +1123,7 @@ impl Engine {
         let Some(tag) = self.tags.get_mut(i) else {
             return Ok(());
         };
-        let t = f.t.as_ns();
+        let t = tag.clock.to_session(f.t.as_ns()).as_ns();
         if t < tag.frontier {
             return Err(EngineError::Late {
                 kind: "rtls_fix",
@@ -1165,7 +1178,8 @@ impl Engine {
             return Ok(());
         };
         let source = rssi_source(r);
-        let t = r.t.as_ns();
+        let clock = self.rssi_clocks.get(&r.tag).copied().unwrap_or_default();
+        let t = clock.to_session(r.t.as_ns()).as_ns();
         let key = (t, r.tag.clone(), r.antenna.clone());
         if t < rssi.frontier {
             return Err(EngineError::Late {
@@ -1183,7 +1197,13 @@ impl Engine {
         }
         self.time_jumps
             .check(self.global_max, "rssi", &source, t, r.t)?;
-        rssi.pending.insert(key, r.clone());
+        rssi.pending.insert(
+            key,
+            RssiRead {
+                t: SessionTime::from_ns(t),
+                ..r.clone()
+            },
+        );
         rssi.newest = Some(rssi.newest.map_or(t, |n| n.max(t)));
         rssi.frontier = rssi.frontier.max(t.saturating_sub(reorder));
         let rejected = rssi.settle();
@@ -1211,7 +1231,7 @@ impl Engine {
         let Some(cam) = self.cameras.get_mut(c) else {
             return Ok(());
         };
-        let t = s.t.as_ns();
+        let t = cam.clock.to_session(s.t.as_ns()).as_ns();
         if t < cam.frontier {
             return Err(EngineError::Late {
                 kind: "skeleton",
@@ -1237,7 +1257,10 @@ impl Engine {
         let mut inferred = Joints::new();
         for (j, obs) in s.joints.iter() {
             if obs.state != JointState::Missing {
-                world.insert(j, cam.world_from_camera * obs.position_m);
+                world.insert(
+                    j,
+                    cam.world_from_camera * Point3::from(obs.position_m.coords * cam.scale),
+                );
             }
             if obs.state == JointState::Inferred {
                 inferred.insert(j, ());

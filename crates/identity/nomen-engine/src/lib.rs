@@ -1,8 +1,11 @@
 //! The streaming identity engine: messages in any interleaving, identified skeletons out, from wearable evidence fused over time.
 //!
 //! # Pipeline
-//! [`Engine::push`] takes messages in any interleaving across sources, as long as each source
-//! is late by at most [`EngineConfig::reorder_window_s`] behind its own newest message. A
+//! [`Engine::push`] takes messages in any interleaving across sources, each stamped on its
+//! source's clock: a camera's, a location or RSSI tag's message stamped `t` is at
+//! `clock.to_session(t)` (the registry's clock of that camera or tag, offset and drift), an
+//! IMU's at `t` plus its offset (estimated around the registry's, [`EngineStats`]), and outputs
+//! carry session times. Each source may be late by at most [`EngineConfig::reorder_window_s`] behind its own newest message. A
 //! message is refused, with an error naming its source and time, when it is invalid, from an
 //! unknown source, a duplicate, later than that, or stamped more than
 //! [`EngineConfig::max_time_jump_s`] ahead of every time seen so far (a corrupt timestamp,
@@ -11,7 +14,8 @@
 //! jumped costs one message). The session's first message waits for the next one, and is
 //! dropped if that is stamped more than `max_time_jump_s` before it. Each source is *settled*
 //! in time order below that frontier:
-//! - skeleton joints go to the world frame (`world_from_camera` from the registry) and through
+//! - skeleton joints go to the world frame (`world_from_camera * (scale · p)`, the camera's
+//!   similarity from the registry) and through
 //!   a constant-velocity Kalman filter per joint ([`EngineConfig::joint_filter`]), a joint the
 //!   camera reports as inferred with [`EngineConfig::inferred_joint_noise_factor`] times the
 //!   measurement noise;

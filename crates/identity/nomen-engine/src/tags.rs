@@ -26,7 +26,7 @@
 //! Fixes of a tag whose wearer is not in view pass through unchanged.
 
 use nalgebra::{Point3, Vector3};
-use nomen_core::{DeviceId, Joint, RtlsFix};
+use nomen_core::{ClockModel, DeviceId, Joint, RtlsFix};
 use std::collections::{BTreeMap, VecDeque};
 
 /// Largest time between a fix and the track sample it is compared with, ns (three frames at
@@ -48,6 +48,8 @@ pub(crate) struct TagState {
     pub(crate) subject: usize,
     /// The key joint: where on the body the tag is worn.
     pub(crate) site: Joint,
+    /// The registry's clock of the tag: a fix stamped `t` is at `clock.to_session(t)`.
+    pub(crate) clock: ClockModel,
     /// Received, not yet settled.
     pub(crate) pending: BTreeMap<i64, Fix>,
     /// Settled fixes, time order.
@@ -59,11 +61,12 @@ pub(crate) struct TagState {
 }
 
 impl TagState {
-    pub(crate) fn new(device: DeviceId, subject: usize, site: Joint) -> Self {
+    pub(crate) fn new(device: DeviceId, subject: usize, site: Joint, clock: ClockModel) -> Self {
         Self {
             device,
             subject,
             site,
+            clock,
             pending: BTreeMap::new(),
             fixes: VecDeque::new(),
             to_correct: VecDeque::new(),

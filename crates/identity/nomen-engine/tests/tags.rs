@@ -98,6 +98,7 @@ fn registry(walkers: &[Walker]) -> Registry {
         cameras: vec![Camera {
             id: CameraId::new(CAMERA),
             world_from_camera: RigidTransform::default(),
+            scale: 1.0,
             intrinsics: None,
             fps_hz: Some(30.0),
             clock: ClockModel::default(),
@@ -389,4 +390,103 @@ fn two_tagged_walkers_who_pass_a_fifth_of_a_metre_apart_keep_their_names() {
     let (out, stats) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
     let acc = accuracy(&walkers, &out, 1.0);
     assert!(acc > 0.98, "accuracy {acc}, stats {stats:?}");
+}
+
+/// Outputs as comparable values: identified frames (time, track, identity, confidence) and
+/// tag corrections (time, tag, corrected position), each sorted.
+#[allow(clippy::type_complexity)]
+fn outcome(out: &[Message]) -> (Vec<(i64, u64, Identity, f64)>, Vec<(i64, String, [f64; 3])>) {
+    let mut named = Vec::new();
+    let mut corrected = Vec::new();
+    for m in out {
+        match m {
+            Message::Identified(id) => {
+                named.push((id.t.as_ns(), id.track.0, id.identity.clone(), id.confidence));
+            }
+            Message::TagCorrection(c) => corrected.push((
+                c.t.as_ns(),
+                c.tag.to_string(),
+                c.corrected_position_m.coords.into(),
+            )),
+            _ => {}
+        }
+    }
+    named.sort_by_key(|a| (a.0, a.1));
+    corrected.sort_by(|a, b| (a.0, &a.1).cmp(&(b.0, &b.1)));
+    (named, corrected)
+}
+
+#[test]
+fn a_tag_on_its_own_clock_gives_the_same_names_once_its_offset_is_registered() {
+    let walkers = three_walkers();
+    let msgs = recording(&walkers, 20.0);
+    let (plain, _) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    // Ana's tag stamps 0.7 s behind the session (device = session − 0.7 s), as a logger on its
+    // own clock would: the registry says so (session = device + offset).
+    let offset_ns = 700_000_000;
+    let mut shifted: Vec<Message> = msgs
+        .iter()
+        .map(|m| match m {
+            Message::RtlsFix(f) if f.tag.as_str() == "ana_tag" => {
+                let mut f = f.clone();
+                f.t = SessionTime::from_ns(f.t.as_ns() - offset_ns);
+                Message::RtlsFix(f)
+            }
+            m => m.clone(),
+        })
+        .collect();
+    shifted.sort_by_key(|m| m.t());
+    let mut reg = registry(&walkers);
+    reg.subjects[0].wears[0].clock.offset_ns = offset_ns;
+    let (out, _) = run_batch(&reg, &shifted, &EngineConfig::default()).unwrap();
+    // Every output is the unshifted scene's, at session times.
+    assert_eq!(outcome(&out), outcome(&plain));
+    // Without the offset, Ana's fixes lag her wrist by 0.7 s (0.84 m at her 1.2 m/s) and her
+    // corrections are stamped at device times.
+    let (ignored, _) = run_batch(&registry(&walkers), &shifted, &EngineConfig::default()).unwrap();
+    assert_ne!(outcome(&ignored).1, outcome(&plain).1);
+}
+
+#[test]
+fn a_camera_in_centimetres_names_the_tag_wearers_once_its_scale_is_registered() {
+    let walkers = three_walkers();
+    let msgs = recording(&walkers, 20.0);
+    let (plain, _) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    // A tracker that reports centimetres: 0.01 m per unit.
+    let scale = 0.01;
+    let in_cm: Vec<Message> = msgs
+        .iter()
+        .map(|m| match m {
+            Message::Skeleton(s) => {
+                let mut s = s.clone();
+                s.joints = s.joints.map(|_, j| JointObservation {
+                    position_m: Point3::from(j.position_m.coords / scale),
+                    ..*j
+                });
+                Message::Skeleton(s)
+            }
+            m => m.clone(),
+        })
+        .collect();
+    let mut reg = registry(&walkers);
+    reg.cameras[0].scale = scale;
+    let (out, _) = run_batch(&reg, &in_cm, &EngineConfig::default()).unwrap();
+    let (named, corrected) = outcome(&out);
+    let (named_plain, corrected_plain) = outcome(&plain);
+    // The same names; confidences and corrected fixes equal up to the rounding of p / 0.01 · 0.01.
+    assert_eq!(named.len(), named_plain.len());
+    for (a, b) in named.iter().zip(&named_plain) {
+        assert_eq!((a.0, a.1, &a.2), (b.0, b.1, &b.2));
+        assert!((a.3 - b.3).abs() < 1e-9, "{a:?} {b:?}");
+    }
+    assert_eq!(corrected.len(), corrected_plain.len());
+    for (a, b) in corrected.iter().zip(&corrected_plain) {
+        assert!(
+            (0..3).all(|i| (a.2[i] - b.2[i]).abs() < 1e-9),
+            "{a:?} {b:?}"
+        );
+    }
+    // Read as metres, the skeletons are 100 times too far: no tag is near any of them.
+    let (unscaled, _) = run_batch(&registry(&walkers), &in_cm, &EngineConfig::default()).unwrap();
+    assert!(accuracy(&walkers[..2], &unscaled, 1.0) < 0.05);
 }

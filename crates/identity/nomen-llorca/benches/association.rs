@@ -87,6 +87,7 @@ fn main() {
         cameras: vec![Camera {
             id: CameraId::new("cam"),
             world_from_camera: Default::default(),
+            scale: 1.0,
             intrinsics: None,
             fps_hz: Some(FPS_HZ),
             clock: Default::default(),

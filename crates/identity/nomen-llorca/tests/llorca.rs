@@ -42,6 +42,7 @@ fn registry(num_tags: usize) -> Registry {
         cameras: vec![Camera {
             id: CameraId::new("cam"),
             world_from_camera: Default::default(),
+            scale: 1.0,
             intrinsics: None,
             fps_hz: Some(25.0),
             clock: Default::default(),

@@ -190,7 +190,8 @@ pub struct ViewerState {
     session: u64,
     subjects: Vec<String>,
     cameras: Vec<CameraView>,
-    poses: BTreeMap<CameraId, Isometry3<f64>>,
+    /// Each camera's `world_from_camera` and scale (metres per camera-frame unit).
+    poses: BTreeMap<CameraId, (Isometry3<f64>, f64)>,
     anchors: Vec<AnchorView>,
     bones: Vec<[usize; 2]>,
     people: BTreeMap<(CameraId, TrackId), PersonView>,
@@ -253,7 +254,7 @@ impl ViewerState {
         self.poses = registry
             .cameras
             .iter()
-            .map(|c| (c.id.clone(), c.world_from_camera.to_isometry()))
+            .map(|c| (c.id.clone(), (c.world_from_camera.to_isometry(), c.scale)))
             .collect();
         self.cameras = registry
             .cameras
@@ -449,22 +450,24 @@ impl ViewerState {
     fn to_world(&self, camera: &CameraId, joints: &Joints<JointObservation>) -> WorldJoints {
         // The engine takes only the registry's cameras; one it did not know is drawn in its
         // own frame.
-        let world_from_camera = self
+        let (world_from_camera, scale) = self
             .poses
             .get(camera)
             .copied()
-            .unwrap_or_else(Isometry3::identity);
+            .unwrap_or_else(|| (Isometry3::identity(), 1.0));
         let mut out = [None; NUM_JOINTS];
         for (joint, o) in joints.iter() {
             if o.state == JointState::Missing {
                 continue;
             }
-            let p = world_from_camera * o.position_m;
+            let p = world_from_camera * Point3::from(o.position_m.coords * scale);
             if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
                 continue;
             }
             let sigma_mm = match (o.state, o.covariance_m2) {
-                (JointState::Estimated, Some(c)) => largest_sigma_m(&c).map(m_to_mm),
+                (JointState::Estimated, Some(c)) => {
+                    largest_sigma_m(&c).map(|sigma| m_to_mm(sigma * scale))
+                }
                 _ => None,
             };
             if let Some(slot) = out.get_mut(joint.index()) {

@@ -27,7 +27,8 @@ pub use message::{
     TagCorrection, TruthSkeleton, TruthTag,
 };
 pub use registry::{
-    Anchor, Antenna, Camera, CameraIntrinsics, DeviceKind, Registry, Subject, Wearable,
+    Anchor, Antenna, Calibration, Camera, CameraCalibration, CameraIntrinsics, DeviceCalibration,
+    DeviceKind, Registry, Subject, Wearable,
 };
 pub use sensor::{ImuSample, RssiRead, RtlsFix, UwbRange};
 pub use skeleton::{Joint, JointObservation, JointState, SkeletonObservation};

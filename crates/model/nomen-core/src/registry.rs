@@ -78,18 +78,54 @@ pub struct CameraIntrinsics {
 pub struct Camera {
     /// The camera id used by skeleton messages.
     pub id: CameraId,
-    /// The camera's pose: maps camera-frame points into the world frame.
+    /// The camera's pose: maps camera-frame points, once multiplied by `scale`, into the world
+    /// frame.
     #[serde(default)]
     pub world_from_camera: RigidTransform,
+    /// Metres per camera-frame unit: a camera point `p` is `world_from_camera * (scale · p)` in
+    /// the world (a similarity; a tracker reporting in its own units, such as an overhead people
+    /// counter, has the scale `nomen calibrate frames --similarity` finds). Default 1; within
+    /// [`CAMERA_SCALE_RANGE`].
+    #[serde(default = "unit_scale", skip_serializing_if = "is_unit_scale")]
+    pub scale: f64,
     /// Pinhole intrinsics, if known.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub intrinsics: Option<CameraIntrinsics>,
     /// Nominal skeleton rate, Hz, if known.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fps_hz: Option<f64>,
-    /// How the camera clock maps to the session clock.
+    /// How the camera clock maps to the session clock: its messages' `t` is camera time,
+    /// `session = t + offset_ns` (plus drift).
     #[serde(default)]
     pub clock: ClockModel,
+}
+
+/// The default [`Camera::scale`]: camera frames in metres.
+fn unit_scale() -> f64 {
+    1.0
+}
+
+fn is_unit_scale(scale: &f64) -> bool {
+    *scale == 1.0
+}
+
+impl Camera {
+    /// A camera at `world_from_camera`, in metres (scale 1), on the session clock.
+    pub fn new(id: impl Into<CameraId>, world_from_camera: RigidTransform) -> Self {
+        Camera {
+            id: id.into(),
+            world_from_camera,
+            scale: 1.0,
+            intrinsics: None,
+            fps_hz: None,
+            clock: ClockModel::default(),
+        }
+    }
+
+    /// A camera-frame point in the world frame: `world_from_camera * (scale · p)`.
+    pub fn to_world(&self, p_camera: &Point3<f64>) -> Point3<f64> {
+        self.world_from_camera.to_isometry() * Point3::from(p_camera.coords * self.scale)
+    }
 }
 
 /// A fixed UWB anchor.
@@ -178,6 +214,14 @@ impl Registry {
             }
             c.world_from_camera
                 .validate(&format!("camera '{}'.world_from_camera", c.id))?;
+            let (lo, hi) = CAMERA_SCALE_RANGE;
+            check_range_lazy(
+                || format!("camera '{}'.scale", c.id),
+                c.scale,
+                lo,
+                hi,
+                "m per unit",
+            )?;
             check_clock(&c.clock, || format!("camera '{}'", c.id))?;
             if let Some(fps) = c.fps_hz {
                 let (lo, hi) = CAMERA_FPS_RANGE_HZ;
@@ -264,10 +308,99 @@ impl Registry {
     }
 }
 
+/// What a calibration found, laid over a registry ([`Registry::apply_calibration`]): camera
+/// poses, scales and clocks, and device clocks. Each field given replaces the registry's; a
+/// field left out keeps it. `nomen calibrate frames --out` writes one and `nomen run
+/// --calibration` applies it.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Calibration {
+    /// Cameras, by id.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub cameras: Vec<CameraCalibration>,
+    /// Worn devices (IMUs, tags), by id.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub devices: Vec<DeviceCalibration>,
+}
+
+/// A camera's part of a [`Calibration`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraCalibration {
+    /// The registered camera.
+    pub id: CameraId,
+    /// Replaces [`Camera::world_from_camera`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub world_from_camera: Option<RigidTransform>,
+    /// Replaces [`Camera::scale`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
+    /// Replaces [`Camera::clock`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clock: Option<ClockModel>,
+}
+
+/// A worn device's part of a [`Calibration`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeviceCalibration {
+    /// The registered device.
+    pub device: DeviceId,
+    /// Replaces [`Wearable::clock`].
+    pub clock: ClockModel,
+}
+
+impl Registry {
+    /// Lays `calibration` over the registry: every camera and device it names must be
+    /// registered, and the result must validate ([`Registry::validate`]); on an error the
+    /// registry is left as it was.
+    pub fn apply_calibration(&mut self, calibration: &Calibration) -> Result<()> {
+        let mut out = self.clone();
+        for c in &calibration.cameras {
+            let Some(camera) = out.cameras.iter_mut().find(|k| k.id == c.id) else {
+                return Err(CoreError::Invalid(format!(
+                    "the calibration has camera '{}', which the registry does not list",
+                    c.id
+                )));
+            };
+            if let Some(t) = c.world_from_camera {
+                camera.world_from_camera = t;
+            }
+            if let Some(scale) = c.scale {
+                camera.scale = scale;
+            }
+            if let Some(clock) = c.clock {
+                camera.clock = clock;
+            }
+        }
+        for d in &calibration.devices {
+            let Some(w) = out
+                .subjects
+                .iter_mut()
+                .flat_map(|s| s.wears.iter_mut())
+                .find(|w| w.device == d.device)
+            else {
+                return Err(CoreError::Invalid(format!(
+                    "the calibration has device '{}', which no subject of the registry wears",
+                    d.device
+                )));
+            };
+            w.clock = d.clock;
+        }
+        out.validate()?;
+        *self = out;
+        Ok(())
+    }
+}
+
 /// Largest clock offset a registry may give, ns: 2⁶² ns, about 146 years, so a device that
 /// stamps Unix-epoch time still fits, and sums of an offset with a session time or a lag cannot
 /// overflow.
 const MAX_CLOCK_OFFSET_NS: i64 = 1 << 62;
+
+/// The scales a camera may have, metres per camera-frame unit (inclusive): from micrometres to
+/// kilometres per unit. Zero or a negative scale is no similarity.
+pub const CAMERA_SCALE_RANGE: (f64, f64) = (1e-6, 1e3);
 
 /// The frame rates a camera may have, Hz (inclusive).
 pub const CAMERA_FPS_RANGE_HZ: (f64, f64) = (0.1, 10_000.0);
@@ -400,6 +533,83 @@ mod tests {
             err.contains("'watch'") && err.contains("IMUs only"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_camera_scale_defaults_to_one_and_must_be_positive() {
+        let camera: Camera = serde_json::from_str(r#"{"id":"counter"}"#).unwrap();
+        assert_eq!(camera.scale, 1.0);
+        // Written only when it is not 1, so registries without one keep their bytes.
+        assert!(!serde_json::to_string(&camera).unwrap().contains("scale"));
+        let reg = |scale: f64| Registry {
+            cameras: vec![Camera {
+                scale,
+                ..Camera::new("counter", RigidTransform::IDENTITY)
+            }],
+            ..Default::default()
+        };
+        assert!(reg(0.0153).validate().is_ok());
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let err = reg(bad).validate().unwrap_err().to_string();
+            assert!(err.contains("camera 'counter'.scale"), "{err}");
+        }
+    }
+
+    #[test]
+    fn a_scaled_camera_point_is_scaled_then_moved() {
+        let mut camera = Camera::new(
+            "counter",
+            RigidTransform {
+                // 90° about z.
+                rotation_wxyz: [
+                    std::f64::consts::FRAC_1_SQRT_2,
+                    0.0,
+                    0.0,
+                    std::f64::consts::FRAC_1_SQRT_2,
+                ],
+                translation_m: [1.0, 2.0, 0.0],
+            },
+        );
+        camera.scale = 0.01;
+        let p = camera.to_world(&Point3::new(100.0, 0.0, 170.0));
+        assert!((p - Point3::new(1.0, 3.0, 1.7)).norm() < 1e-12, "{p}");
+    }
+
+    #[test]
+    fn a_calibration_replaces_only_what_it_gives_and_names_what_is_unknown() {
+        let mut reg = Registry {
+            subjects: vec![Subject {
+                id: "ana".into(),
+                name: None,
+                wears: vec![wearable("tag1")],
+            }],
+            cameras: vec![Camera {
+                fps_hz: Some(4.0),
+                ..Camera::new("counter", RigidTransform::IDENTITY)
+            }],
+            ..Default::default()
+        };
+        let cal: Calibration = serde_json::from_str(
+            r#"{"cameras":[{"id":"counter","scale":0.0153,"clock":{"offset_ns":-700000000}}],
+                "devices":[{"device":"tag1","clock":{"offset_ns":5}}]}"#,
+        )
+        .unwrap();
+        reg.apply_calibration(&cal).unwrap();
+        let camera = &reg.cameras[0];
+        assert_eq!(camera.scale, 0.0153);
+        assert_eq!(camera.clock.offset_ns, -700_000_000);
+        assert_eq!(camera.world_from_camera, RigidTransform::IDENTITY);
+        assert_eq!(camera.fps_hz, Some(4.0));
+        assert_eq!(reg.subjects[0].wears[0].clock.offset_ns, 5);
+        let before = reg.clone();
+        let unknown: Calibration =
+            serde_json::from_str(r#"{"cameras":[{"id":"door","scale":2.0}]}"#).unwrap();
+        let err = reg.apply_calibration(&unknown).unwrap_err().to_string();
+        assert!(err.contains("camera 'door'"), "{err}");
+        let bad: Calibration =
+            serde_json::from_str(r#"{"cameras":[{"id":"counter","scale":-2.0}]}"#).unwrap();
+        assert!(reg.apply_calibration(&bad).is_err());
+        assert_eq!(reg, before);
     }
 
     #[test]

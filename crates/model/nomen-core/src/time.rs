@@ -120,6 +120,20 @@ impl ClockModel {
                 .saturating_add(drift),
         )
     }
+
+    /// The device timestamp (ns) that [`ClockModel::to_session`] maps onto `session`, or the
+    /// nearest one when drift's rounding skips it.
+    pub fn to_device(&self, session: SessionTime) -> i64 {
+        let guess = (session.as_ns().saturating_sub(self.offset_ns) as f64
+            / (1.0 + self.drift_ppm * 1e-6))
+            .round() as i64;
+        [guess, guess.saturating_sub(1), guess.saturating_add(1)]
+            .into_iter()
+            .min_by_key(|&d| {
+                (self.to_session(d).as_ns().saturating_sub(session.as_ns())).unsigned_abs()
+            })
+            .unwrap_or(guess)
+    }
 }
 
 /// Days in month `month` (1–12) of `year`, proleptic Gregorian calendar.
@@ -250,6 +264,39 @@ pub fn epoch_secs_to_ns(secs: f64) -> Option<i64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_device_stamp_maps_to_session_time_and_back() {
+        for clock in [
+            ClockModel::default(),
+            ClockModel {
+                offset_ns: 700_000_000,
+                drift_ppm: 0.0,
+            },
+            ClockModel {
+                offset_ns: -1_800_000_000_000_000_000,
+                drift_ppm: 37.5,
+            },
+        ] {
+            for device_ns in [0, 1_234_567_891, 1_800_000_000_000_000_000] {
+                // Exact but for the f64 rounding of the drift term (256 ns at 1.8e18 ns).
+                let session = clock.to_session(device_ns);
+                let back = clock.to_session(clock.to_device(session));
+                assert!(
+                    (back.as_ns() - session.as_ns()).abs() <= 256,
+                    "{back:?} {session:?}"
+                );
+            }
+        }
+        let clock = ClockModel {
+            offset_ns: 700_000_000,
+            drift_ppm: 0.0,
+        };
+        assert_eq!(
+            clock.to_device(SessionTime::from_ns(1_000_000_000)),
+            300_000_000
+        );
+    }
 
     #[test]
     fn a_time_within_150_years_of_the_origin_is_plausible_and_the_clocks_ends_are_not() {

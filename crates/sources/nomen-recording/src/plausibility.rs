@@ -384,6 +384,7 @@ mod tests {
             cameras: vec![Camera {
                 id: CameraId::new("kinect"),
                 world_from_camera: RigidTransform::IDENTITY,
+                scale: 1.0,
                 intrinsics: None,
                 fps_hz,
                 clock: ClockModel::default(),

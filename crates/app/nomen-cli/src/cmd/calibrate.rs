@@ -1,6 +1,9 @@
 //! `nomen calibrate frames`: the camera-to-RTLS transform (rigid or similarity, Umeyama with
 //! RANSAC) and the clock offset, from a recording where one tagged person walks or from known
-//! point pairs (Belmonte-Hernández's 6–10 points).
+//! point pairs (Belmonte-Hernández's 6–10 points). `--out` writes them as a calibration that
+//! `nomen run --calibration` lays over the recording's registry. A fit that does not explain
+//! the pairs (`ResidualReport::is_disqualified`) writes nothing and fails, unless
+//! `--accept-poor`; a poor rigid fit suggests `--similarity`.
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
@@ -8,8 +11,10 @@ use nomen_calib::FitKind;
 use nomen_calib::fit::{FitQualityConfig, ResidualReport, SimilarityTransform};
 use nomen_calib::points::parse_point_pairs;
 use nomen_calib::ransac::{RansacConfig, fit_ransac};
-use nomen_calib::recording::{FramesCalibrationConfig, calibrate_from_recording};
-use nomen_core::{CameraId, TagId};
+use nomen_calib::recording::{
+    FramesCalibrationConfig, calibrate_streams, camera_calibration, key_joint_streams,
+};
+use nomen_core::{Calibration, CameraCalibration, CameraId, TagId};
 use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
@@ -53,6 +58,17 @@ pub struct FramesArgs {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+    /// Write what the fit found as a calibration (TOML for `.toml`, else JSON) for
+    /// `nomen run --calibration` / `nomen serve --calibration`: the camera's `world_from_camera`
+    /// (the RTLS frame is the world), its scale and, from a walk, its clock offset onto the tag's
+    /// clock. With `--points`, name the camera with `--camera`.
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+    /// Keep a poor fit (too few inliers, fewer than 70 % of the pairs inliers, or an inlier RMS
+    /// or median residual above the limits: 0.5 m and 1 m for a walk, 5 cm for point pairs):
+    /// exit with success and write `--out`. Without it such a fit writes nothing and fails.
+    #[arg(long)]
+    accept_poor: bool,
 }
 
 #[derive(Debug, Serialize)]
@@ -108,7 +124,14 @@ fn frames(args: &FramesArgs) -> Result<()> {
     } else {
         FitKind::Rigid
     };
-    let out = if let Some(path) = &args.points {
+    if let Some(out) = &args.out {
+        let inputs = [args.recording.as_deref(), args.points.as_deref()];
+        crate::io::check_distinct(&inputs, &[Some(out), Some(&crate::io::partial_path(out))])?;
+        if args.points.is_some() && args.camera.is_none() {
+            bail!("--out with --points needs --camera: the camera the pairs place");
+        }
+    }
+    let (out, calibration) = if let Some(path) = &args.points {
         let text = crate::io::read_text(path, nomen_calib::POINTS_LIMITS)?;
         let pairs = parse_point_pairs(&text, &crate::io::source_name(path))?;
         let source: Vec<_> = pairs.iter().map(|p| p.source_m).collect();
@@ -127,7 +150,16 @@ fn frames(args: &FramesArgs) -> Result<()> {
             &fit.inliers,
             &FitQualityConfig::default(),
         );
-        output(kind, &fit.transform, None, report)
+        let calibration = args.camera.as_deref().map(|camera| Calibration {
+            cameras: vec![CameraCalibration {
+                id: CameraId::new(camera),
+                world_from_camera: Some(fit.transform.to_rigid_transform()),
+                scale: Some(fit.transform.scale),
+                clock: None,
+            }],
+            devices: Vec::new(),
+        });
+        (output(kind, &fit.transform, None, report), calibration)
     } else {
         let Some(path) = &args.recording else {
             bail!("give a RECORDING or --points PAIRS.csv");
@@ -141,27 +173,60 @@ fn frames(args: &FramesArgs) -> Result<()> {
             config.ransac.inlier_threshold_m = t;
         }
         // Fixes carry ~0.4 m of 3D noise: judge the residual against that, not surveyed points.
-        config.quality.max_rmse_m = 0.5;
+        config.quality = FitQualityConfig::for_location_fixes();
         let camera = args.camera.as_deref().map(CameraId::new);
         let tag = args.tag.as_deref().map(TagId::new);
-        let cal = calibrate_from_recording(
-            &registry,
-            &rec.messages,
-            camera.as_ref(),
-            tag.as_ref(),
-            &config,
-        )
-        .with_context(|| format!("calibrating from {}", path.display()))?;
-        output(
+        let context = || format!("calibrating from {}", path.display());
+        let streams = key_joint_streams(&registry, &rec.messages, camera.as_ref(), tag.as_ref())
+            .with_context(context)?;
+        let cal = calibrate_streams(&streams, &config).with_context(context)?;
+        let calibration = match (&streams.camera, &streams.tag) {
+            (Some(camera), Some(tag)) => {
+                Some(camera_calibration(&registry, camera, tag, &cal).with_context(context)?)
+            }
+            _ => None,
+        };
+        let out = output(
             kind,
             &cal.rtls_from_camera,
             Some((cal.clock.offset_ns as f64 * 1e-9, cal.clock.contrast())),
             cal.report,
-        )
+        );
+        (out, calibration)
     };
+    print(&out, kind, args.json)?;
+    if out.residuals.is_disqualified() {
+        let advice = match kind {
+            FitKind::Rigid => {
+                "rigid fit is poor; a camera or tracker that does not report metres (a people \
+                 counter) needs a scale: try --similarity"
+            }
+            FitKind::Similarity => "similarity fit is poor",
+        };
+        eprintln!("nomen calibrate frames: warning: the {advice}");
+        if !args.accept_poor {
+            bail!(
+                "the fit is poor ({}); nothing written (--accept-poor keeps it)",
+                out.warnings.join("; ")
+            );
+        }
+    }
+    if let (Some(path), Some(calibration)) = (&args.out, &calibration) {
+        let text = if path.extension().is_some_and(|e| e == "toml") {
+            toml::to_string(calibration).context("the calibration as TOML")?
+        } else {
+            serde_json::to_string_pretty(calibration)? + "\n"
+        };
+        crate::io::write_renamed(path, text.as_bytes())?;
+    }
+    Ok(())
+}
+
+/// Prints the fit: a table, or one JSON object.
+fn print(out: &Output, kind: FitKind, json: bool) -> Result<()> {
     let mut stdout = crate::io::stdout();
-    if args.json {
-        writeln!(stdout, "{}", serde_json::to_string_pretty(&out)?)?;
+    if json {
+        writeln!(stdout, "{}", serde_json::to_string_pretty(out)?)?;
         return Ok(());
     }
     writeln!(

@@ -8,6 +8,7 @@
 
 use anyhow::Result;
 use clap::Args;
+use nomen_calib::fit::FitQualityConfig;
 use nomen_calib::recording::{FramesCalibrationConfig, calibrate_from_recording};
 use nomen_core::{Message, Registry, TagCorrection};
 use nomen_engine::{EngineConfig, run_batch};
@@ -167,8 +168,10 @@ fn calibration_figure(
 ) -> Result<Calibration> {
     let shift_s = 0.5;
     let shifted = shift_skeletons(recording, (shift_s * 1e9) as i64);
-    let mut cfg = FramesCalibrationConfig::default();
-    cfg.quality.max_rmse_m = 0.5;
+    let cfg = FramesCalibrationConfig {
+        quality: FitQualityConfig::for_location_fixes(),
+        ..FramesCalibrationConfig::default()
+    };
     let cal = calibrate_from_recording(registry, &shifted, None, None, &cfg)?;
     let truth = registry
         .cameras

@@ -93,6 +93,7 @@ pub fn convert_files(args: &ConvertArgs) -> Result<(String, Vec<MocapClip>)> {
         cameras: vec![Camera {
             id: camera.clone(),
             world_from_camera: Default::default(),
+            scale: 1.0,
             intrinsics: None,
             fps_hz: clips.first().map(|c| c.rate_hz),
             clock: Default::default(),

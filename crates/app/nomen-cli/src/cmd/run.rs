@@ -11,13 +11,14 @@ use crate::skip::{SkipLimit, read_policy};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
-use nomen_core::{Message, Registry};
+use nomen_core::{Calibration, CameraId, ClockModel, Message, Registry};
 use nomen_engine::{Engine, EngineConfig, Retracker};
 use nomen_recording::plausibility::{Finding, Plausibility};
 use nomen_recording::{
     DEFAULT_GLOBAL_TOLERANCE_NS, Header, IdCheck, ReadOptions, ReadStats, RecordingReader,
     RecordingWriter, WriteOptions,
 };
+use std::collections::BTreeMap;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
@@ -89,6 +90,12 @@ pub struct RunArgs {
     /// next frame.
     #[arg(long)]
     pub retrack: bool,
+    /// A calibration (TOML or JSON, as `nomen calibrate frames --out` writes): camera poses,
+    /// scales and clock offsets, and device clock offsets, laid over the recording's registry
+    /// before the run (`nomen_core::Calibration`). The result's header carries the calibrated
+    /// registry.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
 }
 
 /// What the engine path of `nomen run` adds to the engine itself.
@@ -106,6 +113,34 @@ pub struct EngineExtras {
     pub live: bool,
     /// Number the skeletons' tracks anew (`--retrack`).
     pub retrack: bool,
+    /// Laid over the input's registry (`--calibration`).
+    pub calibration: Option<Calibration>,
+}
+
+/// A calibration file: TOML (`.toml`) or JSON (`nomen_core::Calibration`).
+pub fn load_calibration(path: &Path) -> Result<Calibration> {
+    let text = crate::io::read_settings(path)?;
+    if path.extension().is_some_and(|e| e == "toml") {
+        toml::from_str(&text)
+            .with_context(|| format!("{}: not a calibration (TOML)", path.display()))
+    } else {
+        serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a calibration (JSON)", path.display()))
+    }
+}
+
+/// `registry` with `calibration` laid over it, if any; `source` names the input in errors.
+pub fn calibrated(
+    mut registry: Registry,
+    calibration: Option<&Calibration>,
+    source: &str,
+) -> Result<Registry> {
+    if let Some(c) = calibration {
+        registry
+            .apply_calibration(c)
+            .with_context(|| format!("{source}: the calibration does not fit its registry"))?;
+    }
+    Ok(registry)
 }
 
 pub fn load_rssi_model(path: &Path) -> Result<nomen_rssi::RssiModel> {
@@ -135,9 +170,15 @@ pub fn run(args: RunArgs) -> Result<()> {
             args.config.as_deref(),
             args.rssi_model.as_deref(),
             args.environment.as_deref(),
+            args.calibration.as_deref(),
         ],
         &[Some(&args.out), Some(&crate::io::partial_path(&args.out))],
     )?;
+    let calibration = args
+        .calibration
+        .as_deref()
+        .map(load_calibration)
+        .transpose()?;
     // Without `--skip-bad` the reading stops at the first bad line.
     let skip = args.skip_bad.then_some(args.max_skipped);
     let summary = match args.method {
@@ -157,6 +198,7 @@ pub fn run(args: RunArgs) -> Result<()> {
                 cnn: args.cnn.clone(),
                 live: args.live,
                 retrack: args.retrack,
+                calibration,
             };
             run_file(&args.recording, &args.out, config, skip, &extras)?
         }
@@ -188,7 +230,13 @@ pub fn run(args: RunArgs) -> Result<()> {
                 }
                 (_, None) => Baseline::Baptizo,
             };
-            run_baseline_file(&args.recording, &args.out, &baseline, skip)?
+            run_baseline_file(
+                &args.recording,
+                &args.out,
+                &baseline,
+                skip,
+                calibration.as_ref(),
+            )?
         }
     };
     eprintln!("{summary}");
@@ -283,6 +331,7 @@ pub fn run_baseline_file(
     out: &Path,
     baseline: &Baseline,
     skip: Option<SkipLimit>,
+    calibration: Option<&Calibration>,
 ) -> Result<String> {
     let mut reader = nomen_mcap::open_recording(
         recording,
@@ -295,6 +344,7 @@ pub fn run_baseline_file(
             baseline.name()
         );
     };
+    let registry = calibrated(registry, calibration, &crate::io::source_name(recording))?;
     // A bad line stops the reading (without `--skip-bad`); what came before is still decided
     // and written.
     let mut messages = Vec::new();
@@ -598,6 +648,11 @@ pub fn run_file(
             crate::io::source_name(recording)
         );
     };
+    let registry = calibrated(
+        registry,
+        extras.calibration.as_ref(),
+        &crate::io::source_name(recording),
+    )?;
     let mut engine = build_engine(
         registry.clone(),
         config,
@@ -614,6 +669,11 @@ pub fn run_file(
     } else {
         None
     };
+    let camera_clocks: BTreeMap<CameraId, ClockModel> = registry
+        .cameras
+        .iter()
+        .map(|c| (c.id.clone(), c.clock))
+        .collect();
     // A live session's file is followed as it grows: it is written under its own name.
     let is_followed = extras.live || crate::io::is_std_stream(recording);
     // Time stamps whose rate contradicts the declared one (every t in milliseconds) would make
@@ -642,11 +702,15 @@ pub fn run_file(
             if let (Some(r), Message::Identified(id)) = (refinement.as_mut(), &mut m) {
                 r.refine(id)?;
             }
-            // Decided under the new ids, reported under those the skeletons came with.
-            if let (Some(r), Message::Identified(id)) = (retracker.as_mut(), &mut m)
-                && let Some(track) = r.original_track(id.t.as_ns(), &id.camera, id.track)
-            {
-                id.track = track;
+            // Decided under the new ids, reported under those the skeletons came with (the
+            // retracker knows them by the camera's stamp, the decision by session time).
+            if let (Some(r), Message::Identified(id)) = (retracker.as_mut(), &mut m) {
+                let stamp = camera_clocks
+                    .get(&id.camera)
+                    .map_or(id.t.as_ns(), |c| c.to_device(id.t));
+                if let Some(track) = r.original_track(stamp, &id.camera, id.track) {
+                    id.track = track;
+                }
             }
             writer.write(&m)?;
             num_out += 1;

@@ -65,6 +65,10 @@ pub struct ServeArgs {
     /// the process list.
     #[arg(long, value_name = "TOKEN")]
     pub http_token: Option<String>,
+    /// A calibration (TOML or JSON, as `nomen calibrate frames --out` writes), laid over every
+    /// registry the service takes, from a file or from `nomen/in/registry`.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
 }
 
 /// Where `--http` alone serves the viewer.
@@ -144,7 +148,18 @@ pub fn run(args: ServeArgs) -> Result<()> {
     {
         bail!("--record-max-mb must be within 1..=1048576");
     }
-    let registry = registry_path.as_deref().map(load_registry).transpose()?;
+    let calibration = args
+        .calibration
+        .as_deref()
+        .map(super::run::load_calibration)
+        .transpose()?;
+    let registry = registry_path
+        .as_deref()
+        .map(|path| {
+            let source = crate::io::source_name(path);
+            super::run::calibrated(load_registry(path)?, calibration.as_ref(), &source)
+        })
+        .transpose()?;
     let broker = match args.mqtt.as_ref().or(config.mqtt.as_ref()) {
         Some(url) => BrokerAddr::parse(url)?,
         None => {
@@ -169,6 +184,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
             .map(load_rssi_model)
             .transpose()?,
         cnn: args.cnn.clone(),
+        calibration,
         ..EngineExtras::default()
     };
     let engine_config = config.engine;
@@ -178,7 +194,8 @@ pub fn run(args: ServeArgs) -> Result<()> {
     }
     let session = Session::new(
         Box::new(move |registry| {
-            build_engine(registry, engine_config, &extras, "nomen serve")
+            super::run::calibrated(registry, extras.calibration.as_ref(), "nomen/in/registry")
+                .and_then(|registry| build_engine(registry, engine_config, &extras, "nomen serve"))
                 .map_err(|e| format!("{e:#}"))
         }),
         SessionOptions {

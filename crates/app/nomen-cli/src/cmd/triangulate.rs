@@ -123,6 +123,7 @@ pub fn run(args: TriangulateArgs) -> Result<()> {
     registry.cameras.push(Camera {
         id: camera_id.clone(),
         world_from_camera: RigidTransform::IDENTITY,
+        scale: 1.0,
         intrinsics: None,
         fps_hz: Some(rig.fps_hz),
         clock: Default::default(),
@@ -640,6 +641,7 @@ fn identity_comparison(
     registry.cameras.push(Camera {
         id: camera_id,
         world_from_camera: RigidTransform::IDENTITY,
+        scale: 1.0,
         intrinsics: None,
         fps_hz: None,
         clock: Default::default(),

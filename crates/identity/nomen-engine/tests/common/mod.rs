@@ -161,6 +161,7 @@ pub fn registry(people: &[Person]) -> Registry {
         cameras: vec![Camera {
             id: CameraId::new(CAMERA),
             world_from_camera: RigidTransform::from_isometry(&world_from_camera()),
+            scale: 1.0,
             intrinsics: None,
             fps_hz: Some(30.0),
             clock: ClockModel::default(),

@@ -112,6 +112,7 @@ impl CameraModel {
         Camera {
             id: self.id.clone(),
             world_from_camera: RigidTransform::from_isometry(&self.world_from_camera),
+            scale: 1.0,
             intrinsics: Some(self.intrinsics()),
             fps_hz: Some(self.config.fps_hz),
             clock: ClockModel::default(),

@@ -41,6 +41,7 @@ pub fn registry() -> Registry {
         cameras: vec![Camera {
             id: CameraId::new("kinect"),
             world_from_camera: RigidTransform::IDENTITY,
+            scale: 1.0,
             intrinsics: None,
             fps_hz: Some(30.0),
             clock: ClockModel::default(),
