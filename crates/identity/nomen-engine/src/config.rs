@@ -768,8 +768,9 @@ pub struct EngineConfig {
     /// such for `open_set_memory_s` after three decisions within 10 s that saw more people in
     /// view (every camera's tracks at one time; two cameras' tracks whose torsos lie within
     /// 0.4 m, one person) than subjects whose wearables streamed in the last 5 s (and those
-    /// whose tags are only heard near an antenna). A name that also rests on a location tag or
-    /// RSSI keeps the run's minimum: the map is fitted on motion scores, and a tag's lead means
+    /// whose tags are only heard near an antenna). A name that a location tag's or RSSI's
+    /// evidence also supports (its mean score clears [`EngineConfig::rejection_threshold`])
+    /// keeps the run's minimum: the map is fitted on motion scores, and a tag's lead means
     /// something else (on `uwb_8_among_untagged`, seed 1, 441 of the 479 frames this minimum
     /// would withhold from tag names are right). Default 0.5: a name is sent only when it is
     /// more likely right than wrong. Where everyone in view may be a wearer, a name that barely
@@ -779,20 +780,20 @@ pub struct EngineConfig {
     /// `scenarios/families/sweep.sh open_set_min_name_probability 0 0.5 -- --count 4`
     /// (validation), frames correct / frames of people wearing nothing named / wrong names at
     /// 0 and 0.5: intruders 94.5 / 13.1 / 1.2 % and 96.2 / 2.2 / 0.2 %; leave-and-return 88.6 /
-    /// 52.4 / 3.1 % and 91.9 / 7.5 / 1.5 %; mixed rooms 92.7 / 18.0 / 1.2 % and 95.6 / 4.6 /
-    /// 0.8 %; same-motion crowds 81.9 / 43.7 / 8.8 % and 82.9 / 16.3 / 4.3 %; 64-person crowds
-    /// 83.0 / 75.1 / 8.7 % and 83.6 / 56.3 / 7.7 %; full networks, 8 and 32 wrist IMUs and UWB
-    /// tags unchanged (nobody there is counted as wearing nothing). The shipped scenes
-    /// (`scenarios/library.sh`, seeds 1–5) are unchanged.
+    /// 52.4 / 3.1 % and 91.9 / 4.2 / 1.2 %; mixed rooms 92.8 / 17.5 / 1.2 % and 95.6 / 4.6 /
+    /// 0.8 %; same-motion crowds 82.0 / 43.3 / 8.8 % and 82.5 / 14.4 / 3.8 %; 64-person crowds
+    /// 83.1 / 74.9 / 8.7 % and 84.5 / 12.0 / 3.2 %; UWB tags 99.7 / 0.2 / 0.1 % at both; full
+    /// networks and 8 and 32 wrist IMUs unchanged (nobody there is counted as wearing
+    /// nothing). The shipped scenes (`scenarios/library.sh`, seeds 1–5) are unchanged.
     pub open_set_min_name_probability: f64,
     /// How long the room counts as holding people who wear nothing after the last decision
     /// that counted them (see [`EngineConfig::open_set_min_name_probability`]), s. Default 60 s:
     /// people who wear nothing are counted only while more people are in view than subjects
     /// stream, which a room where wearers come and go shows only now and then.
-    /// `scenarios/families/sweep.sh open_set_memory_s 10 60 -- --count 4` (validation), frames
-    /// correct / frames of people wearing nothing named at 10 and 60 s: leave-and-return 88.9 /
-    /// 36.3 % and 91.9 / 7.5 %, 64-person crowds 83.4 / 59.0 % and 83.6 / 56.3 %; the other
-    /// families alike.
+    /// `scenarios/families/sweep.sh open_set_memory_s 10 60 -- --count 4 --family leave_return
+    /// --family crowd_64` (validation), frames correct / frames of people wearing nothing named
+    /// at 10 and 60 s: leave-and-return 91.2 / 13.6 % and 91.9 / 4.2 %, 64-person crowds 84.5 /
+    /// 13.5 % and 84.5 / 12.0 %.
     pub open_set_memory_s: f64,
     /// Two tracks of a camera closer than this across the line of sight are in a close encounter,
     /// after which their ids may have been swapped by the SDK (their evidence is pooled when they

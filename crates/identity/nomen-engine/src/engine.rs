@@ -1837,10 +1837,14 @@ impl Engine {
         let confidence = self.confidence_map.apply(is_named, raw);
         // A name less likely to be right than the run accepts goes out anonymous, with the
         // confidence of an anonymous frame whose best candidate is that subject.
-        // The confidence map is fitted on motion evidence: a name that also rests on a tag's
-        // position or reads keeps the run's own minimum.
+        // The confidence map is fitted on motion evidence: a name that a tag's position or
+        // reads also support (their mean score clears the rejection threshold) keeps the run's
+        // own minimum.
+        let supports = |acc: Option<&Accumulator>| {
+            acc.is_some_and(|a| a.mean >= self.config.rejection_threshold)
+        };
         let is_motion_only = name.is_some_and(|(s, _)| {
-            !tr.tag_evidence.contains_key(&s) && !tr.rssi_evidence.contains_key(&s)
+            !supports(tr.tag_evidence.get(&s)) && !supports(tr.rssi_evidence.get(&s))
         });
         let min_probability = if self.is_open_set && is_motion_only {
             self.config

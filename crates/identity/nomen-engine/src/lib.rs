@@ -205,7 +205,8 @@
 //!    Once the room is known to hold people who wear nothing, the minimum is
 //!    [`EngineConfig::open_set_min_name_probability`] (0.5) instead: at each decision the
 //!    engine counts the people in view (every camera's tracks at one time, two cameras'
-//!    tracks whose torsos lie within 0.4 m of each other counted once) against the subjects
+//!    tracks whose torsos lie within 0.4 m of each other counted once, one track per camera
+//!    per person) against the subjects
 //!    whose wearables streamed in the last 5 s (and those whose tags are only heard near an
 //!    antenna); three decisions within 10 s that see more people than that make the room
 //!    open for [`EngineConfig::open_set_memory_s`] (60 s). Where everyone in view may be a

@@ -304,12 +304,16 @@ impl Engine {
     /// ([`EngineConfig::open_set_min_name_probability`](crate::EngineConfig::open_set_min_name_probability)).
     fn note_open_set(&mut self, active: &[TrackKey], end: i64) {
         // Each track's torso at its settled frame nearest `end − PRESENT_NS`.
-        let at = end - PRESENT_NS;
+        let at = end.saturating_sub(PRESENT_NS);
         let torsos: Vec<(usize, AnchorSample)> = active
             .iter()
             .filter_map(|k| {
                 let tr = self.tracks.get(k)?;
-                let path = anchor_path(tr, at - SAME_TIME_NS, at + SAME_TIME_NS);
+                let path = anchor_path(
+                    tr,
+                    at.saturating_sub(SAME_TIME_NS),
+                    at.saturating_add(SAME_TIME_NS),
+                );
                 let (t, anchors) = path.iter().min_by_key(|(t, _)| (t - at).abs())?;
                 Some((k.0, (*t, *anchors)))
             })
@@ -327,10 +331,20 @@ impl Engine {
                     .iter()
                     .zip(pb)
                     .find_map(|(x, y)| Some((x.as_ref()? - y.as_ref()?).norm()));
+                // A group holds one track per camera at most.
+                let cameras_of = |g: usize| {
+                    torsos
+                        .iter()
+                        .zip(&group)
+                        .filter(move |(_, gg)| **gg == g)
+                        .map(|((c, _), _)| *c)
+                };
+                let shares_camera = || cameras_of(a).any(|c| cameras_of(b).any(|d| d == c));
                 if ca == cb
                     || a == b
-                    || (ta - tb).abs() > SAME_TIME_NS
+                    || ta.abs_diff(*tb) > SAME_TIME_NS.unsigned_abs()
                     || apart.is_none_or(|d| d > SAME_PERSON_M)
+                    || shares_camera()
                 {
                     continue;
                 }
@@ -348,7 +362,7 @@ impl Engine {
         while self
             .surplus_ends
             .front()
-            .is_some_and(|&t| t < end - SURPLUS_SPAN_NS)
+            .is_some_and(|&t| t < end.saturating_sub(SURPLUS_SPAN_NS))
         {
             self.surplus_ends.pop_front();
         }
@@ -358,23 +372,33 @@ impl Engine {
         let memory_ns = (self.config.open_set_memory_s * 1e9) as i64;
         self.is_open_set = self
             .open_set_seen_at
-            .is_some_and(|seen| end - seen <= memory_ns);
+            .is_some_and(|seen| end.saturating_sub(seen) <= memory_ns);
     }
 
-    /// The subjects that may be in view: those with a wearable that sent something within
-    /// `STREAMING_NS` of `end`, and those whose wearables are only heard when near an antenna
-    /// (RFID/BLE tags read by RSSI) or that wear nothing that streams.
+    /// The subjects that may be in view: those with a wearable that sent something stamped in
+    /// the `STREAMING_NS` before `end` (data after `end` is not looked at, so the count does
+    /// not depend on how far ahead a source is), and those whose wearables are only heard when
+    /// near an antenna (RFID/BLE tags read by RSSI) or that wear nothing that streams.
     fn num_streaming_subjects(&self, end: i64) -> usize {
+        let lo = end.saturating_sub(STREAMING_NS);
         let mut streaming = vec![false; self.subjects.len()];
         let mut streams = vec![false; self.subjects.len()];
         for imu in &self.imus {
             if let Some(slot) = streams.get_mut(imu.subject) {
                 *slot = true;
             }
-            let recent = imu
-                .newest
-                .is_some_and(|t| t.saturating_add(imu.offset_ns) >= end - STREAMING_NS);
-            if recent && let Some(slot) = streaming.get_mut(imu.subject) {
+            // Device time: session = device + offset.
+            let (lo_d, end_d) = (
+                lo.saturating_sub(imu.offset_ns),
+                end.saturating_sub(imu.offset_ns),
+            );
+            let settled = imu.t.partition_point(|&t| t < lo_d);
+            let sent = imu.t.get(settled).is_some_and(|&t| t < end_d)
+                || imu
+                    .pending
+                    .last_time_before(end_d)
+                    .is_some_and(|t| t >= lo_d);
+            if sent && let Some(slot) = streaming.get_mut(imu.subject) {
                 *slot = true;
             }
         }
@@ -382,9 +406,10 @@ impl Engine {
             if let Some(slot) = streams.get_mut(tag.subject) {
                 *slot = true;
             }
-            if tag.newest.is_some_and(|t| t >= end - STREAMING_NS)
-                && let Some(slot) = streaming.get_mut(tag.subject)
-            {
+            let settled = tag.fixes.partition_point(|f| f.t < lo);
+            let sent = tag.fixes.get(settled).is_some_and(|f| f.t < end)
+                || tag.pending.range(lo..end).next().is_some();
+            if sent && let Some(slot) = streaming.get_mut(tag.subject) {
                 *slot = true;
             }
         }
