@@ -7,8 +7,8 @@
 use nalgebra::Point3;
 use nomen_core::skeleton::Joints;
 use nomen_core::{
-    CameraId, IdentifiedSkeleton, Identity, Joint, Message, SessionTime, SubjectId, TagCorrection,
-    TagId, TrackId, TruthSkeleton, TruthTag,
+    CameraId, DecisionRule, DecisionTrace, IdentifiedSkeleton, Identity, Joint, Message,
+    SessionTime, SubjectId, TagCorrection, TagId, TrackId, TruthSkeleton, TruthTag,
 };
 use nomen_eval::identity::{EvalConfig, EvalReport, SceneData, evaluate};
 
@@ -206,6 +206,32 @@ fn a_wearer_anonymous_for_12_frames_is_identified_after_0_4_s() {
     // Over time: bin 0 ([0, 1) s) holds all 30 frames.
     assert_eq!(m.over_time.len(), 1);
     assert_eq!(m.over_time[0].num_correct, 18);
+}
+
+#[test]
+fn a_name_given_to_frames_by_a_later_decision_counts_from_that_decision() {
+    // 30 frames at 30 fps, all named right, but by a decision made at frame 18 (0.6 s): the
+    // name is known from 0.6 s, not from the first frame. Frames after 18 carry a decision made
+    // at their own time, so the earliest time the name is known is 0.6 s.
+    let (mut t, mut r) = (Vec::new(), Vec::new());
+    for k in 0..30 {
+        t.push(truth(k, 1, "ana", Some("ana"), 0.0));
+        let mut m = label(k, 1, Some("ana"));
+        if let Message::Identified(id) = &mut m {
+            id.decision = Some(DecisionTrace {
+                rule: DecisionRule::Assigned,
+                decided_at: frame_t(k.max(18)),
+                named: None,
+                runner_up: None,
+            });
+        }
+        r.push(m);
+    }
+    let m = run(&t, &r, &EvalConfig::default()).overall;
+    assert!(close(m.time_to_identify_s, 0.6));
+    // The frames themselves are right: accuracy and Llorca's delay count labels, not timing.
+    assert!(close(m.id_accuracy, 1.0));
+    assert_eq!(m.delay_frames, Some(0.0));
 }
 
 #[test]

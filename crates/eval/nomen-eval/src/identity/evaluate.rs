@@ -323,6 +323,8 @@ pub(super) fn outcome(truth: Option<&SubjectId>, label: Option<&SubjectId>) -> L
 #[derive(Debug, Clone, Copy)]
 struct Observation<'a> {
     t: SessionTime,
+    /// When its label was known (see [`ResultLabel::known_at`]); `t` when unlabelled.
+    known_at: SessionTime,
     label: Option<&'a SubjectId>,
     outcome: LabelOutcome,
 }
@@ -419,6 +421,7 @@ fn analyse_scene(
             .or_insert_with(|| (frame.subject.as_ref(), Vec::new()));
         let obs = Observation {
             t: frame.t,
+            known_at: result.map_or(frame.t, |r| r.known_at),
             label,
             outcome: o,
         };
@@ -449,8 +452,13 @@ fn analyse_scene(
             let report = tally.per_subject.entry((*subject).clone()).or_default();
             report.id_switches += count_switches(seq);
             for run in &runs {
-                let first_correct = run.iter().find(|o| o.outcome == LabelOutcome::Correct);
-                let time_to_identify_s = first_correct.map(|o| o.t.secs_since(run[0].t));
+                // A label given to a frame by a later decision counts from that decision.
+                let first_correct = run
+                    .iter()
+                    .filter(|o| o.outcome == LabelOutcome::Correct)
+                    .map(|o| o.known_at)
+                    .min();
+                let time_to_identify_s = first_correct.map(|t| t.secs_since(run[0].t));
                 let delay_frames = llorca_delay(run, hold_ns);
                 report.num_appearances += 1;
                 report.num_never_identified += u64::from(first_correct.is_none());
@@ -724,6 +732,7 @@ mod tests {
     fn obs<'a>(k: i64, label: Option<&'a SubjectId>, outcome: LabelOutcome) -> Observation<'a> {
         Observation {
             t: SessionTime(k * 100_000_000), // 10 Hz
+            known_at: SessionTime(k * 100_000_000),
             label,
             outcome,
         }

@@ -26,6 +26,9 @@ pub(crate) struct ResultLabel {
     pub subject: Option<SubjectId>,
     /// The result's confidence in that identity.
     pub confidence: f64,
+    /// When the label was known: the later of the frame's time and the time of the decision
+    /// that gave it (a result may label a frame with a decision made after it).
+    pub known_at: SessionTime,
 }
 
 /// A tag position: true, or raw and corrected.
@@ -125,6 +128,7 @@ impl SceneData {
                     Identity::Anonymous => None,
                 },
                 confidence: m.confidence,
+                known_at: m.decision.as_ref().map_or(m.t, |d| d.decided_at.max(m.t)),
             }),
             Message::TruthTag(m) => {
                 if is_finite(&m.position_m) {

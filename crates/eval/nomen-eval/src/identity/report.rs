@@ -272,8 +272,9 @@ pub struct Appearance {
     pub end_s: f64,
     /// Observation instants in the appearance.
     pub num_frames: u64,
-    /// Time from the first observation to the first correctly labelled one, seconds; `None` if
-    /// never labelled correctly.
+    /// Time from the first observation until a correct label for the appearance is known (the
+    /// earliest, over correctly labelled frames, of the later of the frame's time and its
+    /// decision's time), seconds; `None` if never labelled correctly.
     pub time_to_identify_s: Option<f64>,
     /// Llorca's delay: index (0 = first observation) of the first correctly labelled frame from
     /// which the label stays correct (see [`EvalConfig::delay_hold_s`]); `None` if there is none.
