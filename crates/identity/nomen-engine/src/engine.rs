@@ -835,6 +835,9 @@ impl Engine {
             .enumerate()
             .map(|(i, c)| (c.id.clone(), i))
             .collect();
+        // Only IMUs and RSSI tags need the warm-up (IMU windows fill and their clocks are found,
+        // reads accumulate); a location tag's first fixes can name its wearer.
+        let needs_warmup = !imus.is_empty() || !rssi_tags.is_empty();
         Ok(Engine {
             confidence_map: config
                 .confidence_map
@@ -869,7 +872,7 @@ impl Engine {
             tracks: BTreeMap::new(),
             pending_out: BTreeSet::new(),
             first_frame_t: None,
-            warmup_ns: ns(config.warmup_s),
+            warmup_ns: if needs_warmup { ns(config.warmup_s) } else { 0 },
             warmup_sync_ns: ns(config.warmup_sync_s),
             warm_release: None,
             open_set_seen_at: None,

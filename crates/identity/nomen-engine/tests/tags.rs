@@ -490,3 +490,49 @@ fn a_camera_in_centimetres_names_the_tag_wearers_once_its_scale_is_registered() 
     let (unscaled, _) = run_batch(&registry(&walkers), &in_cm, &EngineConfig::default()).unwrap();
     assert!(accuracy(&walkers[..2], &unscaled, 1.0) < 0.05);
 }
+
+#[test]
+fn with_location_tags_only_the_first_names_come_from_the_first_decisions() {
+    // No IMU clock to find and no window to fill: no warm-up holds the session's first frames.
+    // Each tagged walker's first correctly named frame carries a decision made within the
+    // decision delay and two hops of the walker's first frame (`decided_at`), not after a
+    // warm-up of seconds.
+    let walkers = three_walkers();
+    let msgs = recording(&walkers, 10.0);
+    let config = EngineConfig::default();
+    let (out, _) = run_batch(&registry(&walkers), &msgs, &config).unwrap();
+    let first_t = |track: TrackId| {
+        msgs.iter()
+            .filter_map(|m| match m {
+                Message::Skeleton(s) if s.track == track => Some(s.t.as_secs_f64()),
+                _ => None,
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let bound_s = config.decision_delay_s + 2.0 * config.hop_s;
+    for w in walkers.iter().filter(|w| w.subject.is_some()) {
+        let track = TrackId(w.track);
+        let named_at = out
+            .iter()
+            .filter_map(|m| match m {
+                Message::Identified(id)
+                    if id.track == track
+                        && id.identity.subject().map(|s| s.as_str()) == w.subject =>
+                {
+                    id.decision
+                        .as_ref()
+                        .map(|d| d.decided_at.as_secs_f64().max(id.t.as_secs_f64()))
+                }
+                _ => None,
+            })
+            .fold(f64::INFINITY, f64::min);
+        let waited_s = named_at - first_t(track);
+        assert!(
+            waited_s <= bound_s,
+            "{:?} named {waited_s:.2} s after its first frame (bound {bound_s:.2} s)",
+            w.subject
+        );
+    }
+    // The untagged walker stays anonymous throughout.
+    assert!(accuracy(&walkers[2..], &out, 0.0) == 1.0);
+}
