@@ -19,7 +19,7 @@ use nomen_core::skeleton::{JointState, Joints};
 use nomen_core::{
     AntennaId, CameraId, Candidate, ClockModel, DecisionRule, DecisionTrace, DeviceId, DeviceKind,
     Evidence, IdentifiedSkeleton, Identity, ImuSample, Joint, Message, Registry, RssiRead, RtlsFix,
-    SessionTime, SkeletonObservation, SubjectId, TagCorrection, TrackId,
+    SessionTime, SkeletonObservation, SubjectId, TagCorrection, TrackId, UwbRange,
 };
 use nomen_evidence::PairScorer;
 use nomen_evidence::belmonte::axis_pitches_rad;
@@ -31,6 +31,7 @@ use nomen_rssi::{
     FilterBank, LikelihoodConfig, RssiKalmanConfig, RssiModel, RssiUnit, TagPlacement,
     background_log_likelihood, log_likelihood, pair_score,
 };
+use nomen_rtls::{EpochConfig, EpochStats, RangeEpochs};
 use scoring::key_joint_near;
 use std::cell::Cell;
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
@@ -674,6 +675,10 @@ pub struct Engine {
     imu_index: DeviceIndex,
     tags: Vec<TagState>,
     tag_index: DeviceIndex,
+    /// Per tag: whether it has sent a fix of its own (its raw ranges are then ignored).
+    tags_report_fixes: Vec<bool>,
+    /// Raw UWB ranges grouped into ranging cycles and multilaterated, for tags without fixes.
+    range_epochs: RangeEpochs,
     /// A learned scorer of (IMU window, skeleton window) pairs ([`Engine::with_pair_scorer`]).
     pair_scorer: Option<Box<dyn PairScorer>>,
     /// RSSI evidence, when a calibrated model was given ([`Engine::with_rssi_model`]).
@@ -861,6 +866,8 @@ impl Engine {
             camera_index,
             imus,
             imu_index,
+            tags_report_fixes: vec![false; tags.len()],
+            range_epochs: RangeEpochs::new(&registry.anchors, EpochConfig::default()),
             tags,
             tag_index,
             rssi: None,
@@ -1029,8 +1036,18 @@ impl Engine {
         let result = match msg {
             Message::Imu(s) => self.push_imu(s),
             Message::Skeleton(s) => self.push_skeleton(s),
-            Message::RtlsFix(f) => self.push_fix(f),
+            Message::RtlsFix(f) => {
+                if let Some(reports) = self
+                    .tag_index
+                    .get(&f.tag)
+                    .and_then(|&i| self.tags_report_fixes.get_mut(i))
+                {
+                    *reports = true;
+                }
+                self.push_fix(f)
+            }
             Message::Rssi(r) => self.push_rssi(r),
+            Message::UwbRange(r) => self.push_range(r),
             _ => {
                 self.stats.num_ignored += 1;
                 Ok(())
@@ -1107,6 +1124,44 @@ impl Engine {
                 t,
             },
         }
+    }
+
+    /// A raw UWB range: multilaterated with the rest of its tag's ranging cycle into a fix
+    /// ([`RangeEpochs`]), which is taken as the tag's own fixes are. A tag that sends fixes of
+    /// its own has its ranges ignored (its location system has solved them already).
+    fn push_range(&mut self, r: &UwbRange) -> Result<()> {
+        let Some(&i) = self.tag_index.get(&r.tag) else {
+            return Err(self.device_error("uwb_range", &r.tag, r.t));
+        };
+        r.validate().map_err(|error| EngineError::InvalidMessage {
+            kind: "uwb_range",
+            source_id: r.tag.to_string(),
+            t: r.t,
+            error,
+        })?;
+        if self.tags_report_fixes.get(i).copied().unwrap_or(true) {
+            self.stats.num_ranges_unused += 1;
+            return Ok(());
+        }
+        let before = self.range_epochs.stats();
+        let fix = self.range_epochs.push(r);
+        self.note_range_epochs(before);
+        match fix {
+            Some(fix) => {
+                self.stats.num_fixes_from_ranges += 1;
+                self.push_fix(&without_covariance(fix))
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// Counts the ranges of the cycles [`RangeEpochs`] closed without a fix since `before`.
+    fn note_range_epochs(&mut self, before: EpochStats) {
+        let after = self.range_epochs.stats();
+        let dropped = |s: EpochStats| {
+            s.num_short_epochs + s.num_rejected_epochs + s.num_unknown_anchor + s.num_out_of_order
+        };
+        self.stats.num_ranges_unused += dropped(after).saturating_sub(dropped(before));
     }
 
     fn push_fix(&mut self, f: &RtlsFix) -> Result<()> {
@@ -1474,6 +1529,19 @@ impl Engine {
         for cam in &mut self.cameras {
             cam.frontier = i64::MAX;
         }
+        // The last ranging cycles of tags that send ranges.
+        let before = self.range_epochs.stats();
+        for fix in self.range_epochs.finish() {
+            let reports_fixes = self
+                .tag_index
+                .get(&fix.tag)
+                .and_then(|&i| self.tags_report_fixes.get(i))
+                .is_none_or(|r| *r);
+            if !reports_fixes && self.push_fix(&without_covariance(fix)).is_ok() {
+                self.stats.num_fixes_from_ranges += 1;
+            }
+        }
+        self.note_range_epochs(before);
         for tag in &mut self.tags {
             tag.frontier = i64::MAX;
             tag.settle();
@@ -1951,6 +2019,16 @@ impl Engine {
                 || !tr.pending.is_empty()
                 || pending_out.iter().any(|p| p.1 == k.0 && p.2 == k.1)
         });
+    }
+}
+
+/// A fix multilaterated from raw ranges, without the solver's covariance: that counts the range
+/// noise only, not the long bias of raw ranges or a body's shadow, so the fix takes the tag σ of
+/// the configuration ([`EngineConfig::tag_sigma_horizontal_m`]) as a location system's fix does.
+fn without_covariance(fix: RtlsFix) -> RtlsFix {
+    RtlsFix {
+        covariance_m2: None,
+        ..fix
     }
 }
 

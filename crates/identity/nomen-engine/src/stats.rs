@@ -94,8 +94,14 @@ pub struct EngineStats {
     pub num_rssi_reads: u64,
     /// RSSI reads ignored because the engine has no RSSI model.
     pub num_rssi_without_model: u64,
-    /// Location-tag fixes accepted.
+    /// Location-tag fixes accepted (those multilaterated from raw ranges included).
     pub num_tag_fixes: u64,
+    /// Fixes multilaterated from raw UWB ranges ([`nomen_rtls::RangeEpochs`]): tags that send
+    /// ranges and no fixes.
+    pub num_fixes_from_ranges: u64,
+    /// Raw UWB ranges not used: their tag sends fixes of its own, or their ranging cycle gave no
+    /// fix (too few anchors, a failed or poor solve, an unknown anchor).
+    pub num_ranges_unused: u64,
     /// Tag fixes emitted corrected by their wearer's key joint.
     pub num_tag_corrections: u64,
     /// Close encounters after which two tracks' evidence was pooled (possible id swap).

@@ -5,9 +5,9 @@
 use nalgebra::{Point3, Vector3};
 use nomen_core::skeleton::Joints;
 use nomen_core::{
-    Camera, CameraId, ClockModel, DeviceId, DeviceKind, Identity, Joint, JointObservation, Message,
-    Registry, RigidTransform, RtlsFix, SessionTime, SkeletonObservation, Subject, SubjectId,
-    TrackId, Wearable,
+    Anchor, AnchorId, Camera, CameraId, ClockModel, DeviceId, DeviceKind, Identity, Joint,
+    JointObservation, Message, Registry, RigidTransform, RtlsFix, SessionTime, SkeletonObservation,
+    Subject, SubjectId, TrackId, UwbRange, Wearable,
 };
 use nomen_engine::{EngineConfig, EngineError, run_batch};
 
@@ -535,4 +535,88 @@ fn with_location_tags_only_the_first_names_come_from_the_first_decisions() {
     }
     // The untagged walker stays anonymous throughout.
     assert!(accuracy(&walkers[2..], &out, 0.0) == 1.0);
+}
+
+/// Ceiling anchors of the walkers' room.
+fn anchors() -> Vec<Anchor> {
+    [
+        [0.0, 0.0, 2.6],
+        [8.0, 0.0, 2.5],
+        [8.0, 5.0, 2.7],
+        [0.0, 5.0, 2.4],
+        [4.0, 2.5, 2.9],
+    ]
+    .iter()
+    .enumerate()
+    .map(|(i, p)| Anchor {
+        id: AnchorId::new(format!("a{i}")),
+        position_m: Point3::new(p[0], p[1], p[2]),
+    })
+    .collect()
+}
+
+/// The recording with every tag fix replaced by one ranging cycle from that (noisy) position to
+/// each anchor, 4 ms apart, each range 0.15 m long plus a few centimetres of noise (raw ranges
+/// are biased long).
+fn as_ranges(msgs: &[Message], anchors: &[Anchor]) -> Vec<Message> {
+    let mut out = Vec::new();
+    for (k, m) in msgs.iter().enumerate() {
+        match m {
+            Message::RtlsFix(f) => {
+                for (i, a) in anchors.iter().enumerate() {
+                    out.push(Message::UwbRange(UwbRange {
+                        t: SessionTime::from_ns(f.t.as_ns() + 4_000_000 * i as i64),
+                        tag: f.tag.clone(),
+                        anchor: a.id.clone(),
+                        range_m: (f.position_m - a.position_m).norm() + 0.15 + noise(k, i, 0.05),
+                    }));
+                }
+            }
+            other => out.push(other.clone()),
+        }
+    }
+    out.sort_by_key(|m| m.t());
+    out
+}
+
+#[test]
+fn raw_uwb_ranges_alone_name_the_tag_wearers_as_their_fixes_do() {
+    let walkers = three_walkers();
+    let anchors = anchors();
+    let registry = Registry {
+        anchors: anchors.clone(),
+        ..registry(&walkers)
+    };
+    let fixes = recording(&walkers, 20.0);
+    let ranges = as_ranges(&fixes, &anchors);
+    assert!(!ranges.iter().any(|m| matches!(m, Message::RtlsFix(_))));
+    let config = EngineConfig::default();
+    let (from_fixes, _) = run_batch(&registry, &fixes, &config).unwrap();
+    let (from_ranges, stats) = run_batch(&registry, &ranges, &config).unwrap();
+    // One fix per ranging cycle, all taken.
+    let num_cycles = fixes
+        .iter()
+        .filter(|m| matches!(m, Message::RtlsFix(_)))
+        .count() as u64;
+    assert_eq!(stats.num_fixes_from_ranges, num_cycles, "{stats:?}");
+    assert_eq!(stats.num_tag_fixes, num_cycles);
+    let with_fixes = accuracy(&walkers, &from_fixes, 1.0);
+    let with_ranges = accuracy(&walkers, &from_ranges, 1.0);
+    assert!(
+        with_ranges > 0.99,
+        "ranges {with_ranges}, fixes {with_fixes}"
+    );
+    assert!(accuracy(&walkers[2..], &from_ranges, 0.0) == 1.0);
+    // Both sent: the tag's own fixes are used and its ranges ignored.
+    let mut both = fixes.clone();
+    both.extend(
+        ranges
+            .iter()
+            .filter(|m| matches!(m, Message::UwbRange(_)))
+            .cloned(),
+    );
+    both.sort_by_key(|m| m.t());
+    let (_, stats) = run_batch(&registry, &both, &config).unwrap();
+    assert_eq!(stats.num_fixes_from_ranges, 0);
+    assert_eq!(stats.num_tag_fixes, num_cycles);
 }

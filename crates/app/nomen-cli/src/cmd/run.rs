@@ -887,6 +887,16 @@ pub fn run_file(
     if num_rssi_ignored > 0 {
         summary.push_str(&format!("\n  warning: {}", rssi_ignored(num_rssi_ignored)));
     }
+    let (from_ranges, ranges_unused) = (
+        engine.stats().num_fixes_from_ranges,
+        engine.stats().num_ranges_unused,
+    );
+    if from_ranges > 0 || ranges_unused > 0 {
+        summary.push_str(&format!(
+            "\n  uwb ranges: {from_ranges} fixes multilaterated, {ranges_unused} ranges unused \
+             (their tag sends fixes, or their ranging cycle gave no fix)"
+        ));
+    }
     within_skip_limit(summary, skip, &stats, recording)
 }
 
