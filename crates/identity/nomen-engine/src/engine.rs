@@ -11,7 +11,7 @@ use crate::error::{EngineError, Result};
 use crate::lag_memo::ImuLagMemo;
 use crate::signal::ImuSeries;
 use crate::stats::EngineStats;
-use crate::tags::{Fix, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m};
+use crate::tags::{Fix, Height, MAX_PAIR_DT_NS, TagState, corrected_position, fix_sigma_m};
 use crate::time_queue::TimeQueue;
 use decide::pooled_mean;
 use nalgebra::{Isometry3, Matrix3, Point3, UnitQuaternion, Vector3};
@@ -1198,12 +1198,24 @@ impl Engine {
         }
         self.time_jumps
             .check(self.global_max, "rtls_fix", f.tag.as_str(), t, f.t)?;
+        let height = Height::after(tag.height, f.position_m.z);
+        if matches!(height, Height::Planar { .. })
+            && !matches!(tag.height, Some(Height::Planar { .. }))
+        {
+            self.stats.planar_tags.push(tag.device.clone());
+        }
+        tag.height = Some(height);
+        let sigma_m = match height {
+            // A 2D fix says nothing about height.
+            Height::Planar { .. } => (fix_sigma_m(f, defaults).0, f64::INFINITY),
+            _ => fix_sigma_m(f, defaults),
+        };
         tag.pending.insert(
             t,
             Fix {
                 t,
                 position_world_m: f.position_m,
-                sigma_m: fix_sigma_m(f, defaults),
+                sigma_m,
             },
         );
         tag.newest = Some(tag.newest.map_or(t, |n| n.max(t)));

@@ -96,6 +96,9 @@ pub struct EngineStats {
     pub num_rssi_without_model: u64,
     /// Location-tag fixes accepted (those multilaterated from raw ranges included).
     pub num_tag_fixes: u64,
+    /// Location tags taken as 2D: their first fixes all had one height (see `crate::tags`), so
+    /// they are compared with the joints horizontally.
+    pub planar_tags: Vec<DeviceId>,
     /// Fixes multilaterated from raw UWB ranges ([`nomen_rtls::RangeEpochs`]): tags that send
     /// ranges and no fixes.
     pub num_fixes_from_ranges: u64,

@@ -19,6 +19,11 @@
 //! gathered before a close pass holds through it, instead of being replaced by scores that fit
 //! both people: an identity changes only on fixes that tell the two apart.
 //!
+//! **2D fixes.** A location system that solves x and y only reports a constant z (often 0). A
+//! tag whose first [`PLANAR_AFTER_FIXES`] fixes all carry the same z is taken as 2D: its later
+//! fixes are compared with the key joint horizontally (their vertical σ is infinite), and their
+//! corrections take the joint's height. One fix with another z makes the tag 3D for good.
+//!
 //! **Correction.** A fix whose tag's wearer is the label of a track that has the key joint at
 //! that time is replaced by the inverse-variance weighted mean of the fix and the joint (joints
 //! are ten times more precise, so the result sits almost on the joint). This is Baptizo's
@@ -32,6 +37,41 @@ use std::collections::{BTreeMap, VecDeque};
 /// Largest time between a fix and the track sample it is compared with, ns (three frames at
 /// 30 Hz; fixes come at ~10 Hz).
 pub(crate) const MAX_PAIR_DT_NS: i64 = 100_000_000;
+
+/// Fixes a tag must send, all at one height, before it is taken as 2D.
+pub(crate) const PLANAR_AFTER_FIXES: u32 = 10;
+
+/// Whether a tag's fixes are 2D (a constant z), as far as its fixes tell.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Height {
+    /// Fewer than [`PLANAR_AFTER_FIXES`] fixes, all at this z.
+    Unknown { z_m: f64, num_fixes: u32 },
+    /// 2D: every fix at this z.
+    Planar { z_m: f64 },
+    /// Fixes at different heights.
+    Spatial,
+}
+
+impl Height {
+    /// The state after a fix at `z_m` (`None`: the tag's first fix).
+    pub(crate) fn after(state: Option<Height>, z_m: f64) -> Height {
+        match state {
+            None => Height::Unknown { z_m, num_fixes: 1 },
+            Some(Height::Unknown { z_m: z, num_fixes }) if z == z_m => {
+                if num_fixes + 1 >= PLANAR_AFTER_FIXES {
+                    Height::Planar { z_m }
+                } else {
+                    Height::Unknown {
+                        z_m,
+                        num_fixes: num_fixes + 1,
+                    }
+                }
+            }
+            Some(Height::Planar { z_m: z }) if z == z_m => Height::Planar { z_m },
+            Some(_) => Height::Spatial,
+        }
+    }
+}
 
 /// One settled fix.
 #[derive(Debug, Clone, Copy)]
@@ -58,6 +98,8 @@ pub(crate) struct TagState {
     pub(crate) to_correct: VecDeque<Fix>,
     pub(crate) newest: Option<i64>,
     pub(crate) frontier: i64,
+    /// Whether its fixes are 2D; `None` before the first.
+    pub(crate) height: Option<Height>,
 }
 
 impl TagState {
@@ -72,6 +114,7 @@ impl TagState {
             to_correct: VecDeque::new(),
             newest: None,
             frontier: i64::MIN,
+            height: None,
         }
     }
 

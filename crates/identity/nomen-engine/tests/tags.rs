@@ -620,3 +620,45 @@ fn raw_uwb_ranges_alone_name_the_tag_wearers_as_their_fixes_do() {
     assert_eq!(stats.num_fixes_from_ranges, 0);
     assert_eq!(stats.num_tag_fixes, num_cycles);
 }
+
+#[test]
+fn fixes_of_a_2d_location_system_at_z_0_name_their_wearers() {
+    // A location system that solves x and y only reports z = 0: a metre below the wrist, which
+    // in 3D would fit nobody.
+    let walkers = three_walkers();
+    let mut msgs = recording(&walkers, 20.0);
+    for m in &mut msgs {
+        if let Message::RtlsFix(f) = m {
+            f.position_m.z = 0.0;
+        }
+    }
+    let (out, stats) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    assert_eq!(stats.planar_tags.len(), 2, "{stats:?}");
+    assert!(accuracy(&walkers, &out, 2.0) > 0.99);
+    assert!(accuracy(&walkers[2..], &out, 0.0) == 1.0);
+    // Corrections take the joint's height.
+    let max_z_error = out
+        .iter()
+        .filter_map(|m| match m {
+            Message::TagCorrection(c) if c.t.as_secs_f64() > 3.0 => Some(c),
+            _ => None,
+        })
+        .map(|c| {
+            let w = if c.tag.as_str() == "ana_tag" {
+                &walkers[0]
+            } else {
+                &walkers[1]
+            };
+            (c.corrected_position_m.z - w.joint(c.t.as_secs_f64(), Joint::RightWrist).z).abs()
+        })
+        .fold(0.0, f64::max);
+    assert!(max_z_error < 0.1, "{max_z_error}");
+    // Fixes whose heights differ are 3D: the same recording with its heights is not planar.
+    let (_, stats) = run_batch(
+        &registry(&walkers),
+        &recording(&walkers, 20.0),
+        &EngineConfig::default(),
+    )
+    .unwrap();
+    assert!(stats.planar_tags.is_empty());
+}

@@ -887,6 +887,12 @@ pub fn run_file(
     if num_rssi_ignored > 0 {
         summary.push_str(&format!("\n  warning: {}", rssi_ignored(num_rssi_ignored)));
     }
+    for tag in &engine.stats().planar_tags {
+        summary.push_str(&format!(
+            "\n  tag {tag}: its fixes are 2D (every one at the same height), compared with the \
+             joints horizontally"
+        ));
+    }
     let (from_ranges, ranges_unused) = (
         engine.stats().num_fixes_from_ranges,
         engine.stats().num_ranges_unused,
