@@ -260,7 +260,8 @@ pub use error::{EngineError, Result};
 pub use nomen_evidence::{Fusion, FusionConfig, GeometricConfig, KinematicConfig};
 pub use retrack::{RetrackConfig, Retracker};
 pub use stats::{
-    ClockOffsetEstimate, EngineStats, HeadingEstimate, PLAUSIBLE_START_GRAVITY_MPS2, RejectCounts,
+    ClockOffsetEstimate, EngineStats, FAR_TAG_MIN_COMPARED, HeadingEstimate,
+    PLAUSIBLE_START_GRAVITY_MPS2, RejectCounts, TagNearCount,
 };
 
 use nomen_core::{Message, Registry};

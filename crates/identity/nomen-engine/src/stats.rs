@@ -96,6 +96,9 @@ pub struct EngineStats {
     pub num_rssi_without_model: u64,
     /// Location-tag fixes accepted (those multilaterated from raw ranges included).
     pub num_tag_fixes: u64,
+    /// Per location tag: its fixes compared with the tracks in view, and how many were near one
+    /// (a fix counts once per window and camera it is compared in).
+    pub tag_fixes_near: BTreeMap<DeviceId, TagNearCount>,
     /// Location tags taken as 2D: their first fixes all had one height (see `crate::tags`), so
     /// they are compared with the joints horizontally.
     pub planar_tags: Vec<DeviceId>,
@@ -169,7 +172,32 @@ pub struct EngineStats {
 /// about 1,000.
 pub const PLAUSIBLE_START_GRAVITY_MPS2: std::ops::RangeInclusive<f64> = 3.0..=25.0;
 
+/// How often a tag's fixes were near a track they were compared with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct TagNearCount {
+    /// Comparisons of a fix with the tracks in view.
+    pub num_compared: u64,
+    /// Comparisons in which some track's key joint was near the fix.
+    pub num_near: u64,
+}
+
+/// Comparisons of a tag's fixes after which "never near a skeleton" is worth a warning (about
+/// 5 s of fixes at 10 Hz, each compared in four windows).
+pub const FAR_TAG_MIN_COMPARED: u64 = 200;
+
 impl EngineStats {
+    /// The location tags whose fixes, compared with the tracks in view at least
+    /// [`FAR_TAG_MIN_COMPARED`] times, were near none of them in 99 % of the comparisons: most
+    /// likely a frame, unit or clock problem (the tag's positions are not in the cameras' world
+    /// frame, or not in metres), or a wearer never in view. With the share near.
+    pub fn tags_far_from_skeletons(&self) -> impl Iterator<Item = (&DeviceId, f64)> {
+        self.tag_fixes_near
+            .iter()
+            .filter(|(_, c)| c.num_compared >= FAR_TAG_MIN_COMPARED)
+            .map(|(tag, c)| (tag, c.num_near as f64 / c.num_compared as f64))
+            .filter(|(_, share)| *share < 0.01)
+    }
+
     /// The IMUs whose filter started from a specific force outside
     /// [`PLAUSIBLE_START_GRAVITY_MPS2`], with it: their accelerations are most likely not in
     /// m/s², and their evidence is wrong.

@@ -662,3 +662,36 @@ fn fixes_of_a_2d_location_system_at_z_0_name_their_wearers() {
     .unwrap();
     assert!(stats.planar_tags.is_empty());
 }
+
+#[test]
+fn fixes_in_another_frame_are_reported_as_never_near_a_skeleton() {
+    // The location system's frame is 10 m off the cameras' world frame: every fix lies far from
+    // every skeleton, the run names nobody, and the stats say which tags were never near.
+    let walkers = three_walkers();
+    let mut msgs = recording(&walkers, 20.0);
+    for m in &mut msgs {
+        if let Message::RtlsFix(f) = m {
+            f.position_m.x += 10.0;
+        }
+    }
+    let (_, stats) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    let far: Vec<&str> = stats
+        .tags_far_from_skeletons()
+        .map(|(tag, _)| tag.as_str())
+        .collect();
+    assert_eq!(far, ["ana_tag", "ben_tag"], "{stats:?}");
+    // In the cameras' frame, neither is.
+    let (_, stats) = run_batch(
+        &registry(&walkers),
+        &recording(&walkers, 20.0),
+        &EngineConfig::default(),
+    )
+    .unwrap();
+    assert_eq!(stats.tags_far_from_skeletons().count(), 0, "{stats:?}");
+    assert!(
+        stats
+            .tag_fixes_near
+            .values()
+            .all(|c| c.num_compared >= nomen_engine::FAR_TAG_MIN_COMPARED)
+    );
+}

@@ -887,6 +887,15 @@ pub fn run_file(
     if num_rssi_ignored > 0 {
         summary.push_str(&format!("\n  warning: {}", rssi_ignored(num_rssi_ignored)));
     }
+    for (tag, share) in engine.stats().tags_far_from_skeletons() {
+        summary.push_str(&format!(
+            "\n  warning: tag {tag}: its fixes were near a skeleton in {:.1} % of the times they \
+             were compared with the tracks in view: are they in the cameras' world frame, in \
+             metres, on the session clock (nomen calibrate frames; the registry's clock), and is \
+             its wearer ever in view?",
+            100.0 * share
+        ));
+    }
     for tag in &engine.stats().planar_tags {
         summary.push_str(&format!(
             "\n  tag {tag}: its fixes are 2D (every one at the same height), compared with the \

@@ -8,11 +8,11 @@ use super::{
 };
 use crate::config::MotionScore;
 use crate::signal::imu_window_on_grid;
-use crate::stats::HeadingEstimate;
+use crate::stats::{HeadingEstimate, TagNearCount};
 use crate::tags::{MAX_PAIR_DT_NS, TagState, fix_informativeness, fix_similarity};
 use nalgebra::{Point3, Vector3};
 use nomen_core::skeleton::Joints;
-use nomen_core::{Joint, TrackId};
+use nomen_core::{DeviceId, Joint, TrackId};
 use nomen_evidence::belmonte::skeleton_yaw_rate_unsmoothed_radps;
 use nomen_evidence::signal::grid_rate_hz;
 use nomen_evidence::{
@@ -156,6 +156,7 @@ impl Engine {
                     end,
                     self.config.joint_noise_std_m,
                     self.subjects.len(),
+                    &mut self.stats.tag_fixes_near,
                 )
             };
             for (row, key) in keys.iter().enumerate() {
@@ -834,6 +835,10 @@ fn is_scored(tr: &TrackState, start: i64, end: i64, min_samples: usize, min_span
 /// tracks apart ([`fix_informativeness`]), and the window's weight the mean of those weights;
 /// over several tags, the means of both. `None` for a subject without a tag, or a track with
 /// fewer than [`MIN_TAG_PAIRS`] fixes paired with it in the window.
+///
+/// Counts, per tag, the fixes compared with at least one track and those among them near one
+/// (similarity at least [`NEAR_SIMILARITY`]) in `near` (a fix is counted in every window and
+/// camera it is compared in).
 pub(super) fn tag_window_scores(
     tags: &[TagState],
     tracks: &[Option<&TrackState>],
@@ -841,6 +846,7 @@ pub(super) fn tag_window_scores(
     end: i64,
     joint_sigma_m: f64,
     num_subjects: usize,
+    near: &mut BTreeMap<DeviceId, TagNearCount>,
 ) -> Vec<Vec<Option<(f64, f64)>>> {
     // Per row and subject: sums of scores and weights over tags, and the number of tags.
     let mut sums = vec![vec![(0.0, 0.0, 0usize); num_subjects]; tracks.len()];
@@ -857,6 +863,16 @@ pub(super) fn tag_window_scores(
                     .map(|(joint, extra_m)| {
                         fix_similarity(fix, &joint, joint_sigma_m.hypot(extra_m))
                     });
+            }
+            let best = similarity
+                .iter()
+                .flatten()
+                .copied()
+                .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
+            if let Some(best) = best {
+                let count = near.entry(tag.device.clone()).or_default();
+                count.num_compared += 1;
+                count.num_near += u64::from(best >= NEAR_SIMILARITY);
             }
             let weight = fix_informativeness(similarity.iter().flatten().copied());
             for (acc, sim) in per_row.iter_mut().zip(&similarity) {
@@ -887,6 +903,9 @@ pub(super) fn tag_window_scores(
         })
         .collect()
 }
+
+/// A fix at least this similar to a track's key joint is near it (about 2.5 σ away).
+pub(super) const NEAR_SIMILARITY: f64 = 0.05;
 
 /// Fewest fixes paired with a track in a window for a tag score (0.3 s of fixes at 10 Hz).
 pub(super) const MIN_TAG_PAIRS: usize = 3;
