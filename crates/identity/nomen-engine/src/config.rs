@@ -179,9 +179,8 @@ pub struct EngineConfig {
     /// benchmark's validation split). It is also the floor of the time to a correct name: with
     /// `scenarios/families/sweep.sh decision_delay_s 0.5 1 1.5 -- --count 4`, the median time
     /// from an appearance to its first correct name (`id all`) is 0.8–1.4 s at 0.5 s, 1.3–1.5 s
-    /// at 1 s and 1.7–1.9 s at 1.5 s, while frames correct fall by 0.1–0.4 points (UWB tags,
-    /// leave-and-return) to 2–5 points (one wrist among 8 to 60 people, same-motion crowds) at
-    /// 0.5 s and by 0.1–2 points at 1 s.
+    /// at 1 s and 1.7–1.9 s at 1.5 s, while frames correct fall by 0.3 points (UWB tags) and
+    /// 1.5–4.7 points (every family with IMUs) at 0.5 s, and by 0.1–2.2 points at 1 s.
     pub decision_delay_s: f64,
     /// A session's warm-up, s: an observation within `warmup_s` of the session's first skeleton is
     /// labelled with the decision of the first window ending at or after
