@@ -105,6 +105,7 @@ long nomen experiment ghosting
 long nomen experiment crosswalk
 long nomen experiment triangulation
 long nomen experiment occlusion --out out/occ
+long nomen experiment faults --plots out/faults
 
 # Train De Marchi's CNN on simulated scenes.
 long nomen simulate scenarios/train/train_mixed_5.toml --out out/train/train_mixed_5 --seed 101

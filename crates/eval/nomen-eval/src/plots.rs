@@ -189,6 +189,127 @@ pub fn render_plots(report: &EvalReport, config: &PlotConfig) -> Result<Vec<Rend
     Ok(plots)
 }
 
+/// One line of a [`CurvePanel`]: a name for the legend and its points `(x, y)`, in x order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Curve {
+    /// Legend entry.
+    pub name: String,
+    /// The points, `(x, y)`.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// One panel of [`render_curves`]: a y axis and the curves drawn against it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CurvePanel {
+    /// Description of the y axis.
+    pub y_desc: String,
+    /// The curves.
+    pub curves: Vec<Curve>,
+}
+
+/// Colours of the curves of a panel, in order (matplotlib's first four).
+const CURVE_COLOURS: [RGBColor; 4] = [CORRECTED, RAW, CORRECT, WRONG];
+
+/// Draws `panels` one above the other, sharing the x axis `x_desc`, under `caption`: a metric
+/// against the level of something (a fault, a noise), one line with dots per curve. Each y axis
+/// runs from 0 to its largest value (at least 1e-3) with 5 % head room; from just below its
+/// smallest value when that is above half the largest (accuracies near 100 %).
+///
+/// # Errors
+/// [`EvalError::Plot`] if drawing or encoding fails.
+pub fn render_curves(
+    file_name: &str,
+    caption: &str,
+    x_desc: &str,
+    panels: &[CurvePanel],
+    config: &PlotConfig,
+) -> Result<RenderedPlot> {
+    let has_text = register_font(&config.font_paths);
+    let num_panels = panels.len().max(1) as u32;
+    let (w, h) = (
+        config.width_px.max(200),
+        config.height_px.max(150).max(220 * num_panels),
+    );
+    let png = render(file_name, w, h, |root| {
+        let (top, body) = root.split_vertically(if has_text { 40 } else { 5 });
+        if has_text {
+            top.draw(&Text::new(caption.to_owned(), (10, 10), text(22)))
+                .map_err(err)?;
+        }
+        let areas = body.split_evenly((panels.len().max(1), 1));
+        let points = panels
+            .iter()
+            .flat_map(|p| &p.curves)
+            .flat_map(|c| &c.points);
+        let (x0, x1) = points.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (x, _)| {
+            (lo.min(*x), hi.max(*x))
+        });
+        let (x0, x1) = if x0.is_finite() && x1 > x0 {
+            (x0, x1)
+        } else if x0.is_finite() {
+            (x0 - 1.0, x0 + 1.0)
+        } else {
+            (0.0, 1.0)
+        };
+        let pad = 0.03 * (x1 - x0);
+        for (panel, area) in panels.iter().zip(&areas) {
+            let ys = || {
+                panel
+                    .curves
+                    .iter()
+                    .flat_map(|c| &c.points)
+                    .map(|(_, y)| *y)
+                    .filter(|y| y.is_finite())
+            };
+            let y_max = ys().fold(1e-3, f64::max);
+            let y_min = ys().fold(f64::INFINITY, f64::min);
+            let y_lo = if y_min >= 0.5 * y_max {
+                (y_min - 0.1 * (y_max - y_min) - 0.01 * y_max).max(0.0)
+            } else {
+                0.0
+            };
+            let (area, legend) = area.split_vertically(area.dim_in_pixel().1 as i32 - 24);
+            let mut chart = xy_chart(
+                &area,
+                "",
+                (
+                    (x0 - pad)..(x1 + pad),
+                    y_lo..(y_max + 0.05 * (y_max - y_lo)),
+                ),
+                (x_desc, &panel.y_desc),
+                has_text,
+            )?;
+            let mut entries = Vec::new();
+            for (curve, colour) in panel.curves.iter().zip(CURVE_COLOURS.iter().cycle()) {
+                let finite: Vec<(f64, f64)> = curve
+                    .points
+                    .iter()
+                    .copied()
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .collect();
+                chart
+                    .draw_series(LineSeries::new(
+                        finite.iter().copied(),
+                        colour.stroke_width(2),
+                    ))
+                    .map_err(err)?;
+                chart
+                    .draw_series(finite.iter().map(|&p| Circle::new(p, 4, colour.filled())))
+                    .map_err(err)?;
+                entries.push((curve.name.as_str(), *colour));
+            }
+            if has_text {
+                draw_legend(&legend, &entries, 70, 4)?;
+            }
+        }
+        Ok(())
+    })?;
+    Ok(RenderedPlot {
+        file_name: file_name.to_owned(),
+        png,
+    })
+}
+
 /// [`render_plots`], then writes every plot into `dir` (created if missing). Returns the paths
 /// written.
 ///
@@ -421,7 +542,7 @@ fn xy_chart<'a, 'b>(
         .margin_right(30)
         .set_label_area_size(LabelAreaPosition::Left, if has_text { 60 } else { 10 })
         .set_label_area_size(LabelAreaPosition::Bottom, if has_text { 40 } else { 10 });
-    if has_text {
+    if has_text && !caption.is_empty() {
         builder.caption(caption, text(22));
     }
     let mut chart = builder

@@ -125,3 +125,46 @@ fn plots_are_written_as_png_files() {
         write_plots(&report, std::path::Path::new(&keep), &PlotConfig::default()).unwrap();
     }
 }
+
+#[test]
+fn curves_against_a_level_are_a_png_of_the_configured_size() {
+    use nomen_eval::plots::{Curve, CurvePanel, render_curves};
+    let curve = |name: &str, ys: &[f64]| Curve {
+        name: name.into(),
+        points: ys
+            .iter()
+            .enumerate()
+            .map(|(i, y)| (10.0 * i as f64, *y))
+            .collect(),
+    };
+    let panels = [
+        CurvePanel {
+            y_desc: "frames correct (%)".into(),
+            curves: vec![
+                curve("random", &[99.0, 98.0, 90.0]),
+                curve("bursty", &[99.0, 97.0, 80.0]),
+            ],
+        },
+        // A panel of zeros and one with a non-finite point still draw.
+        CurvePanel {
+            y_desc: "wrong name (%)".into(),
+            curves: vec![
+                curve("random", &[0.0, 0.0, 0.0]),
+                curve("bursty", &[0.1, f64::NAN, 2.0]),
+            ],
+        },
+    ];
+    let config = PlotConfig::default();
+    let plot = render_curves("imu_loss.png", "IMU loss", "loss (%)", &panels, &config).unwrap();
+    assert_eq!(plot.file_name, "imu_loss.png");
+    assert_eq!(plot.png[..8], PNG_SIGNATURE);
+    // Width and height sit in the IHDR chunk, right after the signature and chunk header.
+    let be = |b: &[u8]| u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+    assert_eq!(be(&plot.png[16..20]), config.width_px);
+    assert_eq!(be(&plot.png[20..24]), config.height_px);
+    let empty = render_curves("none.png", "nothing", "level", &[], &config).unwrap();
+    assert_eq!(empty.png[..8], PNG_SIGNATURE);
+    if let Ok(keep) = std::env::var("NOMEN_EVAL_KEEP_PLOTS") {
+        std::fs::write(std::path::Path::new(&keep).join(&plot.file_name), &plot.png).unwrap();
+    }
+}

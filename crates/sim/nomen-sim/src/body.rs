@@ -54,6 +54,87 @@ pub trait BodyMotion: Send + Sync {
     }
 }
 
+/// What carries a worn device when it changes hands: one body until `at_s`, another motion from
+/// then on (another person, or [`LyingStill`] for a device put down). Sensors sampling it feel
+/// the change as a short shock at `at_s`, as a device taken off does.
+pub struct Handover<'a> {
+    /// The carrier until `at_s`.
+    pub before: &'a dyn BodyMotion,
+    /// The carrier from `at_s` on.
+    pub after: &'a dyn BodyMotion,
+    /// Session time of the change, s.
+    pub at_s: f64,
+}
+
+impl Handover<'_> {
+    fn carrier(&self, t_s: f64) -> &dyn BodyMotion {
+        if t_s < self.at_s {
+            self.before
+        } else {
+            self.after
+        }
+    }
+}
+
+impl BodyMotion for Handover<'_> {
+    fn span_s(&self) -> (f64, f64) {
+        (self.before.span_s().0, self.after.span_s().1)
+    }
+
+    fn is_present_at(&self, t_s: f64) -> bool {
+        self.carrier(t_s).is_present_at(t_s)
+    }
+
+    fn pose_at(&self, t_s: f64) -> BodyPose {
+        self.carrier(t_s).pose_at(t_s)
+    }
+
+    fn joint_at(&self, t_s: f64, joint: Joint) -> JointPose {
+        self.carrier(t_s).joint_at(t_s, joint)
+    }
+
+    fn joint_pair_at(&self, t_s: f64, a: Joint, b: Joint) -> (JointPose, JointPose) {
+        self.carrier(t_s).joint_pair_at(t_s, a, b)
+    }
+}
+
+/// A device lying still (on a table, a shelf): every joint at `position_m`, unrotated, over
+/// `span_s`. An IMU on it feels gravity alone.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LyingStill {
+    /// Where it lies, world frame, m.
+    pub position_m: Point3<f64>,
+    /// When, session s.
+    pub span_s: (f64, f64),
+}
+
+impl BodyMotion for LyingStill {
+    fn span_s(&self) -> (f64, f64) {
+        self.span_s
+    }
+
+    fn pose_at(&self, _t_s: f64) -> BodyPose {
+        let mut pose = BodyPose::new();
+        for j in Joint::ALL {
+            pose.insert(
+                j,
+                JointPose {
+                    position_m: self.position_m,
+                    world_from_joint: UnitQuaternion::identity(),
+                },
+            );
+        }
+        pose
+    }
+
+    fn joint_at(&self, _t_s: f64, _joint: Joint) -> JointPose {
+        JointPose {
+            position_m: self.position_m,
+            world_from_joint: UnitQuaternion::identity(),
+        }
+    }
+}
+
 /// Where and how a sensor is fixed to the body.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Mount {

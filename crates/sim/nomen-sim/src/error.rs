@@ -27,6 +27,9 @@ pub enum SimError {
         /// camera seeing every person.
         max_duration_s: f64,
     },
+    /// A fault to inject has a level out of its range; the message names the field.
+    #[error("invalid fault: {0}")]
+    InvalidFault(String),
     /// A motion-capture clip could not be used.
     #[error("motion capture: {0}")]
     Mocap(#[from] nomen_mocap::MocapError),

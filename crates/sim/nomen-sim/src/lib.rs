@@ -7,6 +7,8 @@
 //!   whole-body pose at any time; sensors sample it where they are mounted.
 //! - [`family`]: scene families, randomized scenarios drawn from one definition (the held-out
 //!   benchmark's scenes).
+//! - [`faults`]: sensor faults injected into a scene's messages (lost samples, a dark camera,
+//!   wrong clocks, UWB outliers, duplicated and late messages), for `nomen experiment faults`.
 //! - [`rng`]: seeded, named random streams, so that adding a device does not change the noise of
 //!   the others.
 
@@ -15,6 +17,7 @@ pub mod camera;
 pub mod clips;
 mod error;
 pub mod family;
+pub mod faults;
 pub mod geometry;
 pub mod motion;
 pub mod rng;

@@ -183,6 +183,39 @@ pub struct WearDef {
     /// registry does not say which wrist a watch is on. The device is simulated at `site`.
     #[serde(default)]
     pub either_side: bool,
+    /// What happens to the device during the scene; omit when it stays where it is worn.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub change: Option<WearChange>,
+}
+
+/// A worn device changing hands mid-scene. The registry still says whose it is; the truth says
+/// who wears it when ([`Scenario::subject_of_person_at`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum WearChange {
+    /// At `at_s` the device is put on another person, at the same body site.
+    MovedTo {
+        /// The person who wears it from `at_s` on.
+        person: String,
+        /// Session time of the change, s.
+        at_s: f64,
+    },
+    /// At `at_s` the device is taken off and left lying still at `position_m` (on a table).
+    LeftAt {
+        /// Where it lies, world frame, m.
+        position_m: [f64; 3],
+        /// Session time of the change, s.
+        at_s: f64,
+    },
+}
+
+impl WearChange {
+    /// Session time of the change, s.
+    pub fn at_s(&self) -> f64 {
+        match self {
+            WearChange::MovedTo { at_s, .. } | WearChange::LeftAt { at_s, .. } => *at_s,
+        }
+    }
 }
 
 impl Scenario {
@@ -203,6 +236,59 @@ impl Scenario {
         let mut lib = crate::clips::builtin_clips();
         lib.extend(self.clips.clone());
         lib
+    }
+
+    /// Who wears `device` at `t_s`: its first wearer until a [`WearChange`], then the person it
+    /// moved to, or nobody once it lies still. `None` also for a device no one wears.
+    pub fn wearer_at(&self, device: &str, t_s: f64) -> Option<&str> {
+        let (p, w) = self
+            .people
+            .iter()
+            .find_map(|p| p.wears.iter().find(|w| w.device == device).map(|w| (p, w)))?;
+        match &w.change {
+            Some(change) if t_s >= change.at_s() => match change {
+                WearChange::MovedTo { person, .. } => Some(person.as_str()),
+                WearChange::LeftAt { .. } => None,
+            },
+            _ => Some(p.id.as_str()),
+        }
+    }
+
+    /// The subject person `person` is at `t_s`, as the truth of a scene says: their own while they
+    /// wear one of their own devices (or have none to wear); else the subject of another person
+    /// whose device they wear, once that person wears none of their own; else nobody (`None`:
+    /// they should stay anonymous).
+    pub fn subject_of_person_at(&self, person: &str, t_s: f64) -> Option<&str> {
+        let keeps_own = |p: &PersonDef| {
+            p.wears.is_empty()
+                || p.wears
+                    .iter()
+                    .any(|w| self.wearer_at(&w.device, t_s) == Some(p.id.as_str()))
+        };
+        let p = self.people.iter().find(|p| p.id == person)?;
+        if let Some(own) = &p.subject
+            && keeps_own(p)
+        {
+            return Some(own.as_str());
+        }
+        self.people.iter().find_map(|q| {
+            let wears_theirs = q.id != person
+                && q.wears
+                    .iter()
+                    .any(|w| self.wearer_at(&w.device, t_s) == Some(person));
+            if wears_theirs && !keeps_own(q) {
+                q.subject.as_deref()
+            } else {
+                None
+            }
+        })
+    }
+
+    /// Whether some device changes hands during the scene.
+    pub fn has_wear_changes(&self) -> bool {
+        self.people
+            .iter()
+            .any(|p| p.wears.iter().any(|w| w.change.is_some()))
     }
 
     /// Checks ids, ranges and references; errors name the offending field.
@@ -262,6 +348,33 @@ impl Scenario {
                 }
             }
             for w in &p.wears {
+                if let Some(change) = &w.change {
+                    let at_s = change.at_s();
+                    if !(at_s.is_finite() && at_s > 0.0 && at_s < self.duration_s) {
+                        return bad(format!(
+                            "device '{}': change.at_s must be in (0, duration_s), got {at_s}",
+                            w.device
+                        ));
+                    }
+                    match change {
+                        WearChange::MovedTo { person, .. } => {
+                            if person == &p.id || !self.people.iter().any(|q| &q.id == person) {
+                                return bad(format!(
+                                    "device '{}': change.person '{person}' must be another person of the scene",
+                                    w.device
+                                ));
+                            }
+                        }
+                        WearChange::LeftAt { position_m, .. } => {
+                            if position_m.iter().any(|v| !v.is_finite()) {
+                                return bad(format!(
+                                    "device '{}': change.position_m must be finite",
+                                    w.device
+                                ));
+                            }
+                        }
+                    }
+                }
                 if !devices.insert(w.device.as_str()) {
                     return bad(format!("device '{}' is worn twice", w.device));
                 }

@@ -1,6 +1,6 @@
 //! Running a scenario: people, cameras and wearables over the scene's duration, with ground truth.
 
-use crate::body::{BodyMotion, Mount};
+use crate::body::{BodyMotion, Handover, LyingStill, Mount};
 use crate::camera::{CameraModel, PersonInScene, is_limb};
 use crate::clips::ClipDef;
 use crate::error::{Result, SimError};
@@ -11,7 +11,7 @@ use crate::motion::{
     AvoidingMotion, ClipUse, PersonMotion, WhenAbsent, is_in_spans, plan_avoidance,
 };
 use crate::rng::stream;
-use crate::scenario::{Scenario, WearDef};
+use crate::scenario::{Scenario, WearChange, WearDef};
 use crate::sensors::DeviceDraw;
 use crate::sensors::imu::simulate_imu;
 use crate::sensors::rssi::simulate_rssi;
@@ -288,28 +288,30 @@ pub fn simulate(
     let anchors = registry.anchors.clone();
     let antennas = registry.antennas.clone();
     let radii = BodyRadii::default();
-    let blocking = |t_s: f64, tag_position: Point3<f64>, antenna: &Point3<f64>, wearer: usize| {
-        let bodies: Vec<BodyCapsules> = motions
-            .iter()
-            .zip(&spans)
-            .map(|(m, span)| match span {
-                Some((a, b)) if (*a..=*b).contains(&t_s) && m.is_present_at(t_s) => {
-                    BodyCapsules::from_pose(&m.pose_at(t_s), &radii)
-                }
-                // Someone not in the room blocks nothing: a capsule far below the floor.
-                _ => BodyCapsules::from_pose(&far_away_pose(), &radii),
-            })
-            .collect();
-        count_blocking_bodies(&bodies, &tag_position, antenna, Some(wearer))
-    };
-    // Whether the line from a tag worn at `site` by person `wearer` to an anchor is blocked: by
-    // an obstacle, another person in the room, or the wearer's own trunk for a tag on a limb
-    // (the camera's coarse self-occlusion).
-    let line_is_blocked = |t_s: f64, site: Joint, wearer: usize, anchor: &Point3<f64>| {
-        let Some(motion) = motions.get(wearer) else {
-            return false;
+    let blocking =
+        |t_s: f64, tag_position: Point3<f64>, antenna: &Point3<f64>, wearer: Option<usize>| {
+            let bodies: Vec<BodyCapsules> = motions
+                .iter()
+                .zip(&spans)
+                .map(|(m, span)| match span {
+                    Some((a, b)) if (*a..=*b).contains(&t_s) && m.is_present_at(t_s) => {
+                        BodyCapsules::from_pose(&m.pose_at(t_s), &radii)
+                    }
+                    // Someone not in the room blocks nothing: a capsule far below the floor.
+                    _ => BodyCapsules::from_pose(&far_away_pose(), &radii),
+                })
+                .collect();
+            count_blocking_bodies(&bodies, &tag_position, antenna, wearer)
         };
-        let tag = motion.joint_at(t_s, site).position_m;
+    // Whether the line from a tag at `site` of `carrier`, worn by person `wearer` (or by nobody),
+    // to an anchor is blocked: by an obstacle, another person in the room, or the wearer's own
+    // trunk for a tag on a limb (the camera's coarse self-occlusion).
+    let line_is_blocked = |t_s: f64,
+                           carrier: &dyn BodyMotion,
+                           site: Joint,
+                           wearer: Option<usize>,
+                           anchor: &Point3<f64>| {
+        let tag = carrier.joint_at(t_s, site).position_m;
         if obstacles_block_segment(&scenario.room.obstacles, &tag, anchor) {
             return true;
         }
@@ -324,7 +326,7 @@ pub fn simulate(
                     return false;
                 }
                 let body = BodyCapsules::from_pose(&m.pose_at(t_s), &radii);
-                if k == wearer {
+                if Some(k) == wearer {
                     is_limb(site)
                         && [Joint::Chest, Joint::Neck].iter().any(|b| {
                             body.bone(*b)
@@ -343,11 +345,24 @@ pub fn simulate(
         .sum::<usize>()
         .max(1);
     let mut done = 0usize;
-    for (pi, (p, motion)) in scenario.people.iter().zip(&motions).enumerate() {
-        let Some(span) = spans[pi] else { continue };
-        let absent = &p.motion.absent_s;
-        let is_silent_when_absent = p.motion.wearables_when_absent == WhenAbsent::Silent;
+    for (pi, p) in scenario.people.iter().enumerate() {
+        let Some(own_span) = spans[pi] else { continue };
         for w in &p.wears {
+            // What carries the device: its wearer, and after a change another person or a table.
+            let carried = Carried::new(scenario, pi, w, &motions, &spans, own_span)?;
+            let motion: &dyn BodyMotion = &carried.handover();
+            let span = carried.span_s;
+            let wearer_at = |t_s: f64| carried.wearer_at(t_s);
+            // The spans during which the device is away with its wearer (silent or out of
+            // coverage), as the wearer at each instant says.
+            let is_away = |t_s: f64, only_if_silent: bool| {
+                wearer_at(t_s).is_some_and(|k| {
+                    scenario.people.get(k).is_some_and(|q| {
+                        (!only_if_silent || q.motion.wearables_when_absent == WhenAbsent::Silent)
+                            && is_in_spans(&q.motion.absent_s, t_s)
+                    })
+                })
+            };
             let device = DeviceId::new(w.device.clone());
             let draw = device_draw(scenario, w, seed);
             let mut dt = DeviceTruth {
@@ -379,11 +394,11 @@ pub fn simulate(
                     let mount = Mount::at(w.site, UnitQuaternion::identity());
                     let config = scenario.sensors.imu.for_device(&draw);
                     let mut run = simulate_imu(motion, &device, &mount, span, &config, &mut rng)?;
-                    if is_silent_when_absent && !absent.is_empty() {
+                    if carried.may_be_away {
                         // Stamps are device time; the true clock says when each was taken.
                         let clock = run.truth.clock;
                         run.samples.retain(|sample| {
-                            !is_in_spans(absent, clock.to_session_s(sample.t.as_secs_f64()))
+                            !is_away(clock.to_session_s(sample.t.as_secs_f64()), true)
                         });
                     }
                     let q = run.truth.mount.segment_from_sensor.quaternion();
@@ -402,9 +417,9 @@ pub fn simulate(
                     let mut rng = stream(seed, &format!("rtls/{}", w.device));
                     let config = scenario.sensors.rtls.for_device(&draw);
                     let is_blocked = |t_s: f64, i: usize| {
-                        anchors
-                            .get(i)
-                            .is_some_and(|a| line_is_blocked(t_s, w.site, pi, &a.position_m))
+                        anchors.get(i).is_some_and(|a| {
+                            line_is_blocked(t_s, motion, w.site, wearer_at(t_s), &a.position_m)
+                        })
                     };
                     let mut blocked_rng = stream(seed, &format!("rtls/{}/blocked", w.device));
                     let blocked = config.blocked_nlos_probability.map(|_| BlockedLines {
@@ -415,7 +430,7 @@ pub fn simulate(
                     let mut run = simulate_rtls_blocked(
                         motion, w.site, &device, span, &config, &mut rng, blocked,
                     )?;
-                    if !absent.is_empty() {
+                    if carried.may_be_away {
                         // Away, the tag is out of the anchors' coverage: no fix describes an
                         // instant of absence.
                         let (fixes, truths) = run
@@ -423,7 +438,7 @@ pub fn simulate(
                             .into_iter()
                             .zip(run.truth)
                             .filter(|(fix, _)| {
-                                !is_in_spans(absent, fix.t.as_secs_f64() - config.latency_s)
+                                !is_away(fix.t.as_secs_f64() - config.latency_s, false)
                             })
                             .unzip();
                         (run.fixes, run.truth) = (fixes, truths);
@@ -445,9 +460,8 @@ pub fn simulate(
                         let mut run = simulate_uwb_ranges_blocked(
                             motion, w.site, &device, &anchors, span, &cfg, &mut rng, blocked,
                         )?;
-                        if !absent.is_empty() {
-                            run.ranges
-                                .retain(|r| !is_in_spans(absent, r.t.as_secs_f64()));
+                        if carried.may_be_away {
+                            run.ranges.retain(|r| !is_away(r.t.as_secs_f64(), false));
                         }
                         dt.num_messages += run.ranges.len();
                         recording.extend(run.ranges.into_iter().map(Message::UwbRange));
@@ -460,16 +474,15 @@ pub fn simulate(
                         let tag = motion.joint_at(t_s, site).position_m;
                         antennas
                             .get(antenna)
-                            .map_or(0, |a| blocking(t_s, tag, &a.position_m, pi))
+                            .map_or(0, |a| blocking(t_s, tag, &a.position_m, wearer_at(t_s)))
                     };
                     let config = scenario.sensors.rssi.for_device(&draw);
                     let mut run = simulate_rssi(
                         motion, w.site, &device, &antennas, span, &count, &config, &mut rng,
                     )?;
-                    if !absent.is_empty() {
+                    if carried.may_be_away {
                         // Away, the tag is out of the antennas' range.
-                        run.reads
-                            .retain(|r| !is_in_spans(absent, r.t.as_secs_f64()));
+                        run.reads.retain(|r| !is_away(r.t.as_secs_f64(), false));
                     }
                     dt.num_messages = run.reads.len();
                     dt.num_lost = run.num_missed;
@@ -480,6 +493,17 @@ pub fn simulate(
             held.check(scenario, &recording, &truth)?;
             done += 1;
             progress("wearables", done as f64 / num_wear as f64);
+        }
+    }
+
+    if scenario.has_wear_changes() {
+        // Who is whom follows the devices: the truth of every frame after a change says so.
+        for m in &mut truth {
+            if let Message::TruthSkeleton(ts) = m {
+                ts.subject = scenario
+                    .subject_of_person_at(&ts.person, ts.t.as_secs_f64())
+                    .map(SubjectId::new);
+            }
         }
     }
 
@@ -504,6 +528,114 @@ pub fn simulate(
         obstacles_obj: obstacles_to_obj(&scenario.room.obstacles),
         scene,
     })
+}
+
+/// What carries one worn device over the scene: its wearer, then, after a [`WearChange`],
+/// another person or a table.
+struct Carried<'m> {
+    /// Index of the first wearer.
+    wearer: usize,
+    /// The change, with the new wearer's index for a move.
+    change: Option<(f64, Option<usize>)>,
+    before: &'m dyn BodyMotion,
+    after: Option<&'m dyn BodyMotion>,
+    still: Option<LyingStill>,
+    /// Span over which the device sends, session s.
+    span_s: (f64, f64),
+    /// Whether some wearer of the device leaves the room at times.
+    may_be_away: bool,
+}
+
+impl<'m> Carried<'m> {
+    fn new<M: BodyMotion>(
+        scenario: &Scenario,
+        wearer: usize,
+        w: &WearDef,
+        motions: &'m [M],
+        spans: &[Option<(f64, f64)>],
+        own_span: (f64, f64),
+    ) -> Result<Self> {
+        let Some(before) = motions.get(wearer) else {
+            return Err(SimError::InvalidScenario(format!(
+                "device '{}': its wearer has no motion",
+                w.device
+            )));
+        };
+        let is_away_at_times = |k: usize| {
+            scenario
+                .people
+                .get(k)
+                .is_some_and(|p| !p.motion.absent_s.is_empty())
+        };
+        let mut carried = Self {
+            wearer,
+            change: None,
+            before,
+            after: None,
+            still: None,
+            span_s: own_span,
+            may_be_away: is_away_at_times(wearer),
+        };
+        match &w.change {
+            None => {}
+            Some(WearChange::MovedTo { person, at_s }) => {
+                let target = scenario
+                    .people
+                    .iter()
+                    .position(|q| &q.id == person)
+                    .and_then(|k| Some((k, motions.get(k)?)));
+                let Some((k, motion)) = target else {
+                    return Err(SimError::InvalidScenario(format!(
+                        "device '{}': change.person '{person}' is not in the scene",
+                        w.device
+                    )));
+                };
+                carried.change = Some((*at_s, Some(k)));
+                carried.after = Some(motion as &dyn BodyMotion);
+                let end_s = spans.get(k).copied().flatten().map_or(own_span.1, |s| s.1);
+                carried.span_s = (own_span.0, end_s.max(*at_s));
+                carried.may_be_away |= is_away_at_times(k);
+            }
+            Some(WearChange::LeftAt { position_m, at_s }) => {
+                carried.change = Some((*at_s, None));
+                carried.span_s = (own_span.0, scenario.duration_s);
+                carried.still = Some(LyingStill {
+                    position_m: Point3::from(*position_m),
+                    span_s: (*at_s, scenario.duration_s),
+                });
+            }
+        }
+        Ok(carried)
+    }
+
+    /// The carrier's motion over the whole span.
+    fn handover(&self) -> Handover<'_> {
+        match (self.change, self.after, &self.still) {
+            (Some((at_s, _)), Some(after), _) => Handover {
+                before: self.before,
+                after,
+                at_s,
+            },
+            (Some((at_s, _)), None, Some(still)) => Handover {
+                before: self.before,
+                after: still,
+                at_s,
+            },
+            _ => Handover {
+                before: self.before,
+                after: self.before,
+                at_s: f64::INFINITY,
+            },
+        }
+    }
+
+    /// Index of the person wearing the device at `t_s` (`None`: it lies on a table).
+    fn wearer_at(&self, t_s: f64) -> Option<usize> {
+        match self.change {
+            Some((at_s, then)) if t_s >= at_s => then,
+            _ => Some(self.wearer),
+        }
+    }
 }
 
 /// The most memory the messages of one simulated scene may take, bytes: 2 GiB, what the

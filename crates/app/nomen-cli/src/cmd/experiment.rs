@@ -36,6 +36,11 @@ pub enum ExperimentCommand {
     /// 1, 2, 4 px, motion capture projected into virtual cameras with missed joints and false
     /// detections.
     Triangulation(super::triangulate::TriangulationExperimentArgs),
+    /// Identification under sensor faults, each alone at several levels: IMU loss (random,
+    /// bursty), a camera dark, IMU clock offsets, drift and jumps, UWB outliers, duplicated and
+    /// late messages, a wearable moved to another person and one left on a table; frames
+    /// correct, wrong names and named people wearing nothing per level, with PNG plots.
+    Faults(super::faults::FaultsArgs),
 }
 
 /// Arguments of `nomen experiment belmonte`.
@@ -216,6 +221,7 @@ pub fn run(command: ExperimentCommand) -> Result<()> {
         ExperimentCommand::Belmonte(args) => belmonte_episodes(&args),
         ExperimentCommand::Crosswalk(args) => super::crosswalk::run(&args),
         ExperimentCommand::Triangulation(args) => super::triangulate::run_experiment(args),
+        ExperimentCommand::Faults(args) => super::faults::run(&args),
     }
 }
 

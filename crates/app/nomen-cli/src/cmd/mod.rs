@@ -12,6 +12,7 @@ pub mod eval;
 pub mod eval_identity;
 pub mod experiment;
 pub mod explain;
+pub mod faults;
 pub mod fit;
 pub mod ghosting;
 pub mod import;

@@ -46,20 +46,33 @@ pub fn simulate_scenario(
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<(Scenario, SimOutput, u64)> {
     let scenario = Scenario::from_toml(text, source)?;
+    let (sim, seed) = simulate_parsed(&scenario, source, seed, data, progress)?;
+    Ok((scenario, sim, seed))
+}
+
+/// [`simulate_scenario`] for a scenario already parsed (and perhaps changed by the caller):
+/// returns the output, sorted for writing, and the seed used.
+pub fn simulate_parsed(
+    scenario: &Scenario,
+    source: &str,
+    seed: Option<u64>,
+    data: Option<&Path>,
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<(SimOutput, u64)> {
     let data = crate::io::find_data(data)?;
     // Clip files stay inside the data folder (the scenario's own check refuses absolute paths
     // and `..`; this one also refuses symbolic links that lead out).
-    let clips = load_scenario_clips(&scenario, &mut |file| {
+    let clips = load_scenario_clips(scenario, &mut |file| {
         let path = crate::io::path_inside(&data, file, "clip file").map_err(|e| e.to_string())?;
         nomen_mocap::read_mocap_text(&path).map_err(|e| e.to_string())
     })
     .with_context(|| format!("loading the clips of {source}"))?;
     let seed = seed.unwrap_or(scenario.seed);
-    let mut sim = simulate(&scenario, &clips, seed, progress)
+    let mut sim = simulate(scenario, &clips, seed, progress)
         .with_context(|| format!("simulating {source}"))?;
     sort_for_writing(&mut sim.recording);
     sort_for_writing(&mut sim.truth);
-    Ok((scenario, sim, seed))
+    Ok((sim, seed))
 }
 
 /// Simulates a scenario (see [`simulate_scenario`]) and writes the output folder; returns a
