@@ -92,8 +92,6 @@ pub struct EngineStats {
     pub num_stitches_undone: u64,
     /// RSSI reads accepted.
     pub num_rssi_reads: u64,
-    /// RSSI reads ignored because the engine has no RSSI model.
-    pub num_rssi_without_model: u64,
     /// Location-tag fixes accepted.
     pub num_tag_fixes: u64,
     /// Tag fixes emitted corrected by their wearer's key joint.
