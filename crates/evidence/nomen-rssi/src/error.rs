@@ -79,9 +79,9 @@ pub enum RssiError {
     /// A numerical step failed (singular system, filter update).
     #[error("numerical failure: {0}")]
     Numerical(String),
-    /// A fit from `nomen-fit` failed.
-    #[error(transparent)]
-    Fit(#[from] nomen_fit::FitError),
+    /// A robust line fit (`nomen_filters::robust`) refused its input.
+    #[error("line fit: {0}")]
+    Fit(#[from] nomen_filters::FilterError),
 }
 
 /// `Result` with [`RssiError`].

@@ -13,8 +13,10 @@
 //! - [`kalman`] and [`bank`]: a constant-variation Kalman filter per (tag, antenna) stream;
 //! - [`likelihood`]: the log-likelihood of a person's position given a tag's filtered RSSI, in
 //!   the RSSI domain, with silence treated as a censored read, and `[0, 1]` scores against a
-//!   background hypothesis;
-//! - [`kolakowski`]: validation of the models on the Kolakowski BLE recordings.
+//!   background hypothesis.
+//!
+//! Validation on Kolakowski's BLE recordings lives with the data loaders
+//! (`nomen_fit::rssi_validation`): this crate reads no data set.
 //!
 //! Units are SI and dBm with the unit in the name; RSSI values are checked at ingest
 //! ([`read::checked_rssi_dbm`]: NaN and dBm×100 are rejected unless the unit is declared).
@@ -49,7 +51,6 @@ pub mod calibrate;
 mod error;
 pub mod fit;
 pub mod kalman;
-pub mod kolakowski;
 pub mod likelihood;
 pub mod model;
 pub mod read;

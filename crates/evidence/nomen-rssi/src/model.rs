@@ -199,6 +199,49 @@ pub struct RssiModel {
 }
 
 impl RssiModel {
+    /// The model for a site without calibration: Kolakowski's pooled BLE fit
+    /// (`docs/sensor-models.md`, "BLE RSSI (Kolakowski)" rows: P1 −47.0 dBm at 1 m, K 20.2 dB per
+    /// decade, shadowing σ 7.0 dB), the same for every antenna, omnidirectional (Kolakowski's
+    /// anchors are: the data say nothing about a boresight), the tag at its registry site. Its
+    /// background is the model's mean and spread over 1–10 m (a person somewhere in front of
+    /// the antenna), and its sensitivity is a BLE receiver's −100 dBm (datasheets), so that
+    /// silence counts only where the reads themselves show a weaker floor. A user of this
+    /// model refines it online (per-tag, per-antenna gains: the engine's RSSI evidence).
+    pub fn fitted_default(antennas: &[Antenna]) -> Self {
+        const P1_DBM: f64 = -47.0;
+        const K_DB_PER_DECADE: f64 = 20.2;
+        const SHADOWING_STD_DB: f64 = 7.0;
+        // Mean and spread of `P1 − K·log10 D` for D uniform in 1..10 m.
+        let levels: Vec<f64> = (0..=90)
+            .map(|i| P1_DBM - K_DB_PER_DECADE * (1.0 + 0.1 * f64::from(i)).log10())
+            .collect();
+        let n = levels.len() as f64;
+        let mean = levels.iter().sum::<f64>() / n;
+        let spread = (levels.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / n).sqrt();
+        let background_std_db = (spread * spread + SHADOWING_STD_DB * SHADOWING_STD_DB).sqrt();
+        RssiModel {
+            kind: ModelKind::Standard,
+            placement: TagPlacement::RegistrySite,
+            antennas: antennas
+                .iter()
+                .map(|a| AntennaModel {
+                    antenna: a.id.clone(),
+                    position_m: a.position_m,
+                    boresight: a.boresight,
+                    kind: ModelKind::Standard,
+                    p1_dbm: P1_DBM,
+                    k_db_per_decade: K_DB_PER_DECADE,
+                    k2_db_per_rad: 0.0,
+                    min_distance_m: 0.1,
+                    noise: NoiseModel::constant(SHADOWING_STD_DB),
+                    background_mean_dbm: mean,
+                    background_std_db,
+                    weakest_read_dbm: -100.0,
+                })
+                .collect(),
+        }
+    }
+
     /// The model of `antenna`, with its index.
     pub fn antenna(&self, antenna: &AntennaId) -> Option<(usize, &AntennaModel)> {
         self.antennas
@@ -369,6 +412,23 @@ pub(crate) mod tests {
             .err()
             .map(|e| e.to_string());
         assert!(err.is_some_and(|e| e.contains("m.json")));
+    }
+
+    #[test]
+    fn the_fitted_default_validates_and_falls_twenty_db_per_decade() {
+        let antennas = [Antenna {
+            id: AntennaId::new("ant0"),
+            position_m: Point3::new(1.0, 2.0, 1.0),
+            boresight: Some(Vector3::y()),
+        }];
+        let model = RssiModel::fitted_default(&antennas);
+        assert!(model.validate().is_ok());
+        assert!(model.check_against(&antennas).is_ok());
+        let a = &model.antennas[0];
+        let near = a.predict(&Point3::new(1.0, 3.0, 1.0)).0;
+        let far = a.predict(&Point3::new(1.0, 12.0, 1.0)).0;
+        assert!((near - far - 20.2).abs() < 1e-9, "{near} {far}");
+        assert!(a.background_mean_dbm < near && a.background_mean_dbm > far);
     }
 
     #[test]

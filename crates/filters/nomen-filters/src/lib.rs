@@ -8,7 +8,7 @@ pub mod derivative;
 pub mod gravity;
 pub mod kalman;
 pub mod lowpass;
-mod robust;
+pub mod robust;
 pub use robust::median;
 pub mod sync;
 #[cfg(test)]

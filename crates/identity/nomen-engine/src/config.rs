@@ -827,8 +827,10 @@ pub struct EngineConfig {
     /// evidence window), s. Default 2 s (twenty fixes at 10 Hz): positions need no long window,
     /// and a short one follows id swaps quickly.
     pub tag_window_s: f64,
-    /// Half-life of the accumulated RSSI evidence, s. Default 4 s: a single RSSI estimate
-    /// hardly separates two people a metre apart; a few seconds of walking do.
+    /// Half-life of the RSSI evidence, s: how fast a track's log-likelihood ratio (its path
+    /// against the background, summed over the tag's reads) forgets. Default 4 s: a single read
+    /// hardly separates two people a metre apart; a few seconds of walking do, and an id swap
+    /// is forgotten as fast.
     pub rssi_evidence_half_life_s: f64,
     /// Half-life of an IMU's heading estimate, s. An AHRS without a magnetometer knows up but not
     /// north, so its frame is the room's turned about the vertical by an unknown angle that drifts

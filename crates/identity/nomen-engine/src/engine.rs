@@ -2,6 +2,7 @@
 
 mod decide;
 mod offsets;
+mod rssi;
 mod scoring;
 mod tracks;
 
@@ -27,11 +28,9 @@ use nomen_evidence::features::axis_elevations_rad;
 use nomen_filters::kalman::JointSmoother;
 use nomen_filters::median;
 use nomen_filters::orientation::{Madgwick, level_from_accel};
-use nomen_rssi::{
-    FilterBank, LikelihoodConfig, RssiKalmanConfig, RssiModel, RssiUnit, TagPlacement,
-    background_log_likelihood, log_likelihood, pair_score,
-};
+use nomen_rssi::RssiModel;
 use nomen_rtls::{EpochConfig, EpochStats, RangeEpochs};
+use rssi::{RssiEvidence, RssiPair};
 use scoring::key_joint_near;
 use std::cell::Cell;
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
@@ -557,6 +556,8 @@ struct TrackState {
     tag_evidence: BTreeMap<usize, Accumulator>,
     /// RSSI scores per subject (tag half-life).
     rssi_evidence: BTreeMap<usize, Accumulator>,
+    /// RSSI evidence per tag (index of [`RssiEvidence`]'s tags) that this track's person wears it.
+    rssi_pairs: BTreeMap<usize, RssiPair>,
     /// Mean model score per IMU (reported as the evidence behind a label).
     device_evidence: BTreeMap<usize, Accumulator>,
     label: Option<usize>,
@@ -658,7 +659,6 @@ pub struct Engine {
     /// clock offsets is accepted ([`EngineConfig::network_evidence_half_life_s`]).
     network_decay_per_hop: f64,
     tag_decay_per_hop: f64,
-    rssi_decay_per_hop: f64,
     tag_window_ns: i64,
     subjects: Vec<SubjectId>,
     subject_imus: Vec<Vec<usize>>,
@@ -681,8 +681,9 @@ pub struct Engine {
     range_epochs: RangeEpochs,
     /// A learned scorer of (IMU window, skeleton window) pairs ([`Engine::with_pair_scorer`]).
     pair_scorer: Option<Box<dyn PairScorer>>,
-    /// RSSI evidence, when a calibrated model was given ([`Engine::with_rssi_model`]).
-    rssi: Option<RssiState>,
+    /// RSSI evidence, when the registry has antennas and RSSI tags: with the fitted default
+    /// model, or a calibrated one ([`Engine::with_rssi_model`]).
+    rssi: Option<RssiEvidence>,
     /// The registry's antennas.
     antennas: BTreeSet<AntennaId>,
     /// Subject and site of every RFID/BLE tag, for RSSI reads.
@@ -855,7 +856,6 @@ impl Engine {
             decay_per_hop: 0.5f64.powf(config.hop_s / config.evidence_half_life_s),
             network_decay_per_hop: 0.5f64.powf(config.hop_s / config.network_evidence_half_life_s),
             tag_decay_per_hop: 0.5f64.powf(config.hop_s / config.tag_evidence_half_life_s),
-            rssi_decay_per_hop: 0.5f64.powf(config.hop_s / config.rssi_evidence_half_life_s),
             tag_window_ns: ns(config.tag_window_s.min(config.window_s)),
             config,
             subjects: registry.subjects.iter().map(|s| s.id.clone()).collect(),
@@ -870,7 +870,14 @@ impl Engine {
             range_epochs: RangeEpochs::new(&registry.anchors, EpochConfig::default()),
             tags,
             tag_index,
-            rssi: None,
+            rssi: (!registry.antennas.is_empty() && !rssi_tags.is_empty()).then(|| {
+                RssiEvidence::new(
+                    RssiModel::fitted_default(&registry.antennas),
+                    false,
+                    &rssi_tags,
+                    &config,
+                )
+            }),
             pair_scorer: None,
             antennas: registry.antennas.iter().map(|a| a.id.clone()).collect(),
             rssi_tags,
@@ -922,9 +929,9 @@ impl Engine {
         self
     }
 
-    /// Enables RSSI evidence with a calibrated model (`nomen calibrate rssi`). Without one, RSSI
-    /// reads are counted and ignored. Errors when the model does not validate or names an
-    /// antenna the registry does not list.
+    /// Scores RSSI reads with a calibrated model (`nomen calibrate rssi`) instead of the fitted
+    /// default ([`RssiModel::fitted_default`]); gains are refined online either way. Errors when
+    /// the model does not validate or names an antenna the registry does not list.
     pub fn with_rssi_model(mut self, model: &RssiModel) -> Result<Engine> {
         model.validate()?;
         for a in &model.antennas {
@@ -935,14 +942,12 @@ impl Engine {
                 )));
             }
         }
-        self.rssi = Some(RssiState {
-            bank: FilterBank::new(model, RssiKalmanConfig::default(), RssiUnit::Dbm)?,
-            likelihood: LikelihoodConfig::default(),
-            pending: BTreeMap::new(),
-            newest: None,
-            frontier: i64::MIN,
-            estimates: Vec::new(),
-        });
+        self.rssi = Some(RssiEvidence::new(
+            model.clone(),
+            true,
+            &self.rssi_tags,
+            &self.config,
+        ));
         Ok(self)
     }
 
@@ -1243,8 +1248,8 @@ impl Engine {
             error,
         })?;
         let reorder = self.reorder_ns;
+        // Known tag and antenna: the stage exists (with the fitted default model at least).
         let Some(rssi) = self.rssi.as_mut() else {
-            self.stats.num_rssi_without_model += 1;
             return Ok(());
         };
         let source = rssi_source(r);
@@ -1353,6 +1358,7 @@ impl Engine {
                 evidence: BTreeMap::new(),
                 tag_evidence: BTreeMap::new(),
                 rssi_evidence: BTreeMap::new(),
+                rssi_pairs: BTreeMap::new(),
                 device_evidence: BTreeMap::new(),
                 label: None,
                 decision: Decided {
@@ -2294,104 +2300,6 @@ fn smooth_track(tr: &mut TrackState, bridge_ns: i64) {
                 sample.bridged |= bit;
             }
         }
-    }
-}
-
-/// RSSI evidence: reads wait for the reorder window, then feed one Kalman filter per (tag,
-/// antenna) ([`FilterBank`]); at each window end the tracks of a camera are scored against
-/// every tag ([`RssiState::camera_scores`]).
-struct RssiState {
-    bank: FilterBank,
-    likelihood: LikelihoodConfig,
-    pending: BTreeMap<(i64, DeviceId, AntennaId), RssiRead>,
-    newest: Option<i64>,
-    frontier: i64,
-    estimates: Vec<Option<nomen_rssi::RssiEstimate>>,
-}
-
-impl RssiState {
-    /// Feeds settled reads to the filters in time order; returns the first refusal, if any.
-    fn settle(&mut self) -> Option<nomen_rssi::RssiError> {
-        let mut first = None;
-        while let Some(entry) = self.pending.first_entry() {
-            if entry.key().0 >= self.frontier {
-                break;
-            }
-            let read = entry.remove();
-            if let Err(e) = self.bank.push(&read) {
-                first.get_or_insert(e);
-            }
-        }
-        first
-    }
-
-    /// For the tracks of one camera (rows) and every subject (columns): the mean over the
-    /// subject's RSSI tags of how much more likely the tag is at this track's position than
-    /// anywhere in the area. Per tag, the likelihood of the filtered RSSI at the track's
-    /// position (its sample nearest to `end`, within [`MAX_PAIR_DT_NS`]) against the background
-    /// likelihood gives `p = nomen_rssi::pair_score` (0.5: no better than background); the
-    /// score is `2p − 1` clamped to `0..=1`. Tracks compete in the assignment, and RSSI evidence
-    /// accumulates with its own, longer half-life ([`EngineConfig::rssi_evidence_half_life_s`]):
-    /// one read says little, a walk across the antennas' field says much.
-    fn camera_scores(
-        &mut self,
-        tracks: &[Option<&TrackState>],
-        end: i64,
-        tags: &BTreeMap<DeviceId, (usize, Joint)>,
-        num_subjects: usize,
-    ) -> Vec<Vec<Option<f64>>> {
-        let mut sums = vec![vec![(0.0, 0usize); num_subjects]; tracks.len()];
-        let placement = self.bank.model().placement;
-        let mut lls = Vec::with_capacity(tracks.len());
-        let t = SessionTime::from_ns(end);
-        for (tag, (subject, site)) in tags {
-            if !self.bank.estimates_at(tag, t, &mut self.estimates) {
-                continue;
-            }
-            let model = self.bank.model();
-            lls.clear();
-            for tr in tracks {
-                let last = tr.and_then(|tr| {
-                    let i = tr.samples.partition_point(|s| s.t < end);
-                    i.checked_sub(1)
-                        .and_then(|k| tr.samples.get(k))
-                        .filter(|s| end - s.t <= MAX_PAIR_DT_NS)
-                });
-                let position = last.and_then(|last| match placement {
-                    TagPlacement::FixedHeight(h) => last
-                        .joints
-                        .get(Joint::Pelvis)
-                        .copied()
-                        .or_else(|| joint_centroid(&last.joints))
-                        .map(|p| Point3::new(p.x, p.y, h)),
-                    TagPlacement::RegistrySite => last
-                        .joints
-                        .get(*site)
-                        .copied()
-                        .or_else(|| last.joints.get(Joint::Pelvis).copied()),
-                });
-                lls.push(position.map_or(f64::NAN, |p| {
-                    log_likelihood(model, &self.estimates, &p, &self.likelihood)
-                }));
-            }
-            let bg = background_log_likelihood(model, &self.estimates, &self.likelihood);
-            for (row, ll) in sums.iter_mut().zip(&lls) {
-                if ll.is_nan() {
-                    continue;
-                }
-                if let Some(cell) = row.get_mut(*subject) {
-                    cell.0 += (2.0 * pair_score(*ll, bg) - 1.0).clamp(0.0, 1.0);
-                    cell.1 += 1;
-                }
-            }
-        }
-        sums.into_iter()
-            .map(|row| {
-                row.into_iter()
-                    .map(|(sum, n)| (n > 0).then(|| sum / n as f64))
-                    .collect()
-            })
-            .collect()
     }
 }
 

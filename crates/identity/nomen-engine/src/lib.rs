@@ -26,8 +26,9 @@
 //!   first sample's frame by the gyroscope), not from one reading, which a swing or a knock
 //!   turns away from the vertical;
 //! - location-tag fixes (`rtls_fix`, UWB or BLE tags) are buffered per tag (`tags`);
-//! - RSSI reads feed one Kalman filter per (tag, antenna) when a model was given
-//!   ([`Engine::with_rssi_model`]).
+//! - RSSI reads (RFID and BLE tags) wait for the reorder window and are then scored at each
+//!   window against every track's path (`engine/rssi.rs`), with a calibrated model
+//!   ([`Engine::with_rssi_model`]) or the fitted default, its gains learned online.
 //!
 //! A new camera track may continue an ended track of the same camera (stitching) and then
 //! inherits its evidence and label, the motion evidence at
@@ -156,8 +157,10 @@
 //!    tag's key joint over the last [`EngineConfig::tag_window_s`], each fix weighted by how
 //!    well it tells the camera's tracks apart (a fix between two people who pass close fits
 //!    both and weighs nearly nothing, so the evidence from before the pass holds through it;
-//!    `tags`); RSSI by the likelihood of
-//!    the filtered reads at the person's position against the background. Each modality is
+//!    `tags`); RSSI by the log-likelihood ratio, track against background, of the tag's reads
+//!    at the person's positions at the reads' times (a Kalman filter per track, tag and
+//!    antenna; silence censored; per-tag gains and per-antenna slopes learned while the tag is
+//!    associated), normalised into a posterior over the camera's tracks. Each modality is
 //!    accumulated per (track, subject) by an exponentially weighted mean with its own half-life
 //!    (motion: [`EngineConfig::evidence_half_life_s`], or the shorter
 //!    [`EngineConfig::network_evidence_half_life_s`] for a body-area network once one of its
@@ -276,7 +279,8 @@ pub fn run_batch(
     run_batch_with_rssi(registry, messages, config, None)
 }
 
-/// [`run_batch`] with RSSI evidence from a calibrated model ([`Engine::with_rssi_model`]).
+/// [`run_batch`] with RSSI reads scored by a calibrated model ([`Engine::with_rssi_model`])
+/// instead of the fitted default.
 pub fn run_batch_with_rssi(
     registry: &Registry,
     messages: &[Message],

@@ -92,8 +92,6 @@ pub struct EngineStats {
     pub num_stitches_undone: u64,
     /// RSSI reads accepted.
     pub num_rssi_reads: u64,
-    /// RSSI reads ignored because the engine has no RSSI model.
-    pub num_rssi_without_model: u64,
     /// Location-tag fixes accepted (those multilaterated from raw ranges included).
     pub num_tag_fixes: u64,
     /// Per location tag: its fixes compared with the tracks in view, and how many were near one

@@ -38,6 +38,12 @@ pub enum FitError {
     /// file too long), could not be read, or is not text.
     #[error(transparent)]
     Limit(#[from] nomen_core::CoreError),
+    /// A robust line fit (`nomen_filters::robust`) refused its input.
+    #[error("line fit: {0}")]
+    Line(#[from] nomen_filters::FilterError),
+    /// An RSSI path-loss fit (`nomen_rssi::fit`) failed.
+    #[error(transparent)]
+    Rssi(#[from] nomen_rssi::RssiError),
 }
 
 /// Result alias of this crate.

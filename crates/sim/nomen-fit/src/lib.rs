@@ -24,6 +24,7 @@ pub mod imu;
 pub mod load;
 pub mod models;
 pub mod rssi;
+pub mod rssi_validation;
 pub mod rtls_lias;
 pub mod stats;
 mod table;

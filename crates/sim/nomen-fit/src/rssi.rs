@@ -3,85 +3,9 @@
 
 use crate::error::{FitError, Result};
 use crate::load::{RssiAnchor, RssiRecording};
-use crate::stats::{huber_line, median, robust_std, std_dev};
+use crate::stats::{median, robust_std, std_dev};
+pub use nomen_rssi::fit::{PathLossConfig, PathLossModel, fit_log_distance};
 use serde::{Deserialize, Serialize};
-
-/// Configuration of [`fit_path_loss`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PathLossConfig {
-    /// Huber threshold in robust σ; 1.345 gives 95 % Gaussian efficiency (Huber 1964).
-    pub huber_k: f64,
-    /// Distances below this are clamped before the logarithm, m (the far-field model breaks
-    /// down inside a wavelength or two; 2.4 GHz is 0.125 m).
-    pub min_distance_m: f64,
-    /// Width of the read-rate distance bins, m.
-    pub read_rate_bin_m: f64,
-}
-
-impl Default for PathLossConfig {
-    fn default() -> Self {
-        Self {
-            huber_k: 1.345,
-            min_distance_m: 0.25,
-            read_rate_bin_m: 1.0,
-        }
-    }
-}
-
-/// A fitted log-distance model.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct PathLossModel {
-    /// Received power at 1 m, dBm.
-    pub p1_dbm: f64,
-    /// Path-loss exponent n (2 in free space; Llorca's K = 10·n).
-    pub n: f64,
-    /// Standard error of n.
-    pub n_std_err: f64,
-    /// Shadowing: plain standard deviation of the residuals, dB.
-    pub shadowing_std_db: f64,
-    /// Shadowing: 1.4826 · MAD of the residuals, dB.
-    pub shadowing_robust_std_db: f64,
-    /// Reads used.
-    pub num_reads: usize,
-}
-
-impl PathLossModel {
-    /// Expected RSSI at `distance_m`, dBm.
-    pub fn rssi_dbm(&self, distance_m: f64) -> f64 {
-        self.p1_dbm - 10.0 * self.n * distance_m.log10()
-    }
-
-    /// The distance the model assigns to `rssi_dbm`, m (the inverse of [`Self::rssi_dbm`]).
-    pub fn distance_m(&self, rssi_dbm: f64) -> f64 {
-        10f64.powf((self.p1_dbm - rssi_dbm) / (10.0 * self.n))
-    }
-}
-
-/// Fits `P = P1 − 10·n·log10(d)` by Huber IRLS (the core, on slices).
-pub fn fit_log_distance(
-    distances_m: &[f64],
-    rssi_dbm: &[f64],
-    cfg: &PathLossConfig,
-) -> Result<PathLossModel> {
-    let x: Vec<f64> = distances_m
-        .iter()
-        .map(|d| d.max(cfg.min_distance_m).log10())
-        .collect();
-    let line = huber_line(&x, rssi_dbm, cfg.huber_k)?;
-    let residuals: Vec<f64> = x
-        .iter()
-        .zip(rssi_dbm)
-        .map(|(xi, y)| y - line.intercept - line.slope * xi)
-        .collect();
-    Ok(PathLossModel {
-        p1_dbm: line.intercept,
-        n: -line.slope / 10.0,
-        n_std_err: line.slope_std_err / 10.0,
-        shadowing_std_db: std_dev(&residuals).unwrap_or(f64::NAN),
-        shadowing_robust_std_db: robust_std(&residuals).unwrap_or(f64::NAN),
-        num_reads: residuals.len(),
-    })
-}
 
 /// A per-anchor model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -1,56 +1,17 @@
-//! Robust statistics used by every fit: median, MAD, Huber regression, Student-t maximum
-//! likelihood. Functions take slices and return `None`/errors on empty or degenerate input.
+//! Statistics used by every fit: the robust basics (median, MAD, Huber regression, from
+//! `nomen_filters::robust`) and Student-t and mixture maximum likelihood. Functions take slices
+//! and return `None`/errors on empty or degenerate input.
 
 use crate::error::{FitError, Result};
-use nalgebra::{Matrix2, Vector2};
 use serde::{Deserialize, Serialize};
 
-/// MAD → σ for Gaussian data: 1 / Φ⁻¹(3/4).
-pub const MAD_TO_SIGMA: f64 = 1.482_602_218_505_602;
-
-/// Arithmetic mean, `None` when empty.
-pub fn mean(x: &[f64]) -> Option<f64> {
-    if x.is_empty() {
-        None
-    } else {
-        Some(x.iter().sum::<f64>() / x.len() as f64)
-    }
-}
-
-/// Sample standard deviation (n − 1 denominator), `None` for fewer than two values.
-pub fn std_dev(x: &[f64]) -> Option<f64> {
-    if x.len() < 2 {
-        return None;
-    }
-    let m = mean(x)?;
-    let ss: f64 = x.iter().map(|v| (v - m) * (v - m)).sum();
-    Some((ss / (x.len() - 1) as f64).sqrt())
-}
-
-/// The `q`-quantile (`0..=1`, linear interpolation between order statistics), `None` when empty.
-pub fn quantile(x: &[f64], q: f64) -> Option<f64> {
-    if x.is_empty() || !(0.0..=1.0).contains(&q) {
-        return None;
-    }
-    let mut v = x.to_vec();
-    v.sort_by(f64::total_cmp);
-    let pos = q * (v.len() - 1) as f64;
-    let lo = pos.floor() as usize;
-    let hi = pos.ceil() as usize;
-    let (a, b) = (*v.get(lo)?, *v.get(hi)?);
-    Some(a + (b - a) * (pos - lo as f64))
-}
+pub use nomen_filters::robust::{
+    LineFit, MAD_TO_SIGMA, huber_line, mean, ols_line, quantile, robust_std, std_dev,
+};
 
 /// Median, `None` when empty.
 pub fn median(x: &[f64]) -> Option<f64> {
     quantile(x, 0.5)
-}
-
-/// Robust standard deviation: `1.4826 · median(|x − median(x)|)`, `None` when empty.
-pub fn robust_std(x: &[f64]) -> Option<f64> {
-    let m = median(x)?;
-    let dev: Vec<f64> = x.iter().map(|v| (v - m).abs()).collect();
-    Some(MAD_TO_SIGMA * median(&dev)?)
 }
 
 /// `ln Γ(x)` for `x > 0`: recurrence up to `x ≥ 10`, then the Stirling series to `x⁻⁷`
@@ -299,127 +260,6 @@ pub fn fit_gauss_exp_mixture(x: &[f64]) -> Result<GaussExpMixtureFit> {
         };
     }
     Ok(best)
-}
-
-/// A straight line `y = intercept + slope·x`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct LineFit {
-    /// Value at `x = 0`.
-    pub intercept: f64,
-    /// Change of `y` per unit `x`.
-    pub slope: f64,
-    /// Standard error of the slope (from the residual scale below).
-    pub slope_std_err: f64,
-    /// Residual standard deviation (plain, n − 2 denominator).
-    pub residual_std: f64,
-    /// Residual robust standard deviation (1.4826 · MAD).
-    pub residual_robust_std: f64,
-    /// Number of points.
-    pub num_points: usize,
-}
-
-/// Weighted least squares for a line, solved with nalgebra's 2×2 normal equations.
-fn weighted_line(x: &[f64], y: &[f64], w: &[f64]) -> Option<Vector2<f64>> {
-    let mut ata = Matrix2::zeros();
-    let mut atb = Vector2::zeros();
-    for ((xi, yi), wi) in x.iter().zip(y).zip(w) {
-        let a = Vector2::new(1.0, *xi);
-        ata += *wi * a * a.transpose();
-        atb += *wi * *yi * a;
-    }
-    ata.cholesky().map(|c| c.solve(&atb))
-}
-
-fn line_summary(x: &[f64], y: &[f64], beta: Vector2<f64>) -> LineFit {
-    let n = x.len();
-    let residuals: Vec<f64> = x
-        .iter()
-        .zip(y)
-        .map(|(xi, yi)| yi - beta[0] - beta[1] * xi)
-        .collect();
-    let dof = n.saturating_sub(2).max(1) as f64;
-    let residual_std = (residuals.iter().map(|r| r * r).sum::<f64>() / dof).sqrt();
-    let residual_robust_std = robust_std(&residuals).unwrap_or(residual_std);
-    let mx = mean(x).unwrap_or(0.0);
-    let sxx: f64 = x.iter().map(|v| (v - mx) * (v - mx)).sum();
-    // Slope standard error with the robust scale, so outliers do not inflate it.
-    let slope_std_err = if sxx > 0.0 {
-        residual_robust_std / sxx.sqrt()
-    } else {
-        f64::INFINITY
-    };
-    LineFit {
-        intercept: beta[0],
-        slope: beta[1],
-        slope_std_err,
-        residual_std,
-        residual_robust_std,
-        num_points: n,
-    }
-}
-
-/// Ordinary least squares line fit.
-pub fn ols_line(x: &[f64], y: &[f64]) -> Result<LineFit> {
-    check_line_input(x, y)?;
-    let w = vec![1.0; x.len()];
-    let beta = weighted_line(x, y, &w)
-        .ok_or_else(|| FitError::InvalidArgument("line fit: all x are equal".into()))?;
-    Ok(line_summary(x, y, beta))
-}
-
-fn check_line_input(x: &[f64], y: &[f64]) -> Result<()> {
-    if x.len() != y.len() {
-        return Err(FitError::InvalidArgument(format!(
-            "line fit: {} x values but {} y values",
-            x.len(),
-            y.len()
-        )));
-    }
-    if x.len() < 3 {
-        return Err(FitError::InvalidArgument(
-            "line fit needs at least 3 points".into(),
-        ));
-    }
-    Ok(())
-}
-
-/// Huber M-estimate of a line by iteratively reweighted least squares.
-///
-/// Weights `w = min(1, k·σ/|r|)` with σ = 1.4826·MAD of the current residuals (re-estimated
-/// each iteration); `k = 1.345` gives 95 % efficiency on Gaussian data (Huber 1964).
-pub fn huber_line(x: &[f64], y: &[f64], k: f64) -> Result<LineFit> {
-    check_line_input(x, y)?;
-    if k.is_nan() || k <= 0.0 {
-        return Err(FitError::InvalidArgument(format!(
-            "huber threshold k = {k} must be positive"
-        )));
-    }
-    let mut w = vec![1.0; x.len()];
-    let mut beta = weighted_line(x, y, &w)
-        .ok_or_else(|| FitError::InvalidArgument("line fit: all x are equal".into()))?;
-    let mut residuals = vec![0.0; x.len()];
-    for _ in 0..100 {
-        for ((r, xi), yi) in residuals.iter_mut().zip(x).zip(y) {
-            *r = yi - beta[0] - beta[1] * xi;
-        }
-        let sigma = robust_std(&residuals).unwrap_or(0.0);
-        if sigma <= 0.0 {
-            break;
-        }
-        for (wi, r) in w.iter_mut().zip(&residuals) {
-            let a = r.abs();
-            *wi = if a <= k * sigma { 1.0 } else { k * sigma / a };
-        }
-        let Some(next) = weighted_line(x, y, &w) else {
-            break;
-        };
-        let step = (next - beta).abs().max();
-        beta = next;
-        if step <= 1e-10 * (1.0 + beta.abs().max()) {
-            break;
-        }
-    }
-    Ok(line_summary(x, y, beta))
 }
 
 #[cfg(test)]

@@ -2,7 +2,8 @@
 //! models are calibrated automatically (`nomen_rssi::calibrate`) on the simulated calibration
 //! sequence — from its recording only, never from the simulator's truth — and every scene is
 //! then simulated → associated (Llorca with the standard model, Llorca with the directional
-//! model, the engine) → evaluated (CA, CNA, NA, delay in frames).
+//! model, the engine with the directional model, the engine with its fitted default model) →
+//! evaluated (CA, CNA, NA, delay in frames).
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -37,7 +38,7 @@ const CALIBRATION: (&str, &str) = (
 );
 
 /// The rows of Table I after the calibration sequence, embedded like the other experiments'.
-const SCENES: [(&str, &str, &str); 7] = [
+const SCENES: [(&str, &str, &str); 8] = [
     (
         "1 tagged",
         "crosswalk_1t.toml",
@@ -69,14 +70,20 @@ const SCENES: [(&str, &str, &str); 7] = [
         include_str!("../../../../../scenarios/crosswalk_2t_parallel.toml"),
     ),
     (
+        "1 tagged + 1 untagged, abreast",
+        "crosswalk_1t1u_abreast.toml",
+        include_str!("../../../../../scenarios/crosswalk_1t1u_abreast.toml"),
+    ),
+    (
         "1 tagged + 5 untagged, mixed",
         "rfid_crosswalk.toml",
         include_str!("../../../../../scenarios/rfid_crosswalk.toml"),
     ),
 ];
 
-/// The columns: (name, how the scene is associated).
-const METHODS: [&str; 3] = ["standard", "directional", "engine"];
+/// The columns: Llorca with each calibrated model, the engine with the directional model, and
+/// the engine without a model (its fitted default, refined online).
+const METHODS: [&str; 4] = ["standard", "directional", "engine", "engine-default"];
 
 /// One (scene, method) cell.
 #[derive(Debug, Clone, Serialize)]
@@ -130,16 +137,17 @@ fn associate(
     registry: &Registry,
     recording: &[Message],
 ) -> Result<Vec<Message>> {
+    // The engine gets the directional model (the better fit on the calibration sequence), or
+    // none.
+    let engine_model = match method {
+        "engine" => models.get("directional"),
+        _ => None,
+    };
     match models.get(method) {
         Some(model) => Ok(run_llorca(registry, model, recording)?),
-        // The engine gets the directional model (the better fit on the calibration sequence).
-        None => Ok(run_batch_with_rssi(
-            registry,
-            recording,
-            &EngineConfig::default(),
-            models.get("directional"),
-        )?
-        .0),
+        None => {
+            Ok(run_batch_with_rssi(registry, recording, &EngineConfig::default(), engine_model)?.0)
+        }
     }
 }
 

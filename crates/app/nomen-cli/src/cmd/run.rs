@@ -57,7 +57,7 @@ pub struct RunArgs {
     #[arg(long, value_enum, default_value_t = Method::Nomen)]
     pub method: Method,
     /// RSSI model (JSON, as written by `nomen calibrate rssi RECORDING --out MODEL.json`);
-    /// required by `llorca`, and gives the engine (`nomen`) RSSI evidence.
+    /// required by `llorca`; the engine (`nomen`) uses it instead of its fitted default model.
     #[arg(long, value_name = "MODEL.json")]
     pub rssi_model: Option<PathBuf>,
     /// Pose refinement (engine only): fill the joints of every identified skeleton, with elbows
@@ -732,13 +732,7 @@ pub fn run_file(
             r.observe(s);
         }
         match engine.push(m) {
-            Ok(()) => {
-                // Said when it starts, not only in the summary: a live run may go on for hours.
-                if matches!(m, Message::Rssi(_)) && engine.stats().num_rssi_without_model == 1 {
-                    eprintln!("warning: {}", rssi_ignored(1));
-                }
-                true
-            }
+            Ok(()) => true,
             Err(e) => {
                 num_rejected += 1;
                 first_rejection.get_or_insert_with(|| e.to_string());
@@ -883,10 +877,6 @@ pub fn run_file(
         summary.push_str(&format!("\n  side {device}: found at {site}"));
     }
     summary.push_str(&gravity_warnings(engine.stats()));
-    let num_rssi_ignored = engine.stats().num_rssi_without_model;
-    if num_rssi_ignored > 0 {
-        summary.push_str(&format!("\n  warning: {}", rssi_ignored(num_rssi_ignored)));
-    }
     for (tag, share) in engine.stats().tags_far_from_skeletons() {
         summary.push_str(&format!(
             "\n  warning: tag {tag}: its fixes were near a skeleton in {:.1} % of the times they \
@@ -913,19 +903,6 @@ pub fn run_file(
         ));
     }
     within_skip_limit(summary, skip, &stats, recording)
-}
-
-/// The warning for `count` RSSI reads the engine ignored for want of a model.
-fn rssi_ignored(count: u64) -> String {
-    let reads = if count == 1 {
-        "an RSSI read".to_owned()
-    } else {
-        format!("{count} RSSI reads")
-    };
-    format!(
-        "{reads} ignored: the engine uses RSSI only with a model (--rssi-model FILE, fitted by \
-         `nomen calibrate rssi`; --method llorca needs one too)"
-    )
 }
 
 /// A warning line per IMU whose accelerations do not look like m/s²

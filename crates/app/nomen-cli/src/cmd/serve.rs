@@ -50,7 +50,7 @@ pub struct ServeArgs {
     /// Also write every decision to this file, as `nomen run --out` does (a recording).
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
-    /// RSSI model (JSON, from `nomen calibrate rssi`): gives the engine RSSI evidence.
+    /// RSSI model (JSON, from `nomen calibrate rssi`), instead of the engine's fitted default.
     #[arg(long, value_name = "MODEL.json")]
     pub rssi_model: Option<PathBuf>,
     /// A model from `nomen train cnn`: the engine adds its score as one more model.

@@ -2,7 +2,7 @@
 //! location-tag and RSSI scores, accumulated per track (see the crate docs, step 2).
 
 use super::{
-    Engine, MAX_IMU_GAP_NS, OrientationTerms, SIDE_MIN_MEAN_VOTE, SIDE_MIN_VOTES,
+    Accumulator, Engine, MAX_IMU_GAP_NS, OrientationTerms, SIDE_MIN_MEAN_VOTE, SIDE_MIN_VOTES,
     SILENT_WEARER_SLACK_NS, TrackKey, TrackState, WINDOW_MIN_TRACK_SAMPLES, accumulate,
     accumulate_weighted, covered_span, sample_range, scaled_count,
 };
@@ -131,7 +131,6 @@ impl Engine {
                 nomen_sums,
             } = self.score_camera_pairs(c, &mut window, &keys, &frame_times, &resting);
             let tag_decay = self.tag_decay_per_hop;
-            let rssi_decay = self.rssi_decay_per_hop;
             let matrix = match self.config.motion_score {
                 MotionScore::DeMarchi => tensor
                     .as_ref()
@@ -140,9 +139,13 @@ impl Engine {
             };
             let rssi_matrix = match self.rssi.as_mut() {
                 Some(rssi) => {
-                    let tracks: Vec<Option<&TrackState>> =
-                        keys.iter().map(|k| self.tracks.get(k)).collect();
-                    rssi.camera_scores(&tracks, end, &self.rssi_tags, self.subjects.len())
+                    let mut tracks: Vec<&mut TrackState> = self
+                        .tracks
+                        .iter_mut()
+                        .filter(|(k, _)| keys.contains(k))
+                        .map(|(_, tr)| tr)
+                        .collect();
+                    rssi.camera_scores(c, &mut tracks, end, self.subjects.len())
                 }
                 None => Vec::new(),
             };
@@ -199,8 +202,12 @@ impl Engine {
                             tag_decay,
                         );
                     }
+                    // RSSI scores already weigh the whole read history (`rssi`).
                     if let Some(v) = rssi_scores.get(b).copied().flatten() {
-                        accumulate(tr.rssi_evidence.entry(b).or_default(), v, rssi_decay);
+                        *tr.rssi_evidence.entry(b).or_default() = Accumulator {
+                            mean: v,
+                            weight: 1.0,
+                        };
                     }
                 }
             }

@@ -67,6 +67,7 @@ impl Engine {
             }
             let tag_evidence = old.tag_evidence.clone();
             let rssi_evidence = old.rssi_evidence.clone();
+            let rssi_pairs = old.rssi_pairs.clone();
             let device_evidence = old.device_evidence.clone();
             let (label, held_back, subject_scores) =
                 (old.label, old.held_back, old.subject_scores.clone());
@@ -74,6 +75,7 @@ impl Engine {
                 tr.evidence = evidence;
                 tr.tag_evidence = tag_evidence;
                 tr.rssi_evidence = rssi_evidence;
+                tr.rssi_pairs = rssi_pairs;
                 tr.device_evidence = device_evidence;
                 tr.label = label;
                 tr.decision = Decided {
@@ -602,6 +604,7 @@ pub(super) fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.evidence, &mut b.evidence);
     std::mem::swap(&mut a.tag_evidence, &mut b.tag_evidence);
     std::mem::swap(&mut a.rssi_evidence, &mut b.rssi_evidence);
+    std::mem::swap(&mut a.rssi_pairs, &mut b.rssi_pairs);
     std::mem::swap(&mut a.device_evidence, &mut b.device_evidence);
     std::mem::swap(&mut a.label, &mut b.label);
     std::mem::swap(&mut a.subject_scores, &mut b.subject_scores);

@@ -8,8 +8,8 @@
 
 use nomen_fit::load::{RssiCsvFormat, parse_anchors_csv, parse_rssi_csv};
 use nomen_fit::rssi::{PathLossConfig, fit_path_loss};
+use nomen_fit::rssi_validation::validate;
 use nomen_rssi::fit::FitConfig;
-use nomen_rssi::kolakowski::validate;
 use std::path::PathBuf;
 
 #[test]

@@ -1,18 +1,18 @@
-//! Validation on Kolakowski's BLE recordings (`../shared/data/ble/kolakowski`: six anchors at
+//! Validation of `nomen-rssi`'s models on Kolakowski's BLE recordings (`../shared/data/ble/kolakowski`: six anchors at
 //! known positions, a tag on a robot at labelled positions): fit each anchor's model on the
 //! calibration table, then measure on a held-out table the RSSI residual and the distance error
 //! the model implies (each read inverted through its anchor's model).
 //!
 //! The anchors are omnidirectional (no boresight), so only the standard model applies; the
-//! noise model σ²(D) is fitted like in [`crate::fit`]. Parsing is `nomen_fit::load`; this module
+//! noise model σ²(D) is fitted like in `nomen_rssi::fit`. Parsing is [`crate::load`]; this module
 //! takes parsed tables, the caller (an example, the CLI) reads the files.
 
-use crate::error::{Result, RssiError};
-use crate::fit::{AntennaFit, FitConfig, Sample, fit_antenna};
-use crate::model::ModelKind;
+use crate::load::{RssiAnchor, RssiRecording};
+use crate::stats::{mean, median, robust_std, std_dev};
 use nomen_core::{Antenna, AntennaId};
-use nomen_fit::load::{RssiAnchor, RssiRecording};
-use nomen_fit::stats::{mean, median, robust_std, std_dev};
+use nomen_rssi::fit::{AntennaFit, FitConfig, Sample, fit_antenna};
+use nomen_rssi::model::ModelKind;
+use nomen_rssi::{Result, RssiError};
 use serde::{Deserialize, Serialize};
 
 /// One anchor: the calibration fit and its held-out errors.

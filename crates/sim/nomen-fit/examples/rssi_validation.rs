@@ -1,13 +1,13 @@
 //! Fits the RSSI model of every Kolakowski BLE anchor on the calibration table and reports the
 //! held-out residual σ and the distance error the model implies on the robot test run.
 //!
-//! `cargo run -p nomen-rssi --example kolakowski [-- DATA_DIR] [--json]` (default data folder:
+//! `cargo run -p nomen-fit --example rssi_validation [-- DATA_DIR] [--json]` (default data folder:
 //! `../shared/data` beside the repository).
 #![allow(clippy::print_stdout)]
 
 use nomen_fit::load::{RssiCsvFormat, parse_anchors_csv, parse_rssi_csv};
+use nomen_fit::rssi_validation::validate;
 use nomen_rssi::fit::FitConfig;
-use nomen_rssi::kolakowski::validate;
 use std::path::PathBuf;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
