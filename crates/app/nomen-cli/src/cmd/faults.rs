@@ -876,20 +876,16 @@ fn write_plots(report: &Report, sweeps: &[Sweep], dir: &Path) -> Result<Vec<Path
                 .collect(),
         };
         let errors = CurvePanel {
-            y_desc: "frames (%)".to_owned(),
+            y_desc: "wrong / nothing named (%)".to_owned(),
             curves: variants
                 .iter()
                 .flat_map(|s| {
                     [
-                        curve(
-                            s.curve,
-                            &|r| r.wrong_name,
-                            format!("wrong name, {}", s.curve),
-                        ),
+                        curve(s.curve, &|r| r.wrong_name, format!("wrong, {}", s.curve)),
                         curve(
                             s.curve,
                             &|r| r.nothing_named,
-                            format!("wearing nothing named, {}", s.curve),
+                            format!("nothing named, {}", s.curve),
                         ),
                     ]
                 })
