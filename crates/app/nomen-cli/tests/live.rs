@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{data_dir, free_port, nomen, nomen_command, short_scene, text, wait_for_port};
+use common::{Serve, data_dir, free_port, nomen, nomen_command, short_scene, text, wait_for_port};
 use rumqttc::{Client, Event, MqttOptions, Packet, QoS};
 use serde_json::Value;
 
@@ -123,46 +123,6 @@ fn publish_raw(port: u16, messages: &[(&str, &[u8])]) {
         messages.len(),
         "the broker takes the raw payloads"
     );
-}
-
-/// A running `nomen serve`, stopped with SIGTERM.
-struct Serve {
-    child: Child,
-    stderr: PathBuf,
-}
-
-impl Serve {
-    fn start(dir: &Path, args: &[&str]) -> Serve {
-        let stderr = dir.join("serve.stderr");
-        let config = dir.join("serve.toml");
-        let child =
-            nomen_command(&[&["serve", "--config", config.to_str().unwrap()], args].concat())
-                .stdout(Stdio::null())
-                .stderr(std::fs::File::create(&stderr).unwrap())
-                .spawn()
-                .unwrap();
-        Serve { child, stderr }
-    }
-
-    /// Stops it as Ctrl-C would and returns its stderr.
-    fn stop(mut self) -> String {
-        let status = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(status.success());
-        let status = self.child.wait().unwrap();
-        let stderr = std::fs::read_to_string(&self.stderr).unwrap();
-        assert!(status.success(), "nomen serve failed: {stderr}");
-        stderr
-    }
-}
-
-impl Drop for Serve {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
 }
 
 /// Replays `recording` into a `nomen serve` on the broker at `port` (already listening) after
@@ -354,20 +314,25 @@ fn write_config(dir: &Path, extra: &str) {
     .unwrap();
 }
 
+/// `nomen serve ARGS` on an embedded broker on a free port, and a subscriber to its outputs;
+/// returns once the broker listens.
+fn serve_embedded(dir: &Path, args: &[&str]) -> (Serve, u16, Arc<Mutex<Seen>>) {
+    let port = free_port();
+    write_config(dir, &format!("embedded_listen = \"127.0.0.1:{port}\"\n"));
+    let serve = Serve::start(dir, args);
+    wait_for_port(port);
+    (serve, port, watch(port))
+}
+
 #[test]
 fn serve_on_the_embedded_broker_decides_as_run_does_and_records_what_run_reads() {
     let tmp = tempfile::tempdir().unwrap();
     let Some((recording, expected)) = scene_and_run(tmp.path()) else {
         return;
     };
-    let port = free_port();
-    write_config(
-        tmp.path(),
-        &format!("embedded_listen = \"127.0.0.1:{port}\"\n"),
-    );
     let out = tmp.path().join("serve-embedded.jsonl");
     let record = tmp.path().join("mcap");
-    let serve = Serve::start(
+    let (serve, port, seen) = serve_embedded(
         tmp.path(),
         &[
             "--out",
@@ -376,8 +341,6 @@ fn serve_on_the_embedded_broker_decides_as_run_does_and_records_what_run_reads()
             record.to_str().unwrap(),
         ],
     );
-    wait_for_port(port);
-    let seen = watch(port);
     replay_into(
         tmp.path(),
         serve,
@@ -453,15 +416,18 @@ fn mosquitto_binary() -> Option<&'static str> {
 }
 
 /// Starts Mosquitto on `port` with `conf_lines` added to a configuration in `dir` that sets no
-/// limit on queued QoS 1 messages (the default, 1000, drops beyond it for a slow subscriber);
-/// returns once it listens.
+/// limit on queued QoS 1 messages (the default, 1000, drops beyond it for a slow subscriber)
+/// and lets anonymous clients in unless `conf_lines` says otherwise; returns once it listens.
 fn start_mosquitto(binary: &str, dir: &Path, port: u16, conf_lines: &str) -> Child {
     let conf = dir.join("mosquitto.conf");
+    let anonymous = if conf_lines.contains("allow_anonymous") {
+        ""
+    } else {
+        "allow_anonymous true\n"
+    };
     std::fs::write(
         &conf,
-        format!(
-            "listener {port} 127.0.0.1\nallow_anonymous true\nmax_queued_messages 0\n{conf_lines}"
-        ),
+        format!("listener {port} 127.0.0.1\n{anonymous}max_queued_messages 0\n{conf_lines}"),
     )
     .unwrap();
     let child = Command::new(binary)
@@ -488,6 +454,189 @@ fn serve_on_mosquitto_decides_as_run_does() {
     write_config(tmp.path(), "");
     let result = std::panic::catch_unwind(|| {
         replay_and_compare(tmp.path(), port, &recording, &expected, "max");
+    });
+    let _ = mosquitto.kill();
+    let _ = mosquitto.wait();
+    if let Err(e) = result {
+        std::panic::resume_unwind(e);
+    }
+}
+
+#[test]
+fn serve_records_the_calibrated_registry_its_engine_runs_on() {
+    let tmp = tempfile::tempdir().unwrap();
+    let registry = tmp.path().join("registry.json");
+    std::fs::write(&registry, r#"{"cameras":[{"id":"cam"}]}"#).unwrap();
+    let calibration = tmp.path().join("calibration.toml");
+    std::fs::write(&calibration, "[[cameras]]\nid = \"cam\"\nscale = 0.01\n").unwrap();
+    let record = tmp.path().join("rec");
+    let (serve, port, seen) = serve_embedded(
+        tmp.path(),
+        &[
+            "--registry",
+            registry.to_str().unwrap(),
+            "--calibration",
+            calibration.to_str().unwrap(),
+            "--record",
+            record.to_str().unwrap(),
+        ],
+    );
+    let started = Instant::now();
+    while seen.lock().unwrap().health.is_none() {
+        assert!(started.elapsed() < TIMEOUT, "no health report");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // The same registry, as it is in the file, on MQTT: no new session. The sample after it,
+    // of a device the registry lacks, is refused once the session has taken the registry.
+    publish_raw(
+        port,
+        &[
+            ("nomen/in/registry", br#"{"cameras":[{"id":"cam"}]}"#),
+            (
+                "nomen/in/imu/w1",
+                br#"{"type":"imu","t":1000000,"device":"w1","accel_mps2":[0.0,0.0,9.81],"gyro_radps":[0.0,0.0,0.0]}"#,
+            ),
+        ],
+    );
+    while seen.lock().unwrap().health.as_ref().unwrap()["num_rejected"] != 1 {
+        assert!(started.elapsed() < TIMEOUT, "the sample was not refused");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let stderr = serve.stop();
+    assert!(stderr.contains("in 1 session(s)"), "{stderr}");
+    let files: Vec<PathBuf> = std::fs::read_dir(&record)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    // `nomen run` on the recording: its output's header carries the recording's registry.
+    let out = tmp.path().join("out.jsonl");
+    let o = run_file(&files[0], &out);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let header: Value = serde_json::from_str(
+        std::fs::read_to_string(&out)
+            .unwrap()
+            .lines()
+            .next()
+            .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(header["registry"]["cameras"][0]["scale"], 0.01, "{header}");
+}
+
+/// A subscriber logged in as `user`: waits (up to [`TIMEOUT`]) for a health report of the
+/// service on the broker at `port` that says `num_received` messages were received.
+fn wait_for_received(port: u16, user: &str, password: &str, num_received: u64) {
+    let mut options = MqttOptions::new(format!("auth-watch-{port}"), "127.0.0.1", port);
+    options.set_credentials(user, password);
+    options.set_max_packet_size(1 << 20, 1 << 20);
+    let (client, mut connection) = Client::new(options, 16);
+    client
+        .subscribe("nomen/out/health", QoS::AtMostOnce)
+        .unwrap();
+    let started = Instant::now();
+    loop {
+        assert!(
+            started.elapsed() < TIMEOUT,
+            "no health report with {num_received}"
+        );
+        match connection.recv_timeout(Duration::from_millis(200)) {
+            Ok(Ok(Event::Incoming(Packet::Publish(p)))) => {
+                let health: Value = serde_json::from_slice(&p.payload).unwrap();
+                if health["num_received"] == num_received {
+                    return;
+                }
+            }
+            Ok(Err(e)) => panic!("the watcher cannot log in: {e}"),
+            _ => {}
+        }
+    }
+}
+
+#[test]
+fn serve_and_replay_log_in_to_a_mosquitto_that_asks_for_a_password() {
+    let Some(binary) = mosquitto_binary() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let passwords = tmp.path().join("passwords");
+    let made = Command::new("mosquitto_passwd")
+        .args(["-b", "-c", passwords.to_str().unwrap(), "nomen", "s3cret"])
+        .output();
+    if !made.is_ok_and(|o| o.status.success()) {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "mosquitto_passwd does not run (CI installs mosquitto)"
+        );
+        eprintln!("skipping: mosquitto_passwd does not run");
+        return;
+    }
+    let port = free_port();
+    let mut mosquitto = start_mosquitto(
+        binary,
+        tmp.path(),
+        port,
+        &format!(
+            "allow_anonymous false\npassword_file {}\n",
+            passwords.display()
+        ),
+    );
+    let result = std::panic::catch_unwind(|| {
+        // A recording of ten IMU samples of one registered device.
+        let recording = tmp.path().join("imu.jsonl");
+        let mut lines = r#"{"type":"header","format":"nomen-recording","version":1,"registry":{"subjects":[{"id":"ana","wears":[{"device":"w1","kind":"imu","site":"left_wrist"}]}]}}"#.to_owned() + "\n";
+        for k in 0..10 {
+            lines += &format!(
+                r#"{{"type":"imu","t":{},"device":"w1","accel_mps2":[0.0,0.0,9.81],"gyro_radps":[0.0,0.0,0.0]}}"#,
+                k * 10_000_000
+            );
+            lines += "\n";
+        }
+        std::fs::write(&recording, lines).unwrap();
+        let wrong = format!("mqtt://nomen:wrong@127.0.0.1:{port}");
+        let right = format!("mqtt://nomen:s3cret@127.0.0.1:{port}");
+
+        // A wrong password: both refuse to go on, naming the broker but not the password.
+        write_config(tmp.path(), "");
+        let config = tmp.path().join("serve.toml");
+        let o = nomen(&[
+            "serve",
+            "--config",
+            config.to_str().unwrap(),
+            "--mqtt",
+            &wrong,
+        ]);
+        let stderr = text(&o.stderr);
+        assert!(!o.status.success());
+        assert!(
+            stderr.contains("nomen@127.0.0.1") && !stderr.contains("wrong"),
+            "{stderr}"
+        );
+        let o = nomen(&["replay", recording.to_str().unwrap(), "--mqtt", &wrong]);
+        assert!(!o.status.success());
+        assert!(!text(&o.stderr).contains("wrong"));
+
+        // The password in serve.toml, the replay's in its URL: every sample arrives.
+        write_config(
+            tmp.path(),
+            &format!(
+                "mqtt = \"mqtt://127.0.0.1:{port}\"\nmqtt_username = \"nomen\"\nmqtt_password = \"s3cret\"\n"
+            ),
+        );
+        let serve = Serve::start(tmp.path(), &[]);
+        wait_for_received(port, "nomen", "s3cret", 0);
+        let o = nomen(&[
+            "replay",
+            recording.to_str().unwrap(),
+            "--mqtt",
+            &right,
+            "--speed",
+            "max",
+        ]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        wait_for_received(port, "nomen", "s3cret", 10);
+        let stderr = serve.stop();
+        assert!(stderr.contains("received 10 messages"), "{stderr}");
     });
     let _ = mosquitto.kill();
     let _ = mosquitto.wait();
@@ -652,15 +801,8 @@ fn after_kill_9_the_identity_log_holds_every_published_decision() {
         return;
     };
     let recording = short_scene(tmp.path(), &data, SCENE_S);
-    let port = free_port();
-    write_config(
-        tmp.path(),
-        &format!("embedded_listen = \"127.0.0.1:{port}\"\n"),
-    );
     let log = tmp.path().join("identity.sqlite");
-    let mut serve = Serve::start(tmp.path(), &["--log", log.to_str().unwrap()]);
-    wait_for_port(port);
-    let seen = watch(port);
+    let (mut serve, port, seen) = serve_embedded(tmp.path(), &["--log", log.to_str().unwrap()]);
     let mut replay = nomen_command(&[
         "replay",
         recording.to_str().unwrap(),
@@ -678,8 +820,8 @@ fn after_kill_9_the_identity_log_holds_every_published_decision() {
         assert!(started.elapsed() < TIMEOUT, "too few decisions published");
         std::thread::sleep(Duration::from_millis(5));
     }
-    serve.child.kill().unwrap(); // SIGKILL
-    serve.child.wait().unwrap();
+    serve.child().kill().unwrap(); // SIGKILL
+    serve.child().wait().unwrap();
     let _ = replay.kill();
     let _ = replay.wait();
     // What was in flight to the watcher when the broker died is in its hands now.

@@ -7,7 +7,7 @@
 mod common;
 
 use common::{
-    data_dir, free_port, nomen, nomen_command, repo, short_scene, simulate_file, text,
+    Serve, data_dir, free_port, nomen, nomen_command, repo, short_scene, simulate_file, text,
     wait_for_port,
 };
 use serde_json::Value;
@@ -15,7 +15,7 @@ use std::collections::BTreeSet;
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// Seconds of the scene the page is checked on.
@@ -146,55 +146,16 @@ fn open_page(
     serde_json::from_slice(&o.stdout).unwrap()
 }
 
-/// A running `nomen serve`, stopped with SIGTERM.
-struct Serve {
-    child: Child,
-    stderr: PathBuf,
-}
-
-impl Serve {
-    /// Starts it with an embedded broker on a free port, health every 0.2 s; returns it and its
-    /// broker's port.
-    fn start(dir: &Path, args: &[&str]) -> (Serve, u16) {
-        let mqtt_port = free_port();
-        let config = dir.join("serve.toml");
-        std::fs::write(
-            &config,
-            format!("health_period_s = 0.2\nembedded_listen = \"127.0.0.1:{mqtt_port}\"\n"),
-        )
-        .unwrap();
-        let stderr = dir.join("serve.stderr");
-        let child =
-            nomen_command(&[&["serve", "--config", config.to_str().unwrap()], args].concat())
-                .stdout(Stdio::null())
-                .stderr(std::fs::File::create(&stderr).unwrap())
-                .spawn()
-                .unwrap();
-        (Serve { child, stderr }, mqtt_port)
-    }
-
-    fn stderr(&self) -> String {
-        std::fs::read_to_string(&self.stderr).unwrap_or_default()
-    }
-
-    fn stop(mut self) -> String {
-        let status = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(status.success());
-        let status = self.child.wait().unwrap();
-        let stderr = self.stderr();
-        assert!(status.success(), "nomen serve failed: {stderr}");
-        stderr
-    }
-}
-
-impl Drop for Serve {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
+/// Starts `nomen serve ARGS` with an embedded broker on a free port, health every 0.2 s;
+/// returns it and its broker's port.
+fn start_serve(dir: &Path, args: &[&str]) -> (Serve, u16) {
+    let mqtt_port = free_port();
+    std::fs::write(
+        dir.join("serve.toml"),
+        format!("health_period_s = 0.2\nembedded_listen = \"127.0.0.1:{mqtt_port}\"\n"),
+    )
+    .unwrap();
+    (Serve::start(dir, args), mqtt_port)
 }
 
 fn simulate(scenario: &Path, out: &Path, data: &Path) -> PathBuf {
@@ -262,7 +223,7 @@ fn the_page_names_the_people_the_service_named() {
     let num_expected = decisions(&expected).len();
     let http_port = free_port();
     let out = tmp.path().join("serve.jsonl");
-    let (serve, mqtt_port) = Serve::start(
+    let (serve, mqtt_port) = start_serve(
         tmp.path(),
         &[
             "--http",
@@ -388,7 +349,7 @@ fn a_viewer_off_loopback_needs_its_token() {
     );
 
     let http_port = free_port();
-    let (serve, _) = Serve::start(
+    let (serve, _) = start_serve(
         tmp.path(),
         &[
             "--http",
@@ -484,7 +445,7 @@ fn viewer_frame_time_with_32_people() {
     let recording = simulate(&scenario, &tmp.path().join("scene"), &data);
     let http_port = free_port();
     let (serve, mqtt_port) =
-        Serve::start(tmp.path(), &["--http", &format!("127.0.0.1:{http_port}")]);
+        start_serve(tmp.path(), &["--http", &format!("127.0.0.1:{http_port}")]);
     wait_for_port(http_port);
     wait_for_port(mqtt_port);
     let mut replay = nomen_command(&[

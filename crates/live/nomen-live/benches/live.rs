@@ -23,7 +23,16 @@
 //! health every 50 ms), with what a full queue dropped; and, for comparison in the same run,
 //! the engine alone on the same messages offline.
 //!
-//! `cargo bench -p nomen-live` prints both (`NOMEN_BENCH_SCENE_S=60` plays the whole scene;
+//! **Decoding.** The scene's payloads decoded offline twice: read as the `Message` enum (tagged
+//! by its `type` field, which serde buffers field by field before it reads the variant) and as
+//! the service reads them (the topic names the type); ns per message, and instructions under
+//! callgrind (`NOMEN_BENCH_DECODE_ONLY=1` stops after it; `docs/live.md` has the command).
+//!
+//! **CPU.** Beside wall-clock rates, which the machine's other work moves, the CPU time the
+//! service's two threads (MQTT client, session loop) spent during the ingest, and the engine's
+//! offline: messages per CPU-second, what one core would take.
+//!
+//! `cargo bench -p nomen-live` prints all of it (`NOMEN_BENCH_SCENE_S=60` plays the whole scene;
 //! `NOMEN_BENCH_MQTT=127.0.0.1:PORT` uses a broker already listening there, e.g. Mosquitto,
 //! instead of the embedded one).
 #![allow(
@@ -132,8 +141,10 @@ fn start_serve(
         .min(config.max_time_jump_s)
         * 1e9) as i64;
     let session = Session::new(
-        Box::new(|registry| {
-            Engine::new(registry, EngineConfig::default()).map_err(|e| e.to_string())
+        Box::new(|registry: Registry| {
+            Engine::new(registry.clone(), EngineConfig::default())
+                .map(|engine| (registry, engine))
+                .map_err(|e| e.to_string())
         }),
         SessionOptions {
             max_idle_ns,
@@ -141,22 +152,23 @@ fn start_serve(
         },
     );
     let options = ServeOptions {
-        broker: BrokerAddr {
-            host: "127.0.0.1".to_owned(),
-            port,
-        },
+        broker: BrokerAddr::new("127.0.0.1", port),
         client_id: client_id.to_owned(),
         queue_capacity: QUEUE_CAPACITY,
         publish_capacity: 4096,
+        outbox_capacity: 16_384,
         health_period,
         connect_timeout: Duration::from_secs(10),
         record: None,
     };
     let registry = registry.clone();
     let stop = Arc::clone(stop);
-    std::thread::spawn(move || {
-        serve(&options, session, Some(registry), None, None, None, &stop).expect("serves")
-    })
+    std::thread::Builder::new()
+        .name("bench-serve".to_owned())
+        .spawn(move || {
+            serve(&options, session, Some(registry), None, None, None, &stop).expect("serves")
+        })
+        .unwrap()
 }
 
 /// What the subscriber saw.
@@ -258,6 +270,80 @@ fn publish(port: u16, inputs: &[Message], speed: Speed) -> (Vec<Instant>, Instan
     (handed, all_acked)
 }
 
+/// The CPU time of this process's threads whose names start with one of `prefixes`, s (Linux:
+/// `/proc/self/task/*/schedstat`, nanoseconds on the CPU; 0 elsewhere).
+fn threads_cpu_s(prefixes: &[&str]) -> f64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return 0.0;
+    };
+    tasks
+        .filter_map(Result::ok)
+        .filter_map(|task| {
+            let comm = std::fs::read_to_string(task.path().join("comm")).ok()?;
+            if !prefixes.iter().any(|p| comm.trim_end().starts_with(p)) {
+                return None;
+            }
+            let stat = std::fs::read_to_string(task.path().join("schedstat")).ok()?;
+            let ns: f64 = stat.split_whitespace().next()?.parse().ok()?;
+            Some(ns * 1e-9)
+        })
+        .sum()
+}
+
+/// The CPU time of the calling thread, s (Linux; 0 elsewhere).
+fn this_thread_cpu_s() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|stat| stat.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or(0.0, |ns| ns * 1e-9)
+}
+
+/// The service's threads: its MQTT client (decoding, the network) and its session loop.
+const SERVICE_THREADS: [&str; 2] = ["nomen-mqtt", "bench-serve"];
+
+/// The payloads as they arrive: topic and JSON.
+type Payloads = Vec<(String, Vec<u8>)>;
+
+/// Decodes every payload as a `Message` (the enum tagged by its `type` field), checked as the
+/// service checks an input; returns how many were taken.
+#[inline(never)]
+fn decode_as_tagged_enum(payloads: &Payloads) -> usize {
+    payloads
+        .iter()
+        .filter(|(topic, payload)| {
+            let Ok(m) = serde_json::from_slice::<Message>(payload) else {
+                return false;
+            };
+            let is_its_topic = nomen_live::topics::input_source(&m).is_some_and(|(kind, source)| {
+                topic.ends_with(source) && topic.contains(kind.name())
+            });
+            is_its_topic && m.validate().is_ok()
+        })
+        .count()
+}
+
+/// Decodes every payload as the service does (`nomen_live::decode::decode`); returns how many
+/// were taken.
+#[inline(never)]
+fn decode_as_service(payloads: &Payloads) -> usize {
+    payloads
+        .iter()
+        .filter(|(topic, payload)| nomen_live::decode::decode(topic, payload).is_ok())
+        .count()
+}
+
+/// Times both decodings of `payloads`, ns per message; `valgrind --tool=callgrind
+/// --toggle-collect='*decode_as_*'` counts their instructions instead.
+fn decode_costs(payloads: &Payloads) -> (f64, f64) {
+    let time = |decode: fn(&Payloads) -> usize| {
+        let start = Instant::now();
+        let n = decode(payloads);
+        assert_eq!(n, payloads.len(), "every payload decodes");
+        start.elapsed().as_secs_f64() * 1e9 / payloads.len() as f64
+    };
+    (time(decode_as_tagged_enum), time(decode_as_service))
+}
+
 fn percentile(sorted: &[f64], p: f64) -> f64 {
     let i = ((sorted.len() - 1) as f64 * p).round() as usize;
     sorted[i]
@@ -274,7 +360,9 @@ fn main() {
         .ok()
         .map_or(SCENE_S, |s| s.parse().expect("NOMEN_BENCH_SCENE_S=seconds"));
     let (registry, inputs) = scene(&repo, &data, scene_s);
+    let engine_cpu_start_s = this_thread_cpu_s();
     let (trigger, compute_ms, engine_s) = triggers(&registry, &inputs);
+    let engine_cpu_s = this_thread_cpu_s() - engine_cpu_start_s;
     let engine_rate = inputs.len() as f64 / engine_s;
     println!(
         "{SCENARIO}, {scene_s} s at seed {SEED}: {} inputs ({:.0} per second of scene), {} decisions with the input that lets the engine make them",
@@ -282,6 +370,19 @@ fn main() {
         inputs.len() as f64 / scene_s,
         trigger.len()
     );
+    let payloads: Payloads = inputs
+        .iter()
+        .map(|m| (input_topic(m).unwrap(), serde_json::to_vec(m).unwrap()))
+        .collect();
+    let (enum_ns, service_ns) = decode_costs(&payloads);
+    println!(
+        "decoding the {} payloads: {enum_ns:.0} ns per message read as the tagged Message enum, {service_ns:.0} ns as the service reads them ({:.2} of it)",
+        payloads.len(),
+        service_ns / enum_ns
+    );
+    if std::env::var_os("NOMEN_BENCH_DECODE_ONLY").is_some() {
+        return;
+    }
     let port = match std::env::var("NOMEN_BENCH_MQTT") {
         Ok(addr) => {
             let addr: std::net::SocketAddr = addr.parse().expect("NOMEN_BENCH_MQTT=127.0.0.1:PORT");
@@ -376,6 +477,7 @@ fn main() {
     while seen.lock().unwrap().health.is_none() {
         std::thread::sleep(Duration::from_millis(10));
     }
+    let service_cpu_start_s = threads_cpu_s(&SERVICE_THREADS);
     let (handed, all_acked) = publish(port, &inputs, Speed::Max);
     let first = handed[0];
     let n = inputs.len() as u64;
@@ -396,6 +498,7 @@ fn main() {
         );
         std::thread::sleep(Duration::from_millis(5));
     };
+    let service_cpu_s = threads_cpu_s(&SERVICE_THREADS) - service_cpu_start_s;
     stop.store(true, Ordering::Relaxed);
     let summary = service.join().unwrap();
     let rate = |until: Instant| n as f64 / until.duration_since(first).as_secs_f64();
@@ -408,7 +511,12 @@ fn main() {
         summary.num_decisions
     );
     println!(
-        "  the engine alone, offline, on the same messages: {engine_rate:.0}/s; the service's ingest is {:.2} of it",
+        "  the engine alone, offline, on the same messages: {engine_rate:.0}/s ({:.0} per CPU-second); the service's ingest is {:.2} of it",
+        inputs.len() as f64 / engine_cpu_s,
         rate(taken_at) / engine_rate
+    );
+    println!(
+        "  the service's threads (MQTT client, session loop) used {service_cpu_s:.2} s of CPU for them: {:.0} messages per CPU-second, what one core would take",
+        n as f64 / service_cpu_s
     );
 }

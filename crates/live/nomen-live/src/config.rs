@@ -5,8 +5,8 @@ use nomen_engine::EngineConfig;
 use serde::Deserialize;
 use std::path::PathBuf;
 
-/// The largest `queue_capacity` and `publish_capacity` taken: both queues are allocated up
-/// front.
+/// The largest `queue_capacity`, `publish_capacity` and `outbox_capacity` taken (the first
+/// two queues are allocated up front).
 pub const MAX_CAPACITY: usize = 1_000_000;
 
 /// The live service's configuration.
@@ -16,6 +16,13 @@ pub struct ServeConfig {
     /// The broker to use, `mqtt://host:port`; none: start the embedded broker on
     /// `embedded_listen`. `--mqtt` overrides it.
     pub mqtt: Option<String>,
+    /// The user name to log in to the broker of `mqtt` (or `--mqtt`) with, replacing one in
+    /// the URL. Default: none (the URL's, or anonymous).
+    pub mqtt_username: Option<String>,
+    /// Its password; here rather than in the URL, it stays out of the process list. Needs
+    /// `mqtt_username`. Both travel in clear text: MQTT over TLS is not supported. Default:
+    /// none.
+    pub mqtt_password: Option<String>,
     /// Where the embedded broker listens. Default `127.0.0.1:1883`.
     pub embedded_listen: String,
     /// The registry: a JSON file holding one registry object, or a recording whose header carries
@@ -42,6 +49,14 @@ pub struct ServeConfig {
     /// Outputs the MQTT client buffers before a publish waits. Default 4,096. At most
     /// [`MAX_CAPACITY`].
     pub publish_capacity: usize,
+    /// Outputs (decisions, events, health reports) kept until the broker acknowledges them,
+    /// to be published again after a reconnection. Full with the broker connected, the engine
+    /// waits for its acknowledgements; full with the broker away, newer outputs are dropped,
+    /// counted (`num_unpublished` in the health reports) and told in a warning event (the
+    /// identity log holds them). Default 16,384: an outage's worth (the engine's latency, a
+    /// few seconds of decisions, since no input arrives then) many times over; at about 1 kB
+    /// per decision, 16 MB at most. At most [`MAX_CAPACITY`].
+    pub outbox_capacity: usize,
     /// Period of the health reports, s, within 0.01..=3600. Default 1.
     pub health_period_s: f64,
     /// Session time without a decision naming a subject after which he is lost, s, at most
@@ -62,6 +77,8 @@ impl Default for ServeConfig {
     fn default() -> Self {
         ServeConfig {
             mqtt: None,
+            mqtt_username: None,
+            mqtt_password: None,
             embedded_listen: "127.0.0.1:1883".to_owned(),
             registry: None,
             log: None,
@@ -70,6 +87,7 @@ impl Default for ServeConfig {
             client_id: "nomen-serve".to_owned(),
             queue_capacity: 16_384,
             publish_capacity: 4_096,
+            outbox_capacity: 16_384,
             health_period_s: 1.0,
             lost_after_s: 3.0,
             http: None,
@@ -98,10 +116,16 @@ impl ServeConfig {
                 why: why.to_owned(),
             })
         };
+        if self.mqtt_password.is_some() && self.mqtt_username.is_none() {
+            return bad("mqtt_password needs mqtt_username");
+        }
         if !(1..=MAX_CAPACITY).contains(&self.queue_capacity)
             || !(1..=MAX_CAPACITY).contains(&self.publish_capacity)
+            || !(1..=MAX_CAPACITY).contains(&self.outbox_capacity)
         {
-            return bad("queue_capacity and publish_capacity must be within 1..=1000000");
+            return bad(
+                "queue_capacity, publish_capacity and outbox_capacity must be within 1..=1000000",
+            );
         }
         if !(crate::record::MIN_RECORD_MB..=crate::record::MAX_RECORD_MB)
             .contains(&self.record_max_mb)
@@ -143,5 +167,6 @@ mod tests {
         assert_eq!(c.engine.hop_s, 0.25);
         assert!(ServeConfig::from_toml("queue = 1", "serve.toml").is_err());
         assert!(ServeConfig::from_toml("queue_capacity = 0", "serve.toml").is_err());
+        assert!(ServeConfig::from_toml("outbox_capacity = 0", "serve.toml").is_err());
     }
 }

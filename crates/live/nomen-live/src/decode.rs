@@ -2,7 +2,7 @@
 //! registry, or a vendor's payload (`docs/adapters.md`), checked against the topic they came
 //! on.
 
-use crate::topics::{InputTopic, VendorFormat, input_source, parse_input_topic};
+use crate::topics::{InputKind, InputTopic, VendorFormat, input_source, parse_input_topic};
 use nomen_adapters::{
     AzureKinectConfig, RfidConfig, RtlsConfig, decode_azure_kinect_frame, decode_impinj,
     decode_pozyx, decode_sewio, decode_zebra,
@@ -27,8 +27,17 @@ pub enum Input {
 /// vendor payload (`nomen/in/vendor/<format>/<source>`) in its order. The error is the reason to
 /// report, without the topic.
 pub fn decode_all(topic: &str, payload: &[u8]) -> Result<Vec<Input>, String> {
+    let mut inputs = Vec::new();
+    decode_into(topic, payload, &mut inputs)?;
+    Ok(inputs)
+}
+
+/// [`decode_all`] into `inputs` (appended; a buffer the caller reuses, so that a message costs
+/// no vector of its own). On an error nothing is appended.
+pub fn decode_into(topic: &str, payload: &[u8], inputs: &mut Vec<Input>) -> Result<(), String> {
     let Ok(InputTopic::Vendor { format, source }) = parse_input_topic(topic) else {
-        return decode(topic, payload).map(|input| vec![input]);
+        inputs.push(decode(topic, payload)?);
+        return Ok(());
     };
     // Times are the vendor's (Unix epoch for RTLS and RFID, device time for the Kinect); 2D
     // fixes lie at z = 0.
@@ -51,7 +60,8 @@ pub fn decode_all(topic: &str, payload: &[u8]) -> Result<Vec<Input>, String> {
         VendorFormat::Zebra => decode_zebra(payload, &rfid),
     }
     .map_err(|e| e.to_string())?;
-    Ok(decoded.messages.into_iter().map(Input::Message).collect())
+    inputs.extend(decoded.messages.into_iter().map(Input::Message));
+    Ok(())
 }
 
 /// Decodes the payload of an input `topic` of nomen's own (one message or the registry); the
@@ -73,7 +83,7 @@ pub fn decode(topic: &str, payload: &[u8]) -> Result<Input, String> {
             Ok(Input::Registry(Box::new(registry)))
         }
         InputTopic::Data { kind, source } => {
-            let msg: Message = serde_json::from_slice(payload).map_err(|e| e.to_string())?;
+            let msg = decode_message(kind, payload)?;
             let Some((msg_kind, msg_source)) = input_source(&msg) else {
                 return Err(format!(
                     "a message of type '{}' is not an input",
@@ -99,6 +109,46 @@ pub fn decode(topic: &str, payload: &[u8]) -> Result<Input, String> {
             Err("a vendor payload holds several messages: decode it with decode_all".to_owned())
         }
     }
+}
+
+/// The `type` of a message, every other field passed over.
+#[derive(serde::Deserialize)]
+struct TypeTag<'a> {
+    #[serde(rename = "type", borrow)]
+    kind: Option<std::borrow::Cow<'a, str>>,
+}
+
+/// Whether `payload` starts with `{"type":"<kind>",`, as nomen writes its messages (the tag
+/// first, no spaces): its tag is then the topic's without a pass over the rest.
+fn starts_with_tag(payload: &[u8], kind: InputKind) -> bool {
+    let name = kind.name().as_bytes();
+    payload
+        .strip_prefix(br#"{"type":""#)
+        .and_then(|rest| rest.strip_prefix(name))
+        .is_some_and(|rest| rest.starts_with(br#"","#))
+}
+
+/// A message on a topic of `kind`. The topic names its type, so the payload is read straight
+/// into that type once its `type` tag is known to be the topic's (from the payload's first
+/// bytes when it starts with the tag, as nomen writes it, else from a pass over the payload): a
+/// message read as [`Message`], an enum tagged by a field, is first buffered field by field,
+/// which takes several times longer. A payload whose tag is not the topic's is read as a
+/// [`Message`], for the reason to report.
+fn decode_message(kind: InputKind, payload: &[u8]) -> Result<Message, String> {
+    if !starts_with_tag(payload, kind) {
+        let tag: TypeTag<'_> = serde_json::from_slice(payload).map_err(|e| e.to_string())?;
+        if tag.kind.as_deref() != Some(kind.name()) {
+            return serde_json::from_slice(payload).map_err(|e| e.to_string());
+        }
+    }
+    let read = |e: serde_json::Error| e.to_string();
+    Ok(match kind {
+        InputKind::Skeleton => Message::Skeleton(serde_json::from_slice(payload).map_err(read)?),
+        InputKind::Imu => Message::Imu(serde_json::from_slice(payload).map_err(read)?),
+        InputKind::RtlsFix => Message::RtlsFix(serde_json::from_slice(payload).map_err(read)?),
+        InputKind::UwbRange => Message::UwbRange(serde_json::from_slice(payload).map_err(read)?),
+        InputKind::Rssi => Message::Rssi(serde_json::from_slice(payload).map_err(read)?),
+    })
 }
 
 #[cfg(test)]
@@ -172,5 +222,50 @@ mod tests {
         };
         assert!(r.subjects.is_empty());
         assert!(decode(crate::topics::REGISTRY_TOPIC, b"[1]").is_err());
+    }
+
+    #[test]
+    fn every_input_kind_decodes_as_the_tagged_enum_does() {
+        let payloads = [
+            ("nomen/in/imu/w1", IMU.to_owned()),
+            (
+                "nomen/in/rtls_fix/t1",
+                r#"{"type":"rtls_fix","t":5,"tag":"t1","position_m":[1.0,2.0,0.5]}"#.to_owned(),
+            ),
+            (
+                "nomen/in/skeleton/cam",
+                r#"{"type":"skeleton","t":7,"camera":"cam","track":3,"joints":{"pelvis":{"position_m":[1.0,2.0,0.9]}}}"#
+                    .to_owned(),
+            ),
+        ];
+        for (topic, payload) in payloads {
+            let expected: Message = serde_json::from_str(&payload).unwrap();
+            let Ok(Input::Message(m)) = decode(topic, payload.as_bytes()) else {
+                panic!("{topic} decodes");
+            };
+            assert_eq!(m, expected, "{topic}");
+        }
+        // A message that is no input, on an input topic: the tagged enum's reason.
+        let e = decode(
+            "nomen/in/imu/w1",
+            br#"{"type":"truth_tag","t":1,"tag":"w1","position_m":[0.0,0.0,0.0]}"#,
+        )
+        .unwrap_err();
+        assert!(e.contains("is not an input"), "{e}");
+        // No tag at all.
+        let e = decode("nomen/in/imu/w1", br#"{"t":1,"device":"w1"}"#).unwrap_err();
+        assert!(e.contains("type"), "{e}");
+        // The tag elsewhere than first, or spaced: read after a pass that finds it.
+        let late = r#"{"t":1000000,"device":"w1","type":"imu","accel_mps2":[0.0,0.0,9.81],"gyro_radps":[0.0,0.0,0.0]}"#;
+        let spaced = IMU.replace(r#""type":"imu""#, r#""type": "imu""#);
+        for payload in [late, spaced.as_str()] {
+            assert!(!starts_with_tag(payload.as_bytes(), InputKind::Imu));
+            assert_eq!(
+                decode("nomen/in/imu/w1", payload.as_bytes()),
+                decode("nomen/in/imu/w1", IMU.as_bytes())
+            );
+        }
+        assert!(starts_with_tag(IMU.as_bytes(), InputKind::Imu));
+        assert!(!starts_with_tag(IMU.as_bytes(), InputKind::RtlsFix));
     }
 }

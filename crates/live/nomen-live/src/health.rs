@@ -18,7 +18,12 @@ const MAX_REASON_BYTES: usize = 300;
 /// The running counts behind the health reports.
 #[derive(Debug, Default)]
 pub struct Health {
-    sources: BTreeMap<String, SourceCounts>,
+    /// Per kind (in [`InputKind::ALL`]'s order), by source id: a message's counts are found
+    /// without making its `<kind>/<source>` key.
+    sources: [BTreeMap<String, SourceCounts>; InputKind::ALL.len()],
+    /// Sources past [`MAX_SOURCES`].
+    other: Option<SourceCounts>,
+    num_sources: usize,
     malformed: BTreeMap<String, MalformedCounts>,
     num_before_registry: u64,
     num_published: u64,
@@ -100,6 +105,13 @@ pub struct HealthReport {
     pub queue_len: usize,
     /// The input queue's capacity.
     pub queue_capacity: usize,
+    /// Outputs (decisions, events, health reports) never published because the outbox was
+    /// full while the broker was away; the identity log holds the decisions and events.
+    pub num_unpublished: u64,
+    /// Outputs published and not yet acknowledged by the broker, or waiting for it.
+    pub outbox_len: usize,
+    /// The most outputs the outbox keeps (`outbox_capacity`).
+    pub outbox_capacity: usize,
     /// Per source.
     pub sources: Vec<SourceReport>,
     /// Per topic with malformed payloads.
@@ -157,35 +169,50 @@ impl Health {
 
     /// Messages of every source that were decoded so far.
     pub fn num_received(&self) -> u64 {
-        self.sources.values().map(|s| s.num_received).sum()
+        self.sources
+            .iter()
+            .flat_map(BTreeMap::values)
+            .chain(&self.other)
+            .map(|s| s.num_received)
+            .sum()
     }
 
     /// The report at wall time `now_s` (s since the service started); rates are over the time
-    /// since the previous report.
+    /// since the previous report. The outbox's fields are zero: the publisher fills them.
     pub fn report(&mut self, now_s: f64, session: u64, queue: (usize, usize)) -> HealthReport {
         let period_s = now_s - self.last_report_s.unwrap_or(0.0);
         self.last_report_s = Some(now_s);
-        let sources: Vec<SourceReport> = self
-            .sources
-            .iter_mut()
-            .map(|(source, c)| {
-                let num_new = c.num_received - c.num_at_last_report;
-                c.num_at_last_report = c.num_received;
-                SourceReport {
-                    source: source.clone(),
-                    num_received: c.num_received,
-                    rate_hz: if period_s > 0.0 {
-                        num_new as f64 / period_s
-                    } else {
-                        0.0
-                    },
-                    num_dropped: c.num_dropped,
-                    num_rejected: c.num_rejected,
-                    newest_t_ns: c.newest_t_ns,
-                    last_rejection: c.last_rejection.clone(),
-                }
-            })
-            .collect();
+        let rate_hz = |c: &mut SourceCounts| {
+            let num_new = c.num_received - c.num_at_last_report;
+            c.num_at_last_report = c.num_received;
+            if period_s > 0.0 {
+                num_new as f64 / period_s
+            } else {
+                0.0
+            }
+        };
+        let line = |source: String, c: &mut SourceCounts| SourceReport {
+            source,
+            num_received: c.num_received,
+            rate_hz: rate_hz(c),
+            num_dropped: c.num_dropped,
+            num_rejected: c.num_rejected,
+            newest_t_ns: c.newest_t_ns,
+            last_rejection: c.last_rejection.clone(),
+        };
+        // In the order of their `<kind>/<source>` keys: "(other)" first, then kinds by name
+        // (no kind's name is the start of another's), then sources.
+        let mut sources: Vec<SourceReport> = Vec::with_capacity(self.num_sources + 1);
+        if let Some(other) = self.other.as_mut() {
+            sources.push(line(OTHER.to_owned(), other));
+        }
+        let mut kinds = InputKind::ALL;
+        kinds.sort_by_key(|k| k.name());
+        for kind in kinds {
+            for (source, c) in &mut self.sources[kind.index()] {
+                sources.push(line(format!("{}/{source}", kind.name()), c));
+            }
+        }
         HealthReport {
             uptime_s: now_s,
             session,
@@ -199,6 +226,9 @@ impl Health {
             last_connection_error: self.last_connection_error.clone(),
             queue_len: queue.0,
             queue_capacity: queue.1,
+            num_unpublished: 0,
+            outbox_len: 0,
+            outbox_capacity: 0,
             sources,
             malformed: self
                 .malformed
@@ -213,13 +243,19 @@ impl Health {
     }
 
     fn source(&mut self, kind: InputKind, source: &str) -> &mut SourceCounts {
-        let key = format!("{}/{source}", kind.name());
-        let key = if self.sources.contains_key(&key) || self.sources.len() < MAX_SOURCES {
-            key
-        } else {
-            OTHER.to_owned()
-        };
-        self.sources.entry(key).or_default()
+        let sources = &mut self.sources[kind.index()];
+        if !sources.contains_key(source) {
+            if self.num_sources >= MAX_SOURCES {
+                return self.other.get_or_insert_with(SourceCounts::default);
+            }
+            self.num_sources += 1;
+            return sources.entry(source.to_owned()).or_default();
+        }
+        // A known source is found by reference: no key is made.
+        match sources.get_mut(source) {
+            Some(counts) => counts,
+            None => self.other.get_or_insert_with(SourceCounts::default),
+        }
     }
 }
 
@@ -283,5 +319,36 @@ mod tests {
                 .iter()
                 .all(|m| m.reason.len() <= MAX_REASON_BYTES + 3)
         );
+    }
+
+    #[test]
+    fn sources_are_reported_in_the_order_of_their_keys() {
+        let mut h = Health::default();
+        for (kind, source) in [
+            (InputKind::Skeleton, "cam"),
+            (InputKind::Imu, "w2"),
+            (InputKind::Rssi, "t"),
+            (InputKind::Imu, "w1"),
+            (InputKind::RtlsFix, "t"),
+            (InputKind::UwbRange, "t"),
+            (InputKind::Imu, "w2"),
+        ] {
+            h.received(kind, source, 0);
+        }
+        let r = h.report(1.0, 0, (0, 1));
+        let keys: Vec<&str> = r.sources.iter().map(|s| s.source.as_str()).collect();
+        assert_eq!(
+            keys,
+            [
+                "imu/w1",
+                "imu/w2",
+                "rssi/t",
+                "rtls_fix/t",
+                "skeleton/cam",
+                "uwb_range/t"
+            ]
+        );
+        assert_eq!(r.sources[1].num_received, 2);
+        assert_eq!(h.num_received(), 7);
     }
 }

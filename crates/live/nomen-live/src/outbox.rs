@@ -12,6 +12,10 @@
 //! what is handed again: the count of those unacknowledged publishes is taken off the new
 //! connection's acknowledgements before they are matched to hand-overs, so that nothing is
 //! taken for acknowledged that was not (at the price of handing a few twice: at least once).
+//!
+//! The outbox is bounded: a publish that finds it full is dropped and counted
+//! ([`Outbox::num_dropped`]). The oldest are kept, so that what a subscriber receives after an
+//! outage goes on without a gap from where it left off, up to the bound.
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -94,9 +98,11 @@ struct Entry {
     is_kept_on_loss: bool,
 }
 
-/// The publishes not known to be acknowledged, oldest first.
-#[derive(Default)]
+/// The publishes not known to be acknowledged, oldest first, at most `capacity`.
 pub struct Outbox {
+    capacity: usize,
+    /// Publishes refused because the outbox was full.
+    num_dropped: u64,
     /// Handed ones first (on `connection`), then those waiting for a connection.
     entries: VecDeque<Entry>,
     /// How many of `entries` were handed.
@@ -111,19 +117,50 @@ pub struct Outbox {
 }
 
 impl Outbox {
-    /// An empty outbox.
-    pub fn new() -> Self {
-        Self::default()
+    /// An empty outbox that holds at most `capacity` publishes (at least one).
+    pub fn new(capacity: usize) -> Self {
+        Outbox {
+            capacity: capacity.max(1),
+            num_dropped: 0,
+            entries: VecDeque::new(),
+            num_handed_now: 0,
+            connection: 0,
+            slack: 0,
+            num_handed: 0,
+            num_pruned: 0,
+            num_handed_again: 0,
+        }
     }
 
     /// A publish to make. `is_kept_on_loss`: hand it again after a reconnection if it was not
     /// acknowledged (decisions and events; a health report is replaced by the next one).
-    pub fn push(&mut self, topic: String, payload: Vec<u8>, is_kept_on_loss: bool) {
+    /// `false` when the outbox is full: the publish is dropped and counted.
+    pub fn push(&mut self, topic: String, payload: Vec<u8>, is_kept_on_loss: bool) -> bool {
+        if self.is_full() {
+            self.num_dropped += 1;
+            return false;
+        }
         self.entries.push_back(Entry {
             topic,
             payload,
             is_kept_on_loss,
         });
+        true
+    }
+
+    /// Whether a publish pushed now would be dropped.
+    pub fn is_full(&self) -> bool {
+        self.entries.len() >= self.capacity
+    }
+
+    /// The most publishes it holds.
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+
+    /// Publishes dropped so far because the outbox was full.
+    pub fn num_dropped(&self) -> u64 {
+        self.num_dropped
     }
 
     /// Publishes not known to be acknowledged.
@@ -226,9 +263,9 @@ mod tests {
 
     #[test]
     fn acknowledged_publishes_are_forgotten_in_order() {
-        let mut outbox = Outbox::new();
+        let mut outbox = Outbox::new(100);
         for k in 0..5 {
-            outbox.push(format!("d{k}"), Vec::new(), true);
+            assert!(outbox.push(format!("d{k}"), Vec::new(), true));
         }
         assert_eq!(sync(&mut outbox, state(1, 0, 0)).len(), 5);
         assert!(sync(&mut outbox, state(1, 5, 3)).is_empty());
@@ -240,7 +277,7 @@ mod tests {
 
     #[test]
     fn nothing_waits_for_a_connection_that_is_down() {
-        let mut outbox = Outbox::new();
+        let mut outbox = Outbox::new(100);
         outbox.push("d0".to_owned(), Vec::new(), true);
         let down = ConnectionState {
             connection: 1,
@@ -253,9 +290,9 @@ mod tests {
 
     #[test]
     fn a_reconnection_hands_again_what_was_not_acknowledged_but_not_health() {
-        let mut outbox = Outbox::new();
+        let mut outbox = Outbox::new(100);
         for k in 0..4 {
-            outbox.push(format!("d{k}"), Vec::new(), true);
+            assert!(outbox.push(format!("d{k}"), Vec::new(), true));
         }
         outbox.push("health".to_owned(), Vec::new(), false);
         sync(&mut outbox, state(1, 0, 0));
@@ -275,9 +312,9 @@ mod tests {
 
     #[test]
     fn publishes_written_first_on_a_new_connection_are_not_taken_for_acknowledged() {
-        let mut outbox = Outbox::new();
+        let mut outbox = Outbox::new(100);
         for k in 0..3 {
-            outbox.push(format!("d{k}"), Vec::new(), true);
+            assert!(outbox.push(format!("d{k}"), Vec::new(), true));
         }
         sync(&mut outbox, state(1, 0, 0));
         // Connection 1 fails with none acknowledged; d2 had been handed after the client
@@ -290,5 +327,34 @@ mod tests {
         sync(&mut outbox, state(2, 4, 4));
         assert_eq!(outbox.len(), 2);
         assert!(outbox.is_settled(&state(2, 4, 4)));
+    }
+
+    #[test]
+    fn a_full_outbox_keeps_the_oldest_and_counts_what_it_drops_across_an_outage() {
+        let mut outbox = Outbox::new(3);
+        for k in 0..2 {
+            assert!(outbox.push(format!("d{k}"), Vec::new(), true));
+        }
+        assert_eq!(sync(&mut outbox, state(1, 0, 0)), ["d0", "d1"]);
+        // The broker goes away before acknowledging them; decisions go on coming.
+        let down = ConnectionState {
+            connection: 1,
+            is_connected: false,
+            num_written: 2,
+            num_acked: 0,
+        };
+        for k in 2..6 {
+            let _ = outbox.push(format!("d{k}"), Vec::new(), true);
+            assert!(sync(&mut outbox, down).is_empty());
+        }
+        assert!(outbox.is_full());
+        assert_eq!((outbox.len(), outbox.num_dropped()), (3, 3));
+        // Back: the oldest three are handed again, in order; the rest were counted, not kept.
+        assert_eq!(sync(&mut outbox, state(2, 0, 0)), ["d0", "d1", "d2"]);
+        // Acknowledged (past the slack of the two handed before the outage): room again.
+        sync(&mut outbox, state(2, 3, 3));
+        assert_eq!(outbox.len(), 2);
+        assert!(outbox.push("d6".to_owned(), Vec::new(), true));
+        assert_eq!(outbox.num_dropped(), 3);
     }
 }

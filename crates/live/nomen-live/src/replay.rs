@@ -164,11 +164,12 @@ pub fn replay(recording: &Path, options: &ReplayOptions) -> Result<ReplaySummary
             )));
         }
     }
-    let mut outbox = Outbox::new();
+    // Never full: the replay waits for acknowledgements at MAX_PENDING.
+    let mut outbox = Outbox::new(MAX_PENDING + 2);
     // The registry is retained; every publish is kept until acknowledged.
     let publish = |outbox: &mut Outbox, topic: Option<String>, payload: Vec<u8>| {
         if let Some(topic) = topic {
-            outbox.push(topic, payload, true);
+            let _ = outbox.push(topic, payload, true);
         }
         outbox.sync(&counts.state(), |topic: &str, payload: &[u8]| {
             client

@@ -2,7 +2,7 @@
 //! and the session loop that feeds the engine and publishes what it makes.
 
 use crate::broker::BrokerAddr;
-use crate::decode::{Input, decode_all};
+use crate::decode::{Input, decode_into};
 use crate::health::{Health, HealthReport};
 use crate::log::IdentityLog;
 use crate::outbox::{ConnectionCounts, Outbox};
@@ -13,7 +13,9 @@ use crate::{LiveError, Result};
 use nomen_core::{Message, Registry, SkeletonObservation};
 use rumqttc::{Client, Connection, Event, Outgoing, Packet, QoS};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc::{RecvTimeoutError, SyncSender, TrySendError, sync_channel};
+use std::sync::mpsc::{
+    Receiver, RecvTimeoutError, SyncSender, TryRecvError, TrySendError, sync_channel,
+};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
@@ -50,6 +52,8 @@ pub struct ServeOptions {
     pub queue_capacity: usize,
     /// Capacity of the MQTT client's request queue.
     pub publish_capacity: usize,
+    /// The most outputs kept until the broker acknowledges them ([`crate::outbox`]).
+    pub outbox_capacity: usize,
     /// Period of the health reports.
     pub health_period: Duration,
     /// How long to wait for the first connection.
@@ -80,8 +84,11 @@ type SharedHealth = Arc<Mutex<Health>>;
 /// What the client thread tells the session loop besides the queue.
 #[derive(Default)]
 struct Shared {
-    /// Messages in the input queue (counted before they are queued).
+    /// Messages in the input queue (counted before they are queued, uncounted as the session
+    /// loop takes them one by one).
     in_queue: AtomicUsize,
+    /// The most messages the input queue holds.
+    queue_capacity: usize,
     /// The connection, for the outbox.
     connection: ConnectionCounts,
     /// A registry that found the input queue full.
@@ -113,7 +120,10 @@ pub fn serve(
     let health: SharedHealth = Arc::default();
     let (queue_in, queue) = sync_channel(options.queue_capacity);
     let (connected_tx, connected) = sync_channel(1);
-    let shared = Arc::new(Shared::default());
+    let shared = Arc::new(Shared {
+        queue_capacity: options.queue_capacity,
+        ..Shared::default()
+    });
     // Dropped when the client thread ends.
     let (ended_tx, ended) = sync_channel::<()>(0);
     let network = {
@@ -158,7 +168,8 @@ pub fn serve(
     let mut publisher = Publisher {
         client: &client,
         shared: &shared,
-        outbox: Outbox::new(),
+        outbox: Outbox::new(options.outbox_capacity),
+        num_reported_unpublished: 0,
         num_decisions: 0,
         num_events: 0,
         logged_session: 0,
@@ -180,6 +191,8 @@ pub fn serve(
     let mut last_message = Instant::now();
     let mut next_health = started + options.health_period;
     let mut result = Ok(());
+    // The batch the client thread handed over last, taken one input a turn.
+    let mut batch = Vec::new().into_iter();
     while !stop.load(Ordering::Relaxed) {
         let now = Instant::now();
         let wait = next_health.saturating_duration_since(now).min(IDLE_TICK);
@@ -192,13 +205,7 @@ pub fn serve(
         // published at the end of the turn, before the new session takes a message).
         let input = match pending {
             Some(registry) => Ok(Input::Registry(registry)),
-            None => {
-                let input = queue.recv_timeout(wait);
-                if input.is_ok() {
-                    shared.in_queue.fetch_sub(1, Ordering::Relaxed);
-                }
-                input
-            }
+            None => next_input(&mut batch, &queue, wait, &shared.in_queue),
         };
         match input {
             Ok(Input::Registry(registry)) => session.set_registry(*registry, &mut out),
@@ -244,6 +251,12 @@ pub fn serve(
                 break;
             }
         }
+        let is_health_due = Instant::now() >= next_health;
+        // Told once the broker is back (a warning made while it is away would find the outbox
+        // full too, and be one more to tell).
+        if is_health_due && shared.connection.is_connected() {
+            publisher.warn_unpublished(&session, &mut out);
+        }
         if let Err(e) = publisher.publish(
             &mut out,
             &session,
@@ -255,7 +268,7 @@ pub fn serve(
             result = Err(e);
             break;
         }
-        if Instant::now() >= next_health {
+        if is_health_due {
             next_health += options.health_period;
             let report = report(
                 &health,
@@ -263,6 +276,7 @@ pub fn serve(
                 &session,
                 &shared.in_queue,
                 options.queue_capacity,
+                &publisher.outbox,
             );
             publisher.health(&report, &mut observer)?;
         }
@@ -270,7 +284,7 @@ pub fn serve(
     // Stopped: take what is queued, then flush the engine (each turn's outputs published
     // before the next, so that a new registry's session starts after its predecessor's end).
     loop {
-        let input = queue.try_recv().ok();
+        let input = next_input(&mut batch, &queue, Duration::ZERO, &shared.in_queue).ok();
         let is_end = input.is_none();
         match input {
             Some(Input::Registry(registry)) => session.set_registry(*registry, &mut out),
@@ -280,7 +294,10 @@ pub fn serve(
                     publisher.record_input(&m, now)?;
                 }
             }
-            None => session.finish(&mut out),
+            None => {
+                session.finish(&mut out);
+                publisher.warn_unpublished(&session, &mut out);
+            }
         }
         publisher.publish(
             &mut out,
@@ -306,6 +323,7 @@ pub fn serve(
         &session,
         &shared.in_queue,
         options.queue_capacity,
+        &publisher.outbox,
     );
     publisher.health(&report, &mut observer)?;
     let recorded = match publisher.recorder.take() {
@@ -345,18 +363,48 @@ pub fn serve(
     result.map(|()| summary)
 }
 
+/// The next input: from `batch`, or else from the next batch of the queue (waiting at most
+/// `wait`).
+fn next_input(
+    batch: &mut std::vec::IntoIter<Input>,
+    queue: &Receiver<Vec<Input>>,
+    wait: Duration,
+    in_queue: &AtomicUsize,
+) -> std::result::Result<Input, RecvTimeoutError> {
+    loop {
+        if let Some(input) = batch.next() {
+            in_queue.fetch_sub(1, Ordering::Relaxed);
+            return Ok(input);
+        }
+        let next = if wait.is_zero() {
+            queue.try_recv().map_err(|e| match e {
+                TryRecvError::Empty => RecvTimeoutError::Timeout,
+                TryRecvError::Disconnected => RecvTimeoutError::Disconnected,
+            })
+        } else {
+            queue.recv_timeout(wait)
+        };
+        *batch = next?.into_iter();
+    }
+}
+
 fn report(
     health: &SharedHealth,
     started: Instant,
     session: &Session,
     in_queue: &AtomicUsize,
     capacity: usize,
+    outbox: &Outbox,
 ) -> HealthReport {
-    lock(health).report(
+    let mut report = lock(health).report(
         started.elapsed().as_secs_f64(),
         session.num_sessions(),
         (in_queue.load(Ordering::Relaxed).min(capacity), capacity),
-    )
+    );
+    report.num_unpublished = outbox.num_dropped();
+    report.outbox_len = outbox.len();
+    report.outbox_capacity = outbox.capacity();
+    report
 }
 
 struct Publisher<'a> {
@@ -364,6 +412,8 @@ struct Publisher<'a> {
     shared: &'a Shared,
     /// What was published and not yet acknowledged.
     outbox: Outbox,
+    /// The outbox's drops already told in a warning.
+    num_reported_unpublished: u64,
     num_decisions: u64,
     num_events: u64,
     /// The session the log's rows go to (0: none yet).
@@ -495,10 +545,38 @@ impl Publisher<'_> {
     }
 
     /// Publishes (QoS 1) through the outbox: `is_kept_on_loss`, published again after a
-    /// reconnection unless the broker acknowledged it.
+    /// reconnection unless the broker acknowledged it. A full outbox, the broker connected,
+    /// waits for its acknowledgements (back-pressure); the broker away, it drops the publish
+    /// (counted: the health reports and a warning say how many).
     fn send(&mut self, topic: String, payload: Vec<u8>, is_kept_on_loss: bool) -> Result<()> {
-        self.outbox.push(topic, payload, is_kept_on_loss);
+        while self.outbox.is_full() && self.shared.connection.is_connected() {
+            self.sync()?;
+            if self.outbox.is_full() {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        }
+        let _ = self.outbox.push(topic, payload, is_kept_on_loss);
         self.sync()
+    }
+
+    /// A warning event in `out` when the outbox dropped publishes since the last one: the
+    /// identity log, written before anything is published, holds them.
+    fn warn_unpublished(&mut self, session: &Session, out: &mut Vec<Output>) {
+        let num_dropped = self.outbox.num_dropped();
+        if num_dropped == self.num_reported_unpublished {
+            return;
+        }
+        let num_new = num_dropped - self.num_reported_unpublished;
+        self.num_reported_unpublished = num_dropped;
+        out.push(Output::Event(crate::events::Event::warning(
+            session.newest_ns(),
+            format!(
+                "{num_new} outputs not published ({num_dropped} in all): the outbox was full \
+                 ({} kept until the broker acknowledges them) while the broker was away; the \
+                 identity log holds them",
+                self.outbox.capacity()
+            ),
+        )));
     }
 
     /// Forgets what the broker acknowledged, publishes again after a reconnection, hands what
@@ -524,85 +602,180 @@ fn to_json<T: serde::Serialize>(value: &T) -> Vec<u8> {
     serde_json::to_vec(value).unwrap_or_default()
 }
 
+/// The most inputs the client thread hands to the session loop at once.
+const MAX_BATCH: usize = 256;
+
+/// What the client thread does after an event.
+enum Flow {
+    Go,
+    /// The connection is over (a disconnect sent, the first connection failed, the session
+    /// loop gone).
+    End,
+}
+
 /// The client thread: keeps the connection (rumqttc reconnects), subscribes on every connection,
-/// decodes what arrives into the bounded queue, and counts what it cannot use.
+/// decodes what arrives into the bounded queue, and counts what it cannot use. The inputs of
+/// the packets read together go to the queue together, as one batch: one hand-over (and at most
+/// one wake-up of the session loop) for several messages, and no wait for more.
 fn run_client(
     mut connection: Connection,
     client: &Client,
     health: &SharedHealth,
-    queue: &SyncSender<Input>,
+    queue: &SyncSender<Vec<Input>>,
     shared: &Shared,
     connected: &SyncSender<std::result::Result<(), String>>,
 ) {
-    let mut is_first = true;
-    for event in connection.iter() {
+    let mut client_state = ClientState {
+        client,
+        health,
+        shared,
+        connected,
+        queue_capacity: shared.queue_capacity,
+        is_first: true,
+        decoded: Vec::new(),
+        batch: Vec::new(),
+    };
+    loop {
+        let Ok(event) = connection.recv() else {
+            return;
+        };
+        let mut flow = client_state.handle(event);
+        // The events rumqttc has already read (it reads up to 10 packets at a time) join the
+        // batch: taken from its buffer, with no wait and no read of the socket.
+        while matches!(flow, Flow::Go)
+            && client_state.batch.len() < MAX_BATCH
+            && !connection.eventloop.state.events.is_empty()
+        {
+            match connection.try_recv() {
+                Ok(event) => flow = client_state.handle(event),
+                Err(rumqttc::TryRecvError::Empty) => break,
+                Err(rumqttc::TryRecvError::Disconnected) => flow = Flow::End,
+            }
+        }
+        if let Flow::End = client_state.send_batch(queue) {
+            return;
+        }
+        if let Flow::End = flow {
+            return;
+        }
+    }
+}
+
+/// The client thread's state between events.
+struct ClientState<'a> {
+    client: &'a Client,
+    health: &'a SharedHealth,
+    shared: &'a Shared,
+    connected: &'a SyncSender<std::result::Result<(), String>>,
+    queue_capacity: usize,
+    is_first: bool,
+    /// The inputs of one payload (a vendor's holds several), reused.
+    decoded: Vec<Input>,
+    /// The inputs for the session loop, in arrival order.
+    batch: Vec<Input>,
+}
+
+impl ClientState<'_> {
+    fn handle(&mut self, event: std::result::Result<Event, rumqttc::ConnectionError>) -> Flow {
         match event {
             Ok(Event::Incoming(Packet::ConnAck(_))) => {
-                shared.connection.connected();
+                self.shared.connection.connected();
                 // Never blocks: the request queue is drained by this very loop.
-                let _ = client.try_subscribe(INPUT_FILTER, QoS::AtLeastOnce);
-                if is_first {
-                    is_first = false;
-                    let _ = connected.try_send(Ok(()));
+                let _ = self.client.try_subscribe(INPUT_FILTER, QoS::AtLeastOnce);
+                if self.is_first {
+                    self.is_first = false;
+                    let _ = self.connected.try_send(Ok(()));
                 }
             }
-            Ok(Event::Incoming(Packet::Publish(p))) => match decode_all(&p.topic, &p.payload) {
-                Ok(inputs) => {
-                    for input in inputs {
-                        let source = match &input {
-                            Input::Message(m) => input_source(m).map(|(k, s)| (k, s.to_owned())),
-                            Input::Registry(_) => None,
-                        };
-                        if let Input::Message(m) = &input
-                            && let Some((kind, s)) = &source
-                        {
-                            lock(health).received(*kind, s, m.t().as_ns());
-                        }
-                        // Counted before it is sent, so that the consumer's count never goes
-                        // below zero; at most one more than the queue holds.
-                        shared.in_queue.fetch_add(1, Ordering::Relaxed);
-                        match queue.try_send(input) {
-                            Ok(()) => {}
-                            // Rare and never to be lost, but waiting here could deadlock with a
-                            // session loop waiting for this thread to send its outputs: the slot
-                            // of its own is taken at the session loop's next turn.
-                            Err(TrySendError::Full(Input::Registry(registry))) => {
-                                shared.in_queue.fetch_sub(1, Ordering::Relaxed);
-                                *shared
-                                    .pending_registry
-                                    .lock()
-                                    .unwrap_or_else(PoisonError::into_inner) = Some(registry);
-                            }
-                            Err(TrySendError::Full(_)) => {
-                                shared.in_queue.fetch_sub(1, Ordering::Relaxed);
-                                if let Some((kind, s)) = &source {
-                                    lock(health).dropped(*kind, s);
-                                }
-                            }
-                            Err(TrySendError::Disconnected(_)) => return,
-                        }
+            Ok(Event::Incoming(Packet::Publish(p))) => {
+                if let Err(reason) = decode_into(&p.topic, &p.payload, &mut self.decoded) {
+                    lock(self.health).malformed(&p.topic, &reason);
+                    return Flow::Go;
+                }
+                let mut h = lock(self.health);
+                let in_queue = self.shared.in_queue.load(Ordering::Relaxed);
+                for input in self.decoded.drain(..) {
+                    let Input::Message(m) = &input else {
+                        // A registry is never dropped.
+                        self.batch.push(input);
+                        continue;
+                    };
+                    let Some((kind, source)) = input_source(m) else {
+                        continue;
+                    };
+                    h.received(kind, source, m.t().as_ns());
+                    // The queue's bound counts the messages sent and not yet taken, and those
+                    // of this batch.
+                    if in_queue + self.batch.len() >= self.queue_capacity {
+                        h.dropped(kind, source);
+                    } else {
+                        self.batch.push(input);
                     }
                 }
-                Err(reason) => lock(health).malformed(&p.topic, &reason),
-            },
+            }
             Ok(Event::Incoming(Packet::PubAck(_))) => {
-                shared.connection.acked();
+                self.shared.connection.acked();
             }
             Ok(Event::Outgoing(Outgoing::Publish(_))) => {
-                shared.connection.written();
+                self.shared.connection.written();
             }
-            Ok(Event::Outgoing(Outgoing::Disconnect)) => return,
+            Ok(Event::Outgoing(Outgoing::Disconnect)) => return Flow::End,
             Ok(_) => {}
             Err(e) => {
-                if is_first {
-                    let _ = connected.try_send(Err(e.to_string()));
-                    return;
+                if self.is_first {
+                    let _ = self.connected.try_send(Err(e.to_string()));
+                    return Flow::End;
                 }
-                shared.connection.disconnected();
-                lock(health).connection_error(&e.to_string());
+                self.shared.connection.disconnected();
+                lock(self.health).connection_error(&e.to_string());
                 // rumqttc reconnects on the next poll; do not spin while the broker is away.
                 std::thread::sleep(Duration::from_millis(500));
             }
+        }
+        Flow::Go
+    }
+
+    /// Hands the batch to the session loop; `End` when it is gone.
+    fn send_batch(&mut self, queue: &SyncSender<Vec<Input>>) -> Flow {
+        if self.batch.is_empty() {
+            return Flow::Go;
+        }
+        let batch = std::mem::take(&mut self.batch);
+        // Counted before it is sent, so that the consumer's count never goes below zero.
+        self.shared
+            .in_queue
+            .fetch_add(batch.len(), Ordering::Relaxed);
+        match queue.try_send(batch) {
+            Ok(()) => Flow::Go,
+            // Not while the count bounds the messages (the channel holds as many batches as
+            // the queue holds messages); if it were, the messages are dropped and counted and a
+            // registry waits in a slot of its own, taken at the session loop's next turn
+            // (waiting here could deadlock with a session loop waiting for this thread to send
+            // its outputs).
+            Err(TrySendError::Full(batch)) => {
+                self.shared
+                    .in_queue
+                    .fetch_sub(batch.len(), Ordering::Relaxed);
+                let mut h = lock(self.health);
+                for input in batch {
+                    match input {
+                        Input::Registry(registry) => {
+                            *self
+                                .shared
+                                .pending_registry
+                                .lock()
+                                .unwrap_or_else(PoisonError::into_inner) = Some(registry);
+                        }
+                        Input::Message(m) => {
+                            if let Some((kind, source)) = input_source(&m) {
+                                h.dropped(kind, source);
+                            }
+                        }
+                    }
+                }
+                Flow::Go
+            }
+            Err(TrySendError::Disconnected(_)) => Flow::End,
         }
     }
 }

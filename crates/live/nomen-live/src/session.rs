@@ -7,8 +7,10 @@ use nomen_core::{Message, Registry, SessionTime};
 use nomen_engine::Engine;
 use std::time::{Duration, Instant};
 
-/// Makes the engine of a session from its registry (the CLI's, shared with `nomen run`).
-pub type EngineFactory = Box<dyn FnMut(Registry) -> Result<Engine, String> + Send>;
+/// Makes the engine of a session from a registry as it came (the CLI's, shared with
+/// `nomen run`); returns the registry the engine runs on (the one given, or that one with a
+/// calibration laid over it) beside the engine.
+pub type EngineFactory = Box<dyn FnMut(Registry) -> Result<(Registry, Engine), String> + Send>;
 
 /// How long no message may arrive before the engine is told that time passes (as
 /// `nomen run --live` does).
@@ -44,6 +46,10 @@ pub enum Refusal {
 }
 
 struct Current {
+    /// The registry as it came (a message or the command's file): a registry equal to it
+    /// changes nothing.
+    received: Registry,
+    /// The registry the engine runs on: what is logged, recorded and shown.
     registry: Registry,
     engine: Engine,
     events: Events,
@@ -79,9 +85,14 @@ impl Session {
         self.num_sessions
     }
 
-    /// The current registry.
+    /// The registry the current engine runs on (calibrated, when the factory calibrates).
     pub fn registry(&self) -> Option<&Registry> {
         self.current.as_ref().map(|c| &c.registry)
+    }
+
+    /// The session time of the newest message the engine took, ns (0 before any).
+    pub fn newest_ns(&self) -> i64 {
+        self.newest.map_or(0, |(t, _)| t.as_ns())
     }
 
     /// The engine's statistics, when there is a session.
@@ -89,20 +100,26 @@ impl Session {
         self.current.as_ref().map(|c| c.engine.stats())
     }
 
-    /// A registry arrived. The same as the current one changes nothing; another finishes the
-    /// current session (its last decisions go to `out`) and starts a new one. A registry the
-    /// engine refuses leaves the current session as it was and is reported as a warning.
-    pub fn set_registry(&mut self, registry: Registry, out: &mut Vec<Output>) {
-        if self.registry() == Some(&registry) {
+    /// A registry arrived. The same as the current one came changes nothing; another
+    /// finishes the current session (its last decisions go to `out`) and starts a new one. A
+    /// registry the engine refuses leaves the current session as it was and is reported as a
+    /// warning.
+    pub fn set_registry(&mut self, received: Registry, out: &mut Vec<Output>) {
+        if self
+            .current
+            .as_ref()
+            .is_some_and(|c| c.received == received)
+        {
             return;
         }
         let t_ns = self.newest.map_or(0, |(t, _)| t.as_ns());
-        match (self.make_engine)(registry.clone()) {
-            Ok(engine) => {
+        match (self.make_engine)(received.clone()) {
+            Ok((registry, engine)) => {
                 self.finish(out);
                 self.num_sessions += 1;
                 self.newest = None;
                 self.current = Some(Current {
+                    received,
                     registry,
                     engine,
                     events: Events::new(self.options.lost_after_s),
@@ -182,10 +199,11 @@ impl Session {
             )));
         }
         // A finished engine takes nothing more: the next message needs a fresh one.
-        match (self.make_engine)(current.registry.clone()) {
-            Ok(engine) => {
+        match (self.make_engine)(current.received.clone()) {
+            Ok((registry, engine)) => {
                 self.current = Some(Current {
-                    registry: current.registry,
+                    received: current.received,
+                    registry,
                     engine,
                     events: Events::new(self.options.lost_after_s),
                 });
@@ -244,6 +262,21 @@ mod tests {
         })
     }
 
+    /// A factory of default engines on `calibrate(registry)`.
+    fn factory(calibrate: fn(Registry) -> Registry) -> EngineFactory {
+        Box::new(move |registry: Registry| {
+            let registry = calibrate(registry);
+            Engine::new(registry.clone(), EngineConfig::default())
+                .map(|engine| (registry, engine))
+                .map_err(|e| e.to_string())
+        })
+    }
+
+    const OPTIONS: SessionOptions = SessionOptions {
+        max_idle_ns: 10_000_000_000,
+        lost_after_s: 3.0,
+    };
+
     fn num_decisions(out: &[Output]) -> usize {
         out.iter()
             .filter(|o| matches!(o, Output::Decision(Message::Identified(_))))
@@ -253,14 +286,7 @@ mod tests {
     #[test]
     fn a_refused_time_jump_does_not_hold_the_idle_clock_ahead() {
         let registry: Registry = serde_json::from_str(r#"{"cameras":[{"id":"cam"}]}"#).unwrap();
-        let factory: EngineFactory = Box::new(|registry| {
-            Engine::new(registry, EngineConfig::default()).map_err(|e| e.to_string())
-        });
-        let options = SessionOptions {
-            max_idle_ns: 10_000_000_000,
-            lost_after_s: 3.0,
-        };
-        let mut session = Session::new(factory, options);
+        let mut session = Session::new(factory(|registry| registry), OPTIONS);
         let mut out = Vec::new();
         session.set_registry(registry, &mut out);
         let start = Instant::now();
@@ -276,5 +302,45 @@ mod tests {
         // every frame is decided.
         session.idle(start + Duration::from_secs(10), &mut out);
         assert_eq!(num_decisions(&out), num_frames as usize);
+    }
+
+    #[test]
+    fn the_session_runs_on_the_registry_the_factory_made_and_takes_the_same_one_again_as_no_change()
+    {
+        let received: Registry = serde_json::from_str(r#"{"cameras":[{"id":"cam"}]}"#).unwrap();
+        // A factory that lays a calibration over what it is given (the camera's scale).
+        let mut session = Session::new(
+            factory(|mut registry| {
+                for camera in &mut registry.cameras {
+                    camera.scale = 0.01;
+                }
+                registry
+            }),
+            OPTIONS,
+        );
+        let mut out = Vec::new();
+        session.set_registry(received.clone(), &mut out);
+        assert_eq!(session.num_sessions(), 1);
+        let used = session.registry().unwrap();
+        assert_ne!(used, &received);
+        assert!(used.cameras.iter().all(|c| c.scale == 0.01));
+        // The same registry again (a retained message, or the file's on MQTT) is no change.
+        session.set_registry(received.clone(), &mut out);
+        assert_eq!(session.num_sessions(), 1);
+        // A finished session goes on with an engine on the calibrated registry.
+        session.finish(&mut out);
+        assert!(
+            session
+                .registry()
+                .unwrap()
+                .cameras
+                .iter()
+                .all(|c| c.scale == 0.01)
+        );
+        // Another registry is a new session.
+        let mut other = received;
+        other.cameras[0].id = nomen_core::CameraId::new("door");
+        session.set_registry(other, &mut out);
+        assert_eq!(session.num_sessions(), 2);
     }
 }

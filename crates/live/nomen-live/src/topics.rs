@@ -88,6 +88,11 @@ impl InputKind {
         InputKind::Rssi,
     ];
 
+    /// The kind's place in [`InputKind::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
     /// The kind's name: the message's `type` tag and the topic's third level.
     pub fn name(self) -> &'static str {
         match self {

@@ -2,10 +2,11 @@
 //! never buffered without bound, and every message that arrived is accounted for.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use nomen_engine::{Engine, EngineConfig};
-use nomen_live::broker::{BrokerAddr, start_embedded};
-use nomen_live::session::{Session, SessionOptions};
-use nomen_live::{ServeOptions, serve};
+mod common;
+
+use common::free_port;
+use nomen_live::broker::start_embedded;
+use nomen_live::serve;
 use rumqttc::{Client, Event, MqttOptions, Packet, QoS};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -16,14 +17,6 @@ const NUM_MESSAGES: usize = 20_000;
 /// The input queue's capacity: far below the flood.
 const QUEUE_CAPACITY: usize = 8;
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 #[test]
 fn a_flood_into_a_small_queue_is_taken_or_dropped_and_counted_never_buffered() {
     let port = free_port();
@@ -33,27 +26,8 @@ fn a_flood_into_a_small_queue_is_taken_or_dropped_and_counted_never_buffered() {
     let service = {
         let stop = Arc::clone(&stop);
         std::thread::spawn(move || {
-            let session = Session::new(
-                Box::new(|registry| {
-                    Engine::new(registry, EngineConfig::default()).map_err(|e| e.to_string())
-                }),
-                SessionOptions {
-                    max_idle_ns: 1_000_000_000,
-                    lost_after_s: 3.0,
-                },
-            );
-            let options = ServeOptions {
-                broker: BrokerAddr {
-                    host: "127.0.0.1".to_owned(),
-                    port,
-                },
-                client_id: "flood-serve".to_owned(),
-                queue_capacity: QUEUE_CAPACITY,
-                publish_capacity: 64,
-                health_period: Duration::from_millis(50),
-                connect_timeout: Duration::from_secs(10),
-                record: None,
-            };
+            let options = common::options(port, "flood-serve", QUEUE_CAPACITY);
+            let session = common::session(|registry| registry);
             serve(&options, session, None, None, None, None, &stop).unwrap()
         })
     };

@@ -59,9 +59,12 @@ fn route(topic: &str, message_encoding: &str) -> Route {
 /// [`MAX_RECORD_BYTES`] and a payload longer than the recording's line limit end the reading;
 /// the channel table holds a few bytes per channel id (at most 65,536). A file that is not
 /// MCAP, is cut short (a `.partial` file of a service that was killed), has a bad chunk CRC,
-/// a message before its channel, a message earlier than the one before it or a second,
-/// different registry ends the reading with an error (an [`io::ErrorKind::InvalidData`] read
-/// error, which the recording reader reports with the line it was reading).
+/// a message before its channel or a message earlier than the one before it ends the reading
+/// with an error (an [`io::ErrorKind::InvalidData`] read error, which the recording reader
+/// reports with the line it was reading). A registry update (a registry that differs from
+/// the header's, a new version; or one after inputs that came without any) is legal in a
+/// file, but a recording has one registry: the reading ends there with an error that says so,
+/// after the inputs before it. The same registry again is no update and is passed over.
 pub struct McapLines<R> {
     input: R,
     reader: LinearReader,
@@ -227,9 +230,22 @@ impl<R: Read> McapLines<R> {
                     None => return Ok(false),
                     Some((Route::Registry, r)) => {
                         if self.registry.as_ref() != Some(&r) {
-                            return Err(self.invalid(
-                                "a second, different registry: one file holds one session",
-                            ));
+                            let why = match self.registry {
+                                Some(_) => format!(
+                                    "a registry update (a new registry version, logged at {} \
+                                     ns): a recording has one registry, so the inputs after it \
+                                     are not read (nomen serve records each version in a file \
+                                     of its own)",
+                                    self.last_log_time
+                                ),
+                                None => format!(
+                                    "a registry logged at {} ns after inputs that came without \
+                                     one: a recording's registry comes before its inputs (nomen \
+                                     serve records the registry first)",
+                                    self.last_log_time
+                                ),
+                            };
+                            return Err(self.invalid(why));
                         }
                     }
                     Some((_, p)) => break p,

@@ -52,6 +52,9 @@ pub struct McapWriter<W: Write + Seek> {
     sequence: u32,
     num_messages: u64,
     payload: Vec<u8>,
+    /// The newest registry written, as its payload, and how many versions were written.
+    registry: Vec<u8>,
+    num_registry_versions: u32,
 }
 
 impl<W: Write + Seek> McapWriter<W> {
@@ -91,18 +94,38 @@ impl<W: Write + Seek> McapWriter<W> {
             sequence: 0,
             num_messages: 0,
             payload: Vec::new(),
+            registry: Vec::new(),
+            num_registry_versions: 0,
         })
     }
 
-    /// Writes the session's registry on [`REGISTRY`].
+    /// Writes a registry on [`REGISTRY`]: the file's first, or a registry update that applies
+    /// to the messages after it, a new version ([`McapWriter::num_registry_versions`]). The
+    /// same registry as the newest one is not written again.
+    ///
+    /// A recording read from the file ([`crate::McapLines`]) has one registry: the first, when
+    /// it comes before the inputs; its reading ends at an update. The live service therefore
+    /// records each registry version in a file of its own.
     pub fn write_registry(&mut self, registry: &Registry, log_time_ns: u64) -> Result<()> {
         self.payload.clear();
         // Our own values always serialise (finite numbers, string keys).
         let _ = serde_json::to_writer(&mut self.payload, registry);
+        if self.num_registry_versions > 0 && self.payload == self.registry {
+            return Ok(());
+        }
         let payload = std::mem::take(&mut self.payload);
         let written = self.write_json(REGISTRY.topic, &payload, log_time_ns);
+        if written.is_ok() {
+            self.registry.clone_from(&payload);
+            self.num_registry_versions += 1;
+        }
         self.payload = payload;
         written
+    }
+
+    /// Registry versions written: 0 before the first registry, 2 after one update.
+    pub fn num_registry_versions(&self) -> u32 {
+        self.num_registry_versions
     }
 
     /// Writes a message on its kind's channel; ground truth, which has none, is left out

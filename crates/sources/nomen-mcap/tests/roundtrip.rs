@@ -170,17 +170,44 @@ fn messages_out_of_log_time_order_are_refused() {
 }
 
 #[test]
-fn a_second_registry_must_be_the_first() {
+fn a_registry_update_is_a_new_version_and_ends_the_recording_with_a_reason() {
     let registry: Registry = serde_json::from_str(REGISTRY).unwrap();
     let mut w = McapWriter::new(Cursor::new(Vec::new()), "test.mcap", &[]).unwrap();
     w.write_registry(&registry, 100).unwrap();
     w.write_message(&imu(0), 200).unwrap();
+    // The same registry again is no new version (and is not written again).
     w.write_registry(&registry, 300).unwrap();
+    assert_eq!(w.num_registry_versions(), 1);
     w.write_message(&imu(10_000_000), 400).unwrap();
     let mut other = registry.clone();
     other.cameras.clear();
     w.write_registry(&other, 500).unwrap();
-    let (_, messages, error) = read_all(w.finish().unwrap().into_inner());
-    assert_eq!(messages.len(), 2);
-    assert!(error.unwrap().contains("second, different registry"));
+    assert_eq!(w.num_registry_versions(), 2);
+    w.write_message(&imu(20_000_000), 600).unwrap();
+    let (header, messages, error) = read_all(w.finish().unwrap().into_inner());
+    assert_eq!(header, Some(registry));
+    assert_eq!(messages.len(), 2, "the inputs before the update");
+    let error = error.unwrap();
+    assert!(
+        error.contains("registry update (a new registry version, logged at 500 ns)"),
+        "{error}"
+    );
+}
+
+#[test]
+fn a_registry_after_inputs_without_one_is_told_as_such() {
+    let registry: Registry = serde_json::from_str(REGISTRY).unwrap();
+    let mut w = McapWriter::new(Cursor::new(Vec::new()), "test.mcap", &[]).unwrap();
+    w.write_message(&imu(0), 200).unwrap();
+    w.write_registry(&registry, 300).unwrap();
+    w.write_message(&imu(10_000_000), 400).unwrap();
+    let (header, messages, error) = read_all(w.finish().unwrap().into_inner());
+    assert_eq!(header, None);
+    assert_eq!(messages.len(), 1);
+    let error = error.unwrap();
+    assert!(
+        error.contains("a registry logged at 300 ns after inputs that came without one"),
+        "{error}"
+    );
+    assert!(!error.contains("second"), "{error}");
 }

@@ -13,7 +13,7 @@ use std::time::Duration;
 pub struct ReplayArgs {
     /// The recording. Its header's registry is published first, retained.
     pub recording: PathBuf,
-    /// The broker, `mqtt://host:port`.
+    /// The broker, `mqtt://[user:password@]host:port`.
     #[arg(long, value_name = "URL", default_value = "mqtt://127.0.0.1:1883")]
     pub mqtt: String,
     /// Seconds of recording per second: 1 is real time, 10 ten times faster, `max` as fast as

@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use nomen_core::{Message, Registry};
 use nomen_live::ServeOptions;
-use nomen_live::broker::{BrokerAddr, start_embedded};
+use nomen_live::broker::{BrokerAddr, Credentials, start_embedded};
 use nomen_live::session::{Session, SessionOptions};
 use nomen_live::{DecisionSink, Observer, ServeConfig};
 use nomen_recording::{Header, RecordingWriter};
@@ -25,8 +25,10 @@ pub struct ServeArgs {
     /// Service configuration (TOML, `docs/live.md`): broker, registry, queue sizes, `[engine]`.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// An existing broker, `mqtt://host:port`; without it (and without `mqtt` in the
-    /// configuration) an embedded broker starts on 127.0.0.1:1883 (`embedded_listen`).
+    /// An existing broker, `mqtt://[user:password@]host:port`; without it (and without `mqtt`
+    /// in the configuration) an embedded broker starts on 127.0.0.1:1883 (`embedded_listen`).
+    /// A password is better in `serve.toml` (`mqtt_username`, `mqtt_password`), out of the
+    /// process list.
     #[arg(long, value_name = "URL")]
     pub mqtt: Option<String>,
     /// The registry: a JSON file with one registry object, or a recording whose header carries
@@ -153,15 +155,20 @@ pub fn run(args: ServeArgs) -> Result<()> {
         .as_deref()
         .map(super::run::load_calibration)
         .transpose()?;
-    let registry = registry_path
-        .as_deref()
-        .map(|path| {
-            let source = crate::io::source_name(path);
-            super::run::calibrated(load_registry(path)?, calibration.as_ref(), &source)
-        })
-        .transpose()?;
+    // The registry as the file has it: the session lays the calibration over it, as over one
+    // from nomen/in/registry, so that the same registry on MQTT is no change.
+    let registry = registry_path.as_deref().map(load_registry).transpose()?;
     let broker = match args.mqtt.as_ref().or(config.mqtt.as_ref()) {
-        Some(url) => BrokerAddr::parse(url)?,
+        Some(url) => {
+            let mut broker = BrokerAddr::parse(url)?;
+            if let Some(username) = &config.mqtt_username {
+                broker.credentials = Some(Credentials {
+                    username: username.clone(),
+                    password: config.mqtt_password.clone().unwrap_or_default(),
+                });
+            }
+            broker
+        }
         None => {
             let listen: SocketAddr = config.embedded_listen.parse().with_context(|| {
                 format!(
@@ -171,10 +178,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
             })?;
             start_embedded(listen)?;
             eprintln!("nomen serve: embedded broker listening on mqtt://{listen}");
-            BrokerAddr {
-                host: listen.ip().to_string(),
-                port: listen.port(),
-            }
+            BrokerAddr::new(listen.ip().to_string(), listen.port())
         }
     };
     let extras = EngineExtras {
@@ -188,14 +192,23 @@ pub fn run(args: ServeArgs) -> Result<()> {
         ..EngineExtras::default()
     };
     let engine_config = config.engine;
-    // Checked now, so that a bad model fails at start rather than at the first registry.
-    if let Some(registry) = &registry {
-        build_engine(registry.clone(), engine_config, &extras, "nomen serve")?;
+    // Checked now, so that a bad model or calibration fails at start rather than at the first
+    // registry.
+    if let (Some(registry), Some(path)) = (&registry, &registry_path) {
+        let source = crate::io::source_name(path);
+        let registry =
+            super::run::calibrated(registry.clone(), extras.calibration.as_ref(), &source)?;
+        build_engine(registry, engine_config, &extras, "nomen serve")?;
     }
     let session = Session::new(
+        // The engine's registry is the calibrated one: the log, the recording and the viewer
+        // get it from the session.
         Box::new(move |registry| {
             super::run::calibrated(registry, extras.calibration.as_ref(), "nomen/in/registry")
-                .and_then(|registry| build_engine(registry, engine_config, &extras, "nomen serve"))
+                .and_then(|registry| {
+                    build_engine(registry.clone(), engine_config, &extras, "nomen serve")
+                        .map(|engine| (registry, engine))
+                })
                 .map_err(|e| format!("{e:#}"))
         }),
         SessionOptions {
@@ -208,6 +221,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
         client_id: config.client_id.clone(),
         queue_capacity: config.queue_capacity,
         publish_capacity: config.publish_capacity,
+        outbox_capacity: config.outbox_capacity,
         health_period: Duration::from_secs_f64(config.health_period_s),
         connect_timeout: CONNECT_TIMEOUT,
         record: record_dir.map(|dir| nomen_live::record::RecordOptions {

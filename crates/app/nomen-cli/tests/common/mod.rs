@@ -1,10 +1,11 @@
 //! Helpers shared by the CLI's end-to-end tests: run the binary, find the shared data, simulate a
-//! library scenario (or one cut short), count messages in a recording, find a free port and wait for a server.
+//! library scenario (or one cut short), count messages in a recording, find a free port and wait for a server,
+//! run `nomen serve` and stop it as Ctrl-C would.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 /// Runs the `nomen` binary with `args`.
@@ -108,5 +109,57 @@ pub fn wait_for_port(port: u16) {
             "nothing listens on port {port}"
         );
         std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A running `nomen serve` (its stderr in a file), stopped with SIGTERM; killed when dropped.
+pub struct Serve {
+    child: Child,
+    stderr: PathBuf,
+}
+
+impl Serve {
+    /// Starts `nomen serve --config DIR/serve.toml ARGS` (the test writes the configuration),
+    /// its stderr to `DIR/serve.stderr`.
+    pub fn start(dir: &Path, args: &[&str]) -> Serve {
+        let stderr = dir.join("serve.stderr");
+        let config = dir.join("serve.toml");
+        let child =
+            nomen_command(&[&["serve", "--config", config.to_str().unwrap()], args].concat())
+                .stdout(Stdio::null())
+                .stderr(std::fs::File::create(&stderr).unwrap())
+                .spawn()
+                .unwrap();
+        Serve { child, stderr }
+    }
+
+    /// The process, e.g. to kill it.
+    pub fn child(&mut self) -> &mut Child {
+        &mut self.child
+    }
+
+    /// What it wrote to stderr so far.
+    pub fn stderr(&self) -> String {
+        std::fs::read_to_string(&self.stderr).unwrap_or_default()
+    }
+
+    /// Stops it as Ctrl-C would, checks that it ended well and returns its stderr.
+    pub fn stop(mut self) -> String {
+        let status = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let status = self.child.wait().unwrap();
+        let stderr = self.stderr();
+        assert!(status.success(), "nomen serve failed: {stderr}");
+        stderr
+    }
+}
+
+impl Drop for Serve {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
     }
 }
