@@ -14,7 +14,7 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use nomen_core::registry::CameraIntrinsics;
 
 /// A pinhole camera: intrinsics and pose. Camera frame: +X right, +Y down, +Z forward (the
-/// convention of `nomen_sim::camera`).
+/// convention of every nomen camera).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PinholeCamera {
     /// Image size and pinhole parameters.

@@ -10,22 +10,21 @@
 //!
 //! The camera sees the scene through [`SceneDepth`], a lazily rendered depth image: a pixel is
 //! ray-cast (environment meshes, robot link, the person's capsules from
-//! [`nomen_sim::geometry`]) only when someone asks for it, and cached for the frame.
+//! [`nomen_core::geometry`]) only when someone asks for it, and cached for the frame.
 //! [`AssemblyScene::render_depth_map`] renders the whole image at the camera's resolution. A
 //! joint is *observed* when the depth image at its pixel is not nearer than the joint by more
 //! than [`AssemblySceneConfig::visibility_margin_m`] (its own limb's surface is in front of it by
 //! about a limb radius); observed joints get the camera's depth-dependent Gaussian noise
-//! ([`nomen_sim::camera::JointNoiseConfig`]).
+//! ([`JointNoiseConfig`]).
 
 use crate::depth::{DepthMap, DepthProbe, PinholeCamera};
 use crate::environment::{Environment, MeshData};
 use crate::error::{OcclusionError, Result};
 use nalgebra::{Isometry3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use nomen_core::SessionTime;
+use nomen_core::geometry::{BodyRadii, BoxObstacle, Capsule};
 use nomen_core::registry::CameraIntrinsics;
 use nomen_core::skeleton::{Joint, Joints};
-use nomen_sim::camera::JointNoiseConfig;
-use nomen_sim::geometry::{BodyRadii, BoxObstacle, Capsule};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -65,7 +64,7 @@ pub struct AssemblySceneConfig {
     pub robot_link_period_s: f64,
     /// Size of the link box (along the sweep, across, vertical), m.
     pub robot_link_size_m: [f64; 3],
-    /// Joint noise of the camera (defaults of the simulator's Kinect model).
+    /// Joint noise of the camera.
     pub noise: JointNoiseConfig,
     /// A joint is hidden when the depth image at its pixel is nearer than the joint by more
     /// than this, m. Default 0.10 (two limb radii).
@@ -99,6 +98,33 @@ impl Default for AssemblySceneConfig {
             target_jitter_m: 0.03,
             seed: 1,
         }
+    }
+}
+
+/// Depth-dependent Gaussian noise of a tracked joint, per axis: `σ(z) = σ₀ + k·z²` (the
+/// Kinect-like model of `nomen-sim`'s camera, with its defaults).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct JointNoiseConfig {
+    /// σ at zero depth, m. Default 0.008.
+    pub sigma_base_m: f64,
+    /// Growth of σ with squared depth, m per m². Default 0.0015.
+    pub sigma_per_depth2_m: f64,
+}
+
+impl Default for JointNoiseConfig {
+    fn default() -> Self {
+        Self {
+            sigma_base_m: 0.008,
+            sigma_per_depth2_m: 0.0015,
+        }
+    }
+}
+
+impl JointNoiseConfig {
+    /// σ per axis of a tracked joint at depth `depth_m`, m.
+    pub fn sigma_m(&self, depth_m: f64) -> f64 {
+        self.sigma_base_m + self.sigma_per_depth2_m * depth_m * depth_m
     }
 }
 
@@ -399,7 +425,7 @@ impl AssemblyScene {
             self.camera.intrinsics.width_px as usize * self.camera.intrinsics.height_px as usize;
         SceneDepth {
             scene: self,
-            capsules: Vec::with_capacity(nomen_sim::geometry::NUM_BONES),
+            capsules: Vec::with_capacity(nomen_core::skeleton::NUM_JOINTS),
             link: self.robot_link_at(0.0),
             generation: 1,
             cache_generation: vec![0; n],
