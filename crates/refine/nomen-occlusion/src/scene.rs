@@ -430,6 +430,9 @@ impl AssemblyScene {
             generation: 1,
             cache_generation: vec![0; n],
             cache_depth_m: vec![0.0; n],
+            filled_generation: vec![0; n],
+            filled_depth_m: vec![0.0; n],
+            filled_radius_px: None,
             num_rays: 0,
         }
     }
@@ -498,6 +501,12 @@ pub struct SceneDepth<'a> {
     generation: u32,
     cache_generation: Vec<u32>,
     cache_depth_m: Vec<f32>,
+    /// Hole-filled depth per pixel for [`Self::filled_radius_px`] (NaN: nothing within the
+    /// radius), valid where `filled_generation` is the frame's generation.
+    filled_generation: Vec<u32>,
+    filled_depth_m: Vec<f32>,
+    /// The fill radius the cached filled depths were computed with.
+    filled_radius_px: Option<u32>,
     num_rays: u64,
 }
 
@@ -522,6 +531,7 @@ impl SceneDepth<'_> {
         self.generation = self.generation.wrapping_add(1).max(1);
         if self.generation == 1 {
             self.cache_generation.iter_mut().for_each(|g| *g = 0);
+            self.filled_generation.iter_mut().for_each(|g| *g = 0);
         }
     }
 
@@ -582,6 +592,26 @@ impl DepthProbe for SceneDepth<'_> {
         }
         self.cache_depth_m[i]
     }
+
+    fn filled_depth_m(&mut self, u: u32, v: u32, max_radius_px: u32) -> Option<f32> {
+        let w = self.scene.camera.intrinsics.width_px;
+        let i = v as usize * w as usize + u as usize;
+        if u >= w || i >= self.filled_depth_m.len() {
+            return crate::depth::filled_depth_m(self, u, v, max_radius_px);
+        }
+        if self.filled_radius_px != Some(max_radius_px) {
+            // A new radius invalidates every cached fill.
+            self.filled_radius_px = Some(max_radius_px);
+            self.filled_generation.iter_mut().for_each(|g| *g = 0);
+        }
+        if self.filled_generation[i] != self.generation {
+            self.filled_depth_m[i] =
+                crate::depth::filled_depth_m(self, u, v, max_radius_px).unwrap_or(f32::NAN);
+            self.filled_generation[i] = self.generation;
+        }
+        let d = self.filled_depth_m[i];
+        (!d.is_nan()).then_some(d)
+    }
 }
 
 #[cfg(test)]
@@ -640,6 +670,34 @@ mod tests {
             hidden > per_cycle / 5 && hidden < per_cycle * 4 / 5,
             "{hidden}/{per_cycle}"
         );
+    }
+
+    #[test]
+    fn cached_hole_filling_equals_the_search() {
+        let s = AssemblyScene::new(AssemblySceneConfig {
+            image_width_px: 96,
+            image_height_px: 80,
+            ..AssemblySceneConfig::default()
+        })
+        .unwrap();
+        let mut cached = s.depth_probe();
+        let mut plain = s.depth_probe();
+        for k in [0, 60] {
+            let f = s.frame(k);
+            cached.set_frame(&f);
+            plain.set_frame(&f);
+            // Twice over the image, the second time from the cache; radius 3 leaves some
+            // pixels without any return near them.
+            for _ in 0..2 {
+                for v in (0..80).step_by(3) {
+                    for u in (0..96).step_by(3) {
+                        let by_cache = DepthProbe::filled_depth_m(&mut cached, u, v, 3);
+                        let by_search = crate::depth::filled_depth_m(&mut plain, u, v, 3);
+                        assert_eq!(by_cache, by_search, "frame {k}, pixel ({u}, {v})");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
