@@ -12,6 +12,7 @@
 pub mod bounded;
 mod error;
 pub mod frame;
+pub mod geometry;
 pub mod ids;
 pub mod message;
 pub mod registry;

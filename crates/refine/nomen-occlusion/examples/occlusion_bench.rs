@@ -8,8 +8,12 @@
 //! hand inside the shelf compartment, for Rebecchi's filter and for nomen's (after
 //! [`NUM_WARM_UP_STEPS`] untimed steps, which fill the depth pixels the particles touch); and
 //! elbow → random crown point rays alone. Rebecchi's Unity raycast did about 500 rays per ms. On
-//! a busy machine the stable measure is the instruction count of
-//! `valgrind --tool=callgrind` on this example.
+//! a busy machine the stable measure is the instruction count of `valgrind --tool=callgrind` on
+//! this example; the argument `rebecchi` or `nomen` runs only that filter (no rays), so that
+//! `valgrind --tool=callgrind --collect-atstart=no
+//! '--toggle-collect=*ConstrainedParticleFilter::step' target/release/examples/occlusion_bench
+//! nomen` counts the instructions of that filter's timed and warm-up steps alone
+//! ([`NUM_STEPS`] + [`NUM_WARM_UP_STEPS`] + 1 steps of [`NUM_PARTICLES`] particles).
 #![allow(clippy::print_stdout)]
 
 use nalgebra::{Isometry3, Point3, Vector3};
@@ -35,6 +39,13 @@ const NUM_STEPS: usize = 300;
 const NUM_RAYS: usize = 1_000_000;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let only = std::env::args().nth(1);
+    if let Some(name) = &only
+        && name != "rebecchi"
+        && name != "nomen"
+    {
+        return Err(format!("unknown argument {name}: expected rebecchi or nomen").into());
+    }
     // 13 boxes × 12 n² triangles.
     let n = ((TARGET_TRIANGLES as f64 / (13.0 * 12.0)).sqrt().ceil()) as u32;
     let mesh = assembly_mesh(n);
@@ -65,18 +76,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
 
     let mut rates = Vec::new();
-    for (name, filter, constraints) in [
+    for (key, name, filter, constraints) in [
         (
+            "rebecchi",
             "Rebecchi's filter",
             FilterConfig::rebecchi(),
             ConstraintConfig::rebecchi(ConstraintSet::COMPLETE),
         ),
         (
+            "nomen",
             "nomen's filter",
             FilterConfig::default(),
             ConstraintConfig::default(),
         ),
     ] {
+        if only.as_deref().is_some_and(|o| o != key) {
+            continue;
+        }
         let mut depth = scene.depth_probe();
         depth.set_frame(&frame);
         let mut filter = ConstrainedParticleFilter::new(
@@ -117,6 +133,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
 
+    if only.is_some() {
+        return Ok(());
+    }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
     let targets: Vec<Point3<f64>> = (0..4096)
         .map(|_| {

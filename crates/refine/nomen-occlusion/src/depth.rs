@@ -14,7 +14,7 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use nomen_core::registry::CameraIntrinsics;
 
 /// A pinhole camera: intrinsics and pose. Camera frame: +X right, +Y down, +Z forward (the
-/// convention of `nomen_sim::camera`).
+/// convention of every nomen camera).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PinholeCamera {
     /// Image size and pinhole parameters.
@@ -90,6 +90,12 @@ pub trait DepthProbe {
     fn camera(&self) -> &PinholeCamera;
     /// Depth (camera Z) at a pixel inside the image, m; 0 where the sensor returned nothing.
     fn raw_depth_m(&mut self, u: u32, v: u32) -> f32;
+    /// [`filled_depth_m`] at a pixel: the raw depth, or the nearest non-zero depth within
+    /// `max_radius_px` where it is zero. A probe may cache the answer for its image; the
+    /// answer must not differ from [`filled_depth_m`]'s.
+    fn filled_depth_m(&mut self, u: u32, v: u32, max_radius_px: u32) -> Option<f32> {
+        filled_depth_m(self, u, v, max_radius_px)
+    }
 }
 
 /// A dense depth image, row-major (`v * width + u`).
@@ -147,8 +153,8 @@ impl DepthProbe for DepthMap {
 /// Depth at a pixel, with a zero (no return) replaced by the nearest non-zero pixel within
 /// `max_radius_px` (searched ring by ring in Chebyshev distance, nearest in Euclidean distance
 /// within the first ring that has one). `None` when nothing is found.
-pub fn filled_depth_m(
-    probe: &mut dyn DepthProbe,
+pub fn filled_depth_m<P: DepthProbe + ?Sized>(
+    probe: &mut P,
     u: u32,
     v: u32,
     max_radius_px: u32,
@@ -164,7 +170,7 @@ pub fn filled_depth_m(
     let (cu, cv) = (i64::from(u), i64::from(v));
     for r in 1..=i64::from(max_radius_px) {
         let mut best: Option<(i64, f32)> = None;
-        let mut consider = |pu: i64, pv: i64, probe: &mut dyn DepthProbe| {
+        let mut consider = |pu: i64, pv: i64, probe: &mut P| {
             if pu < 0 || pv < 0 || pu >= w || pv >= h {
                 return;
             }
@@ -228,7 +234,7 @@ pub fn particle_visibility_at_depth(
     let Some((pu, pv)) = probe.camera().pixel(u, v) else {
         return Visibility::Unknown;
     };
-    match filled_depth_m(probe, pu, pv, max_fill_radius_px) {
+    match probe.filled_depth_m(pu, pv, max_fill_radius_px) {
         None => Visibility::Unknown,
         Some(d) if f64::from(d) > z + margin_m(z) => Visibility::WouldBeSeen,
         Some(_) => Visibility::Hidden,

@@ -6,14 +6,14 @@
 //! volume hierarchy answers ray casts. parry works in `f32` with its own vector type; conversion
 //! happens only here, at the boundary, and every public function speaks `f64` nalgebra.
 //!
-//! Moving rigid parts (a robot link) are oriented boxes ([`nomen_sim::geometry::BoxObstacle`])
+//! Moving rigid parts (a robot link) are oriented boxes ([`nomen_core::geometry::BoxObstacle`])
 //! tested analytically in `f64`; they are replaced each frame with
 //! [`Environment::set_moving_boxes`].
 
 use crate::error::{OcclusionError, Result};
 use nalgebra::{Isometry3, Point3, Vector3};
 use nomen_core::bounded::{Limits, MIB_BYTES};
-use nomen_sim::geometry::BoxObstacle;
+use nomen_core::geometry::BoxObstacle;
 use parry3d::math::Vector as PVec;
 use parry3d::query::{Ray, RayCast};
 use parry3d::shape::TriMesh;

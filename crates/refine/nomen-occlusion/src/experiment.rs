@@ -2,9 +2,9 @@
 //! Joint Bounding Volume (+ range of motion) and Complete (+ environment) with Rebecchi's filter
 //! (rejection of vetoed particles, constant velocity, fixed crown and occlusion margin), an
 //! unconstrained particle filter as a floor, and nomen's complete filter (constrained sampling,
-//! velocity decaying in open loop, the wrist riding on the filtered elbow with a crown as wide
-//! as the elbow is uncertain, an occlusion margin from the depth noise), all run on the same
-//! observations.
+//! velocity decaying in open loop, each wrist particle riding on its own particle of the
+//! filtered elbow, an occlusion margin from the depth noise, xoshiro256++ draws), all run on the
+//! same observations. Rebecchi's filters draw from ChaCha8.
 //!
 //! For every frame where the right wrist is not observed, each variant's estimate is compared
 //! with the true wrist (error, m), the 95 % ellipsoid volume of its particles (before
@@ -56,6 +56,9 @@ pub struct OcclusionExperimentConfig {
     /// nomen's wrist covariance adds the elbow's ([`RefinerConfig::add_parent_covariance`]).
     /// Default true.
     pub add_parent_covariance: bool,
+    /// nomen's wrist particles ride on the elbow's ([`RefinerConfig::chain_sampling`]).
+    /// Default true.
+    pub chain_sampling: bool,
     /// Seed of the scene and of the filters.
     pub seed: u64,
 }
@@ -70,6 +73,7 @@ impl Default for OcclusionExperimentConfig {
             constraints: ConstraintConfig::default(),
             filtered_parent: true,
             add_parent_covariance: true,
+            chain_sampling: true,
             seed: 1,
         }
     }
@@ -260,6 +264,7 @@ pub fn run_occlusion_experiment(config: &OcclusionExperimentConfig) -> Result<Oc
             default_forearm_m: FOREARM_M,
             filtered_parent: is_nomen && config.filtered_parent,
             add_parent_covariance: is_nomen && config.add_parent_covariance,
+            chain_sampling: is_nomen && config.chain_sampling,
             seed: config.seed,
         })?);
     }

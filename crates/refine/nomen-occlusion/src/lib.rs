@@ -8,6 +8,7 @@
 //!   Gaussian likelihood when observed, uniform weights when not, constraints as vetoes
 //!   (collision, skeletal distance, range of motion, occlusion), systematic resampling, weighted
 //!   mean and 95 % ellipsoid volume. Seeded and allocation-free per step.
+//! - [`rng`]: the filters' random streams (xoshiro256++ for nomen's, ChaCha8 for Rebecchi's).
 //! - [`rom`]: the joint bounding volume (elbow 20°–180°, shoulder limits of Rebecchi eq. 6.1 as
 //!   we read them, with relaxation).
 //! - [`environment`]: OBJ/PLY meshes placed by `world_from_mesh`, BVH ray casting with parry3d,
@@ -31,6 +32,7 @@ pub mod experiment;
 pub mod filter;
 pub mod plots;
 pub mod refiner;
+pub mod rng;
 pub mod rom;
 pub mod scene;
 pub mod transform;

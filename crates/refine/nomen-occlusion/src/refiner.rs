@@ -50,6 +50,16 @@ pub struct RefinerConfig {
     /// particles around the elbow's estimate, so the elbow's own uncertainty (large when the
     /// elbow is hidden too) is not in the wrist's cloud. Default true (Rebecchi: false).
     pub add_parent_covariance: bool,
+    /// Kinematic-chain sampling: wrist particle `i` rides on particle `i` of the elbow filter's
+    /// resampled cloud, keeping its offset from the elbow it rode on before
+    /// ([`crate::filter::ConstrainedParticleFilter::step_chained`]), so the wrist's cloud holds
+    /// the elbow's uncertainty and every wrist particle meets the constraints from its own
+    /// elbow. Replaces [`Self::add_parent_covariance`] and the σ-wide crown of
+    /// [`Self::filtered_parent`] when on. Default true (assembly scene, seeds 1–5, 10 cycles:
+    /// median 95 % volume 63 % below Rebecchi's Original instead of 54 % without, median error
+    /// 19 % instead of 21 % below it, coverage of the 95 % ellipsoid 94 % instead of 96 %;
+    /// Rebecchi: false).
+    pub chain_sampling: bool,
     /// Seed of the particle filters' random streams.
     pub seed: u64,
 }
@@ -65,6 +75,7 @@ impl Default for RefinerConfig {
             default_forearm_m: 0.26,
             filtered_parent: true,
             add_parent_covariance: true,
+            chain_sampling: true,
             seed: 0,
         }
     }
@@ -293,6 +304,8 @@ impl JointRefiner {
             let mut elbow_now = elbow_obs;
             let mut elbow_sigma_m = f64::NAN;
             let mut elbow_covariance_m2: Option<Matrix3<f64>> = None;
+            let is_chained = config.chain_sampling && config.refine_elbows && config.refine_wrists;
+            let mut has_elbow_particles = false;
             if config.refine_elbows {
                 let ctx = ChainContext {
                     parent_m: shoulder.unwrap_or(nan),
@@ -310,8 +323,9 @@ impl JointRefiner {
                         None => None,
                     },
                 );
+                has_elbow_particles = is_chained && est.is_some();
                 if let Some(e) = est
-                    && (elbow_obs.is_none() || config.filtered_parent)
+                    && (elbow_obs.is_none() || config.filtered_parent || is_chained)
                     && finite(&e.position_m)
                 {
                     if elbow_obs.is_none() {
@@ -335,7 +349,7 @@ impl JointRefiner {
                 let ctx = ChainContext {
                     parent_m: elbow_now.unwrap_or(nan),
                     bone_length_m: arm.fore.get(),
-                    parent_sigma_m: if config.filtered_parent {
+                    parent_sigma_m: if config.filtered_parent && !has_elbow_particles {
                         elbow_sigma_m
                     } else {
                         f64::NAN
@@ -345,20 +359,27 @@ impl JointRefiner {
                         hinge_axis: axis,
                     },
                 };
-                let est = arm.wrist_filter.step(
-                    dt_s,
-                    &ctx,
-                    wrist_obs.as_ref(),
-                    environment,
-                    match &mut depth {
-                        Some(d) => Some(&mut **d),
-                        None => None,
-                    },
-                );
+                let depth = depth.as_mut().map(|d| &mut **d as &mut dyn DepthProbe);
+                let est = if has_elbow_particles {
+                    let est = arm.wrist_filter.step_chained(
+                        &arm.elbow_filter,
+                        dt_s,
+                        &ctx,
+                        wrist_obs.as_ref(),
+                        environment,
+                        depth,
+                    );
+                    arm.wrist_filter.resample_chained();
+                    est
+                } else {
+                    arm.wrist_filter
+                        .step(dt_s, &ctx, wrist_obs.as_ref(), environment, depth)
+                };
                 if wrist_obs.is_none()
                     && let Some(mut e) = est
                 {
                     if config.add_parent_covariance
+                        && !has_elbow_particles
                         && let Some(c) = elbow_covariance_m2
                         && c.iter().all(|v| v.is_finite())
                     {
@@ -448,6 +469,7 @@ mod tests {
         let run = |add: bool| {
             let mut r = JointRefiner::new(RefinerConfig {
                 add_parent_covariance: add,
+                chain_sampling: false,
                 ..small_config()
             })
             .unwrap();

@@ -10,22 +10,21 @@
 //!
 //! The camera sees the scene through [`SceneDepth`], a lazily rendered depth image: a pixel is
 //! ray-cast (environment meshes, robot link, the person's capsules from
-//! [`nomen_sim::geometry`]) only when someone asks for it, and cached for the frame.
+//! [`nomen_core::geometry`]) only when someone asks for it, and cached for the frame.
 //! [`AssemblyScene::render_depth_map`] renders the whole image at the camera's resolution. A
 //! joint is *observed* when the depth image at its pixel is not nearer than the joint by more
 //! than [`AssemblySceneConfig::visibility_margin_m`] (its own limb's surface is in front of it by
 //! about a limb radius); observed joints get the camera's depth-dependent Gaussian noise
-//! ([`nomen_sim::camera::JointNoiseConfig`]).
+//! ([`JointNoiseConfig`]).
 
 use crate::depth::{DepthMap, DepthProbe, PinholeCamera};
 use crate::environment::{Environment, MeshData};
 use crate::error::{OcclusionError, Result};
 use nalgebra::{Isometry3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use nomen_core::SessionTime;
+use nomen_core::geometry::{BodyRadii, BoxObstacle, Capsule};
 use nomen_core::registry::CameraIntrinsics;
 use nomen_core::skeleton::{Joint, Joints};
-use nomen_sim::camera::JointNoiseConfig;
-use nomen_sim::geometry::{BodyRadii, BoxObstacle, Capsule};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -65,7 +64,7 @@ pub struct AssemblySceneConfig {
     pub robot_link_period_s: f64,
     /// Size of the link box (along the sweep, across, vertical), m.
     pub robot_link_size_m: [f64; 3],
-    /// Joint noise of the camera (defaults of the simulator's Kinect model).
+    /// Joint noise of the camera.
     pub noise: JointNoiseConfig,
     /// A joint is hidden when the depth image at its pixel is nearer than the joint by more
     /// than this, m. Default 0.10 (two limb radii).
@@ -99,6 +98,33 @@ impl Default for AssemblySceneConfig {
             target_jitter_m: 0.03,
             seed: 1,
         }
+    }
+}
+
+/// Depth-dependent Gaussian noise of a tracked joint, per axis: `σ(z) = σ₀ + k·z²` (the
+/// Kinect-like model of `nomen-sim`'s camera, with its defaults).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct JointNoiseConfig {
+    /// σ at zero depth, m. Default 0.008.
+    pub sigma_base_m: f64,
+    /// Growth of σ with squared depth, m per m². Default 0.0015.
+    pub sigma_per_depth2_m: f64,
+}
+
+impl Default for JointNoiseConfig {
+    fn default() -> Self {
+        Self {
+            sigma_base_m: 0.008,
+            sigma_per_depth2_m: 0.0015,
+        }
+    }
+}
+
+impl JointNoiseConfig {
+    /// σ per axis of a tracked joint at depth `depth_m`, m.
+    pub fn sigma_m(&self, depth_m: f64) -> f64 {
+        self.sigma_base_m + self.sigma_per_depth2_m * depth_m * depth_m
     }
 }
 
@@ -399,11 +425,14 @@ impl AssemblyScene {
             self.camera.intrinsics.width_px as usize * self.camera.intrinsics.height_px as usize;
         SceneDepth {
             scene: self,
-            capsules: Vec::with_capacity(nomen_sim::geometry::NUM_BONES),
+            capsules: Vec::with_capacity(nomen_core::skeleton::NUM_JOINTS),
             link: self.robot_link_at(0.0),
             generation: 1,
             cache_generation: vec![0; n],
             cache_depth_m: vec![0.0; n],
+            filled_generation: vec![0; n],
+            filled_depth_m: vec![0.0; n],
+            filled_radius_px: None,
             num_rays: 0,
         }
     }
@@ -472,6 +501,12 @@ pub struct SceneDepth<'a> {
     generation: u32,
     cache_generation: Vec<u32>,
     cache_depth_m: Vec<f32>,
+    /// Hole-filled depth per pixel for [`Self::filled_radius_px`] (NaN: nothing within the
+    /// radius), valid where `filled_generation` is the frame's generation.
+    filled_generation: Vec<u32>,
+    filled_depth_m: Vec<f32>,
+    /// The fill radius the cached filled depths were computed with.
+    filled_radius_px: Option<u32>,
     num_rays: u64,
 }
 
@@ -496,6 +531,7 @@ impl SceneDepth<'_> {
         self.generation = self.generation.wrapping_add(1).max(1);
         if self.generation == 1 {
             self.cache_generation.iter_mut().for_each(|g| *g = 0);
+            self.filled_generation.iter_mut().for_each(|g| *g = 0);
         }
     }
 
@@ -556,6 +592,26 @@ impl DepthProbe for SceneDepth<'_> {
         }
         self.cache_depth_m[i]
     }
+
+    fn filled_depth_m(&mut self, u: u32, v: u32, max_radius_px: u32) -> Option<f32> {
+        let w = self.scene.camera.intrinsics.width_px;
+        let i = v as usize * w as usize + u as usize;
+        if u >= w || i >= self.filled_depth_m.len() {
+            return crate::depth::filled_depth_m(self, u, v, max_radius_px);
+        }
+        if self.filled_radius_px != Some(max_radius_px) {
+            // A new radius invalidates every cached fill.
+            self.filled_radius_px = Some(max_radius_px);
+            self.filled_generation.iter_mut().for_each(|g| *g = 0);
+        }
+        if self.filled_generation[i] != self.generation {
+            self.filled_depth_m[i] =
+                crate::depth::filled_depth_m(self, u, v, max_radius_px).unwrap_or(f32::NAN);
+            self.filled_generation[i] = self.generation;
+        }
+        let d = self.filled_depth_m[i];
+        (!d.is_nan()).then_some(d)
+    }
 }
 
 #[cfg(test)]
@@ -614,6 +670,34 @@ mod tests {
             hidden > per_cycle / 5 && hidden < per_cycle * 4 / 5,
             "{hidden}/{per_cycle}"
         );
+    }
+
+    #[test]
+    fn cached_hole_filling_equals_the_search() {
+        let s = AssemblyScene::new(AssemblySceneConfig {
+            image_width_px: 96,
+            image_height_px: 80,
+            ..AssemblySceneConfig::default()
+        })
+        .unwrap();
+        let mut cached = s.depth_probe();
+        let mut plain = s.depth_probe();
+        for k in [0, 60] {
+            let f = s.frame(k);
+            cached.set_frame(&f);
+            plain.set_frame(&f);
+            // Twice over the image, the second time from the cache; radius 3 leaves some
+            // pixels without any return near them.
+            for _ in 0..2 {
+                for v in (0..80).step_by(3) {
+                    for u in (0..96).step_by(3) {
+                        let by_cache = DepthProbe::filled_depth_m(&mut cached, u, v, 3);
+                        let by_search = crate::depth::filled_depth_m(&mut plain, u, v, 3);
+                        assert_eq!(by_cache, by_search, "frame {k}, pixel ({u}, {v})");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -2,6 +2,7 @@
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::{Isometry3, Point3, Rotation3, UnitQuaternion, Vector3};
+use nomen_core::geometry::BoxObstacle;
 use nomen_core::registry::CameraIntrinsics;
 use nomen_occlusion::depth::{DepthMap, PinholeCamera};
 use nomen_occlusion::environment::{Environment, MeshData};
@@ -10,7 +11,6 @@ use nomen_occlusion::filter::{
     ChainContext, ConstrainedParticleFilter, ConstraintConfig, ConstraintSet, FilterConfig,
     RomContext,
 };
-use nomen_sim::geometry::BoxObstacle;
 
 fn filter(set: ConstraintSet) -> ConstrainedParticleFilter {
     ConstrainedParticleFilter::new(
