@@ -56,7 +56,14 @@ pub struct EpochStats {
     pub num_unknown_anchor: u64,
     /// Ranges older than their tag's open epoch (out of order), dropped.
     pub num_out_of_order: u64,
+    /// Ranges that gave no fix: those of short and rejected epochs, unknown anchors, out of
+    /// order, and of epochs dropped when their tag's stamps went back by more than a second.
+    pub num_unused_ranges: u64,
 }
+
+/// A range stamped this much before its tag's open epoch restarts the tag's epochs, ns (its
+/// clock went back; the open epoch's ranges are dropped).
+const RESTART_BEFORE_NS: i64 = 1_000_000_000;
 
 /// One tag's open epoch.
 #[derive(Debug, Clone, Default)]
@@ -107,9 +114,18 @@ impl RangeEpochs {
     pub fn push(&mut self, range: &UwbRange) -> Option<RtlsFix> {
         if !self.anchors_m.contains_key(&range.anchor) || !range.range_m.is_finite() {
             self.stats.num_unknown_anchor += 1;
+            self.stats.num_unused_ranges += 1;
             return None;
         }
         let t = range.t.as_ns();
+        if self
+            .open
+            .get(&range.tag)
+            .is_some_and(|epoch| t < epoch.first_ns.saturating_sub(RESTART_BEFORE_NS))
+            && let Some(dropped) = self.open.remove(&range.tag)
+        {
+            self.stats.num_unused_ranges += dropped.ranges.len() as u64;
+        }
         let closes = self.open.get(&range.tag).is_some_and(|epoch| {
             t >= epoch.first_ns.saturating_add(self.epoch_ns)
                 || epoch.ranges.iter().any(|(_, a, _)| *a == range.anchor)
@@ -120,6 +136,7 @@ impl RangeEpochs {
             .is_some_and(|epoch| t < epoch.first_ns)
         {
             self.stats.num_out_of_order += 1;
+            self.stats.num_unused_ranges += 1;
             return None;
         }
         let fix = if closes {
@@ -135,6 +152,33 @@ impl RangeEpochs {
         });
         epoch.ranges.push((t, range.anchor.clone(), range.range_m));
         fix
+    }
+
+    /// Closes the open epochs that no range can extend any more: those for which `is_past(tag,
+    /// end)` holds, `end` being the last stamp the epoch could take (its first range's plus
+    /// `epoch_s`, on the tag's clock), for a tag that went quiet; returns their fixes in time
+    /// order.
+    pub fn close_where(&mut self, is_past: impl Fn(&TagId, SessionTime) -> bool) -> Vec<RtlsFix> {
+        let done: Vec<TagId> = self
+            .open
+            .iter()
+            .filter(|(tag, e)| {
+                is_past(
+                    tag,
+                    SessionTime::from_ns(e.first_ns.saturating_add(self.epoch_ns)),
+                )
+            })
+            .map(|(tag, _)| tag.clone())
+            .collect();
+        let mut fixes: Vec<RtlsFix> = done
+            .into_iter()
+            .filter_map(|tag| {
+                let epoch = self.open.remove(&tag)?;
+                self.solve(&tag, epoch)
+            })
+            .collect();
+        fixes.sort_by_key(|f| f.t);
+        fixes
     }
 
     /// Closes every open epoch; returns their fixes in time order.
@@ -156,6 +200,7 @@ impl RangeEpochs {
         }
         if latest.len() < self.config.min_anchors.max(1) {
             self.stats.num_short_epochs += 1;
+            self.stats.num_unused_ranges += epoch.ranges.len() as u64;
             return None;
         }
         let ranges: Vec<AnchorRange> = latest
@@ -177,6 +222,7 @@ impl RangeEpochs {
             Ok(s) if s.residual_rms_m <= self.config.max_residual_rms_m => s,
             _ => {
                 self.stats.num_rejected_epochs += 1;
+                self.stats.num_unused_ranges += epoch.ranges.len() as u64;
                 return None;
             }
         };
@@ -190,6 +236,7 @@ impl RangeEpochs {
             && solution.position_m.iter().all(|v| v.is_finite());
         if !is_finite {
             self.stats.num_rejected_epochs += 1;
+            self.stats.num_unused_ranges += epoch.ranges.len() as u64;
             return None;
         }
         self.last_fix_m.insert(tag.clone(), solution.position_m);
@@ -268,7 +315,7 @@ mod tests {
     }
 
     #[test]
-    fn too_few_anchors_unknown_anchors_and_a_wild_range_give_no_fix() {
+    fn too_few_anchors_unknown_anchors_a_wild_range_and_stale_epochs_are_handled() {
         let anchors = anchors();
         let p = Point3::new(3.0, 2.0, 1.0);
         let mut epochs = RangeEpochs::new(&anchors, EpochConfig::default());
@@ -291,10 +338,28 @@ mod tests {
         for r in &wild {
             assert!(epochs.push(r).is_none());
         }
+        // Its residual RMS is near 20 m / √5, far above the limit.
         let fixes = epochs.finish();
-        assert!(
-            fixes.iter().all(|f| (f.position_m - p).norm() < 0.5),
-            "{fixes:?}"
-        );
+        assert!(fixes.is_empty(), "{fixes:?}");
+        assert_eq!(epochs.stats().num_rejected_epochs, 1);
+        // 3 short, 1 unknown anchor, 5 rejected.
+        assert_eq!(epochs.stats().num_unused_ranges, 9);
+        // A quiet tag's epoch closes once a later time passes its span.
+        for r in cycle(1000, p, &anchors) {
+            assert!(epochs.push(&r).is_none());
+        }
+        let past =
+            |now_ms: i64| move |_: &TagId, end: SessionTime| end.as_ns() <= now_ms * 1_000_000;
+        assert!(epochs.close_where(past(1_050)).is_empty());
+        assert_eq!(epochs.close_where(past(1_080)).len(), 1);
+        // A range a second and more before the open epoch restarts the tag.
+        for r in cycle(5000, p, &anchors).into_iter().take(2) {
+            assert!(epochs.push(&r).is_none());
+        }
+        for r in cycle(2000, p, &anchors) {
+            assert!(epochs.push(&r).is_none());
+        }
+        assert_eq!(epochs.finish().len(), 1);
+        assert_eq!(epochs.stats().num_unused_ranges, 11);
     }
 }

@@ -1042,14 +1042,16 @@ impl Engine {
             Message::Imu(s) => self.push_imu(s),
             Message::Skeleton(s) => self.push_skeleton(s),
             Message::RtlsFix(f) => {
-                if let Some(reports) = self
-                    .tag_index
-                    .get(&f.tag)
-                    .and_then(|&i| self.tags_report_fixes.get_mut(i))
+                let result = self.push_fix(f);
+                if result.is_ok()
+                    && let Some(reports) = self
+                        .tag_index
+                        .get(&f.tag)
+                        .and_then(|&i| self.tags_report_fixes.get_mut(i))
                 {
                     *reports = true;
                 }
-                self.push_fix(f)
+                result
             }
             Message::Rssi(r) => self.push_rssi(r),
             Message::UwbRange(r) => self.push_range(r),
@@ -1148,25 +1150,55 @@ impl Engine {
             self.stats.num_ranges_unused += 1;
             return Ok(());
         }
+        // A range stamped far ahead of everything would hold its tag's epoch there.
+        if let Some(tag) = self.tags.get(i) {
+            let t = tag.clock.to_session(r.t.as_ns()).as_ns();
+            self.time_jumps
+                .check(self.global_max, "uwb_range", r.tag.as_str(), t, r.t)?;
+        }
         let before = self.range_epochs.stats();
         let fix = self.range_epochs.push(r);
         self.note_range_epochs(before);
-        match fix {
-            Some(fix) => {
-                self.stats.num_fixes_from_ranges += 1;
-                self.push_fix(&without_covariance(fix))
-            }
-            None => Ok(()),
+        if let Some(fix) = fix {
+            self.take_range_fix(fix);
+        }
+        Ok(())
+    }
+
+    /// Takes a fix multilaterated from ranges as the tag's own fixes are; one the tag's
+    /// buffers refuse (late, a duplicate) is counted, not blamed on the range that closed its
+    /// cycle.
+    fn take_range_fix(&mut self, fix: RtlsFix) {
+        if self.push_fix(&without_covariance(fix)).is_ok() {
+            self.stats.num_fixes_from_ranges += 1;
+        } else {
+            self.stats.num_range_fixes_refused += 1;
         }
     }
 
-    /// Counts the ranges of the cycles [`RangeEpochs`] closed without a fix since `before`.
+    /// Solves the ranging cycles of tags that went quiet before the window `end` passes them
+    /// (their fixes would be late after it).
+    fn close_quiet_range_epochs(&mut self, end: i64) {
+        let (tags, tag_index) = (&self.tags, &self.tag_index);
+        let before = self.range_epochs.stats();
+        let fixes = self.range_epochs.close_where(|tag, last| {
+            tag_index
+                .get(tag)
+                .and_then(|&i| tags.get(i))
+                .is_none_or(|t| t.clock.to_session(last.as_ns()).as_ns() <= end)
+        });
+        self.note_range_epochs(before);
+        for fix in fixes {
+            self.take_range_fix(fix);
+        }
+    }
+
+    /// Counts the ranges [`RangeEpochs`] left without a fix since `before`.
     fn note_range_epochs(&mut self, before: EpochStats) {
         let after = self.range_epochs.stats();
-        let dropped = |s: EpochStats| {
-            s.num_short_epochs + s.num_rejected_epochs + s.num_unknown_anchor + s.num_out_of_order
-        };
-        self.stats.num_ranges_unused += dropped(after).saturating_sub(dropped(before));
+        self.stats.num_ranges_unused += after
+            .num_unused_ranges
+            .saturating_sub(before.num_unused_ranges);
     }
 
     fn push_fix(&mut self, f: &RtlsFix) -> Result<()> {
@@ -1204,10 +1236,11 @@ impl Engine {
         self.time_jumps
             .check(self.global_max, "rtls_fix", f.tag.as_str(), t, f.t)?;
         let height = Height::after(tag.height, f.position_m.z);
-        if matches!(height, Height::Planar { .. })
-            && !matches!(tag.height, Some(Height::Planar { .. }))
-        {
-            self.stats.planar_tags.push(tag.device.clone());
+        let was_planar = matches!(tag.height, Some(Height::Planar { .. }));
+        match height {
+            Height::Planar { .. } if !was_planar => self.stats.planar_tags.push(tag.device.clone()),
+            Height::Spatial if was_planar => self.stats.planar_tags.retain(|d| *d != tag.device),
+            _ => {}
         }
         tag.height = Some(height);
         let sigma_m = match height {
@@ -1549,17 +1582,20 @@ impl Engine {
         }
         // The last ranging cycles of tags that send ranges.
         let before = self.range_epochs.stats();
-        for fix in self.range_epochs.finish() {
+        let fixes = self.range_epochs.finish();
+        self.note_range_epochs(before);
+        for fix in fixes {
             let reports_fixes = self
                 .tag_index
                 .get(&fix.tag)
                 .and_then(|&i| self.tags_report_fixes.get(i))
                 .is_none_or(|r| *r);
-            if !reports_fixes && self.push_fix(&without_covariance(fix)).is_ok() {
-                self.stats.num_fixes_from_ranges += 1;
+            if reports_fixes {
+                self.stats.num_range_fixes_refused += 1;
+            } else {
+                self.take_range_fix(fix);
             }
         }
-        self.note_range_epochs(before);
         for tag in &mut self.tags {
             tag.frontier = i64::MAX;
             tag.settle();
@@ -1599,6 +1635,7 @@ impl Engine {
         }
         // This window is final: a tag that went quiet still has its fixes before `end` used
         // (a fix older than `end` arriving later is late).
+        self.close_quiet_range_epochs(end);
         for tag in &mut self.tags {
             tag.frontier = tag.frontier.max(end);
             tag.settle();

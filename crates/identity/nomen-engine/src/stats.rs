@@ -98,14 +98,18 @@ pub struct EngineStats {
     /// (a fix counts once per window and camera it is compared in).
     pub tag_fixes_near: BTreeMap<DeviceId, TagNearCount>,
     /// Location tags taken as 2D: their first fixes all had one height (see `crate::tags`), so
-    /// they are compared with the joints horizontally.
+    /// they are compared with the joints horizontally; a tag leaves the list when a fix at
+    /// another height comes.
     pub planar_tags: Vec<DeviceId>,
     /// Fixes multilaterated from raw UWB ranges ([`nomen_rtls::RangeEpochs`]): tags that send
     /// ranges and no fixes.
     pub num_fixes_from_ranges: u64,
     /// Raw UWB ranges not used: their tag sends fixes of its own, or their ranging cycle gave no
-    /// fix (too few anchors, a failed or poor solve, an unknown anchor).
+    /// fix (too few anchors, a failed or poor solve, an unknown anchor, out of order).
     pub num_ranges_unused: u64,
+    /// Fixes multilaterated from ranges that the tag's buffers refused (late, a duplicate), or
+    /// whose tag had started sending fixes of its own.
+    pub num_range_fixes_refused: u64,
     /// Tag fixes emitted corrected by their wearer's key joint.
     pub num_tag_corrections: u64,
     /// Close encounters after which two tracks' evidence was pooled (possible id swap).

@@ -314,9 +314,10 @@ fn decode_as_tagged_enum(payloads: &Payloads) -> usize {
             let Ok(m) = serde_json::from_slice::<Message>(payload) else {
                 return false;
             };
-            let is_its_topic = nomen_live::topics::input_source(&m).is_some_and(|(kind, source)| {
-                topic.ends_with(source) && topic.contains(kind.name())
-            });
+            let is_its_topic =
+                nomen_live::topics::input_source(&m).is_some_and(|(kind, source)| {
+                    topic.ends_with(source) && topic.contains(kind.name())
+                });
             is_its_topic && m.validate().is_ok()
         })
         .count()

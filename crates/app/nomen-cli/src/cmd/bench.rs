@@ -416,7 +416,8 @@ fn render(rows: &[FamilyRow], split: Split, split_def: &BenchSplit) -> String {
         "\ncorrect: frames named right (people wearing nothing: left anonymous); nothing→: frames of \
          people wearing nothing that carry a name; wrong: wearer frames carrying another wearer's \
          name; switch/h: identity switches per hour of wearers seen (per camera); id 1st: median \
-         time from a wearer's first frame to a correct name; id all: the same per appearance \
+         time from a wearer's first frame until a correct name for him is out (a name counts from \
+         the decision that gave it); id all: the same per appearance \
          (re-entries, other cameras); ECE: confidence calibration error.\n\nworst scene of each \
          family (reproduce: nomen scenes generate --family F --split S --seed SEED --count 1):\n",
     );

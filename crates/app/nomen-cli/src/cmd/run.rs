@@ -892,14 +892,16 @@ pub fn run_file(
              joints horizontally"
         ));
     }
-    let (from_ranges, ranges_unused) = (
+    let (from_ranges, refused, ranges_unused) = (
         engine.stats().num_fixes_from_ranges,
+        engine.stats().num_range_fixes_refused,
         engine.stats().num_ranges_unused,
     );
-    if from_ranges > 0 || ranges_unused > 0 {
+    if from_ranges > 0 || refused > 0 || ranges_unused > 0 {
         summary.push_str(&format!(
-            "\n  uwb ranges: {from_ranges} fixes multilaterated, {ranges_unused} ranges unused \
-             (their tag sends fixes, or their ranging cycle gave no fix)"
+            "\n  uwb ranges: {from_ranges} fixes multilaterated and taken, {refused} refused (late \
+             or duplicate), {ranges_unused} ranges unused (their tag sends fixes, or their \
+             ranging cycle gave no fix)"
         ));
     }
     within_skip_limit(summary, skip, &stats, recording)
