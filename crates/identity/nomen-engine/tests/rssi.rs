@@ -9,6 +9,7 @@ mod shared_data;
 use nomen_core::{DeviceId, Message};
 use nomen_engine::{EngineConfig, run_batch_with_rssi};
 use nomen_rssi::{CalibrationConfig, ModelKind, RssiModel, calibrate};
+use nomen_sim::SimOutput;
 use shared_data::{accuracy, simulated};
 
 const SEEDS: [u64; 3] = [1, 2, 3];
@@ -25,6 +26,19 @@ fn calibrated(seed: u64) -> Option<RssiModel> {
             .unwrap()
             .model,
     )
+}
+
+/// The engine's accuracy on `sim` with its default configuration and `model` (the fitted
+/// default without one).
+fn engine_accuracy(sim: &SimOutput, model: Option<&RssiModel>) -> f64 {
+    let (out, _) = run_batch_with_rssi(
+        &sim.scene.registry,
+        &sim.recording,
+        &EngineConfig::default(),
+        model,
+    )
+    .unwrap();
+    accuracy(sim, &out)
 }
 
 #[test]
@@ -48,14 +62,7 @@ fn a_tag_whose_gain_differs_from_the_calibrated_tags_is_still_named() {
                 };
             }
         }
-        let (out, _) = run_batch_with_rssi(
-            &sim.scene.registry,
-            &sim.recording,
-            &EngineConfig::default(),
-            Some(&model),
-        )
-        .unwrap();
-        let acc = accuracy(&sim, &out);
+        let acc = engine_accuracy(&sim, Some(&model));
         assert!(acc > 0.9, "seed {seed}: accuracy {acc}");
     }
 }
@@ -67,14 +74,7 @@ fn the_person_walking_abreast_of_the_tagged_one_keeps_no_name() {
             return;
         };
         let sim = simulated("scenarios/crosswalk_1t1u_abreast.toml", seed).unwrap();
-        let (out, _) = run_batch_with_rssi(
-            &sim.scene.registry,
-            &sim.recording,
-            &EngineConfig::default(),
-            Some(&model),
-        )
-        .unwrap();
-        let acc = accuracy(&sim, &out);
+        let acc = engine_accuracy(&sim, Some(&model));
         assert!(acc > 0.9, "seed {seed}: accuracy {acc}");
     }
 }
@@ -85,14 +85,7 @@ fn without_a_calibrated_model_the_fitted_default_names_a_lone_tagged_pedestrian(
         let Some(sim) = simulated("scenarios/crosswalk_1t.toml", seed) else {
             return;
         };
-        let (out, _) = run_batch_with_rssi(
-            &sim.scene.registry,
-            &sim.recording,
-            &EngineConfig::default(),
-            None,
-        )
-        .unwrap();
-        let acc = accuracy(&sim, &out);
+        let acc = engine_accuracy(&sim, None);
         assert!(acc > 0.9, "seed {seed}: accuracy {acc}");
     }
 }

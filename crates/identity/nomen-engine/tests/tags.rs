@@ -7,7 +7,7 @@ use nomen_core::skeleton::Joints;
 use nomen_core::{
     Anchor, AnchorId, Camera, CameraId, ClockModel, DeviceId, DeviceKind, Identity, Joint,
     JointObservation, Message, Registry, RigidTransform, RtlsFix, SessionTime, SkeletonObservation,
-    Subject, SubjectId, TrackId, UwbRange, Wearable,
+    Subject, SubjectId, TagCorrection, TrackId, UwbRange, Wearable,
 };
 use nomen_engine::{EngineConfig, EngineError, run_batch};
 
@@ -190,6 +190,15 @@ fn accuracy(walkers: &[Walker], out: &[Message], from_s: f64) -> f64 {
     right as f64 / n as f64
 }
 
+/// The walker of [`three_walkers`] who wears the corrected tag: ana's tag, else ben's.
+fn wearer<'a>(walkers: &'a [Walker], c: &TagCorrection) -> &'a Walker {
+    if c.tag.as_str() == "ana_tag" {
+        &walkers[0]
+    } else {
+        &walkers[1]
+    }
+}
+
 fn three_walkers() -> Vec<Walker> {
     vec![
         Walker::new(Some("ana"), 1.0, 1.2, 1),
@@ -220,12 +229,7 @@ fn tagged_walkers_are_named_the_untagged_one_stays_anonymous_and_fixes_are_corre
     assert_eq!(corrections.len(), num_fixes);
     let (mut raw, mut corrected) = (0.0, 0.0);
     for c in &corrections {
-        let w = if c.tag.as_str() == "ana_tag" {
-            &walkers[0]
-        } else {
-            &walkers[1]
-        };
-        let truth = w.joint(c.t.as_secs_f64(), Joint::RightWrist);
+        let truth = wearer(&walkers, c).joint(c.t.as_secs_f64(), Joint::RightWrist);
         raw += (c.raw_position_m - truth).norm_squared();
         corrected += (c.corrected_position_m - truth).norm_squared();
     }
@@ -650,12 +654,8 @@ fn fixes_of_a_2d_location_system_at_z_0_name_their_wearers() {
             _ => None,
         })
         .map(|c| {
-            let w = if c.tag.as_str() == "ana_tag" {
-                &walkers[0]
-            } else {
-                &walkers[1]
-            };
-            (c.corrected_position_m.z - w.joint(c.t.as_secs_f64(), Joint::RightWrist).z).abs()
+            let truth = wearer(&walkers, c).joint(c.t.as_secs_f64(), Joint::RightWrist);
+            (c.corrected_position_m.z - truth.z).abs()
         })
         .fold(0.0, f64::max);
     assert!(max_z_error < 0.1, "{max_z_error}");
