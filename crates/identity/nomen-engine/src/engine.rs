@@ -1979,8 +1979,13 @@ impl Engine {
         } else {
             self.config.min_name_probability
         };
-        let (identity, confidence, is_named, decided) = if is_named && confidence < min_probability
-        {
+        // In a room known to hold people who wear nothing, a name that fits poorly is withheld
+        // too, however it leads (`open_set_min_score`).
+        let fits_poorly = self.is_open_set
+            && is_motion_only
+            && name.is_some_and(|(_, score)| score < self.config.open_set_min_score);
+        let is_improbable = confidence < min_probability || fits_poorly;
+        let (identity, confidence, is_named, decided) = if is_named && is_improbable {
             let raw = runner_up
                 .into_iter()
                 .chain(name)

@@ -214,7 +214,11 @@
 //!    antenna); three decisions within 10 s that see more people than that make the room
 //!    open for [`EngineConfig::open_set_memory_s`] (60 s). Where everyone in view may be a
 //!    wearer, a name that barely leads is usually right (the assignment has a subject for
-//!    every person); where some wear nothing, it is usually an intruder's.
+//!    every person); where some wear nothing, it is usually an intruder's. In such a room a
+//!    name resting on motion alone also needs a score of at least
+//!    [`EngineConfig::open_set_min_score`] (0.45): a subject out of view whose wearables
+//!    stream leaves his name to the track in view that fits him best, which leads but fits
+//!    poorly.
 //!
 //! Every output carries a [`nomen_core::DecisionTrace`]: the rule that gave its identity
 //! ([`nomen_core::DecisionRule`]), the decision's window end, the named subject's pooled score

@@ -323,9 +323,11 @@ fn a_companion_moving_like_the_wearer_stays_anonymous_when_the_wearer_leaves() {
     let (named, acc) = named_after_left(&EngineConfig::default());
     assert_eq!(named, 0, "accuracy {acc}");
     assert!(acc > 0.98, "accuracy {acc}");
-    // Without the exclusion his leftover score names him.
+    // Without the exclusion his leftover score names him (with the open-set minimum score
+    // off too, which withholds it as well).
     let (named, _) = named_after_left(&EngineConfig {
         exclusion_margin: -1.0,
+        open_set_min_score: 0.0,
         ..EngineConfig::default()
     });
     assert!(named > 30, "{named} frames named");
@@ -2117,7 +2119,12 @@ fn a_subject_named_by_one_camera_is_kept_off_a_track_of_the_other_camera_far_fro
     // camera only. The second camera's assignment alone gives him Ana, whom it never sees.
     let people = ana_and_her_look_alike(1.5);
     let (registry, msgs) = each_seen_by_one_camera(&people, 20.0);
-    let config = known_offsets();
+    // The open-set minimum score, which withholds Dan's weak name as well, is off: this rule
+    // alone keeps him anonymous.
+    let config = EngineConfig {
+        open_set_min_score: 0.0,
+        ..known_offsets()
+    };
     let dan_named = |config: &EngineConfig| {
         let (out, _) = run_batch(&registry, &msgs, config).unwrap();
         let ana = labels_of(&out, common::CAMERA, 1, 6.0, 20.0);
@@ -3045,4 +3052,80 @@ fn with_more_people_in_view_than_subjects_streaming_a_name_less_likely_than_not_
     let dan = people.iter_mut().find(|p| p.subject.is_none()).unwrap();
     dan.subject = Some("dan");
     assert_eq!(identified(&people, 0.0), identified(&people, minimum));
+}
+
+#[test]
+fn with_more_people_in_view_than_subjects_streaming_a_name_that_fits_poorly_is_withheld() {
+    // As above, with the score instead of the calibrated probability: once the engine has
+    // counted someone who wears nothing, a name resting on motion whose score (the decision's
+    // `named` score) is below `open_set_min_score` goes out anonymous (rule `improbable`), and
+    // nothing else changes. When everyone in view streams, the option changes nothing.
+    let mut people = ana_and_her_look_alike(0.8);
+    people.push(Person::new(Some("ben"), 1.3, 2.5, 3));
+    let identified = |people: &[Person], minimum: f64| -> Vec<IdentifiedSkeleton> {
+        let config = EngineConfig {
+            open_set_min_name_probability: 0.0,
+            open_set_min_score: minimum,
+            ..EngineConfig::default()
+        };
+        let (out, _) = run_batch(&registry(people), &recording(people, 20.0), &config).unwrap();
+        out.iter()
+            .filter_map(|m| match m {
+                Message::Identified(id) => Some((**id).clone()),
+                _ => None,
+            })
+            .collect()
+    };
+    let named_score = |id: &IdentifiedSkeleton| -> Option<f64> {
+        match id.identity {
+            Identity::Subject(_) => id.decision.as_ref()?.named.as_ref().map(|c| c.score),
+            Identity::Anonymous => None,
+        }
+    };
+    let plain = identified(&people, 0.0);
+    let scores: Vec<f64> = plain.iter().filter_map(named_score).collect();
+    let lowest = scores.iter().copied().fold(f64::INFINITY, f64::min);
+    let highest = scores.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    assert!(lowest < highest, "named scores {lowest}..{highest}");
+    let minimum = 0.5 * (lowest + highest);
+    let gated = identified(&people, minimum);
+    assert_eq!(plain.len(), gated.len());
+    let (mut num_withheld, mut num_kept_weak) = (0, 0);
+    for (before, after) in plain.iter().zip(&gated) {
+        let is_weak = named_score(before).is_some_and(|s| s < minimum);
+        if is_weak && after.identity == Identity::Anonymous {
+            num_withheld += 1;
+            let d = after.decision.as_ref().unwrap();
+            assert_eq!(d.rule, DecisionRule::Improbable);
+            assert_eq!(
+                d.runner_up.as_ref().map(|c| &c.subject),
+                before
+                    .decision
+                    .as_ref()
+                    .unwrap()
+                    .named
+                    .as_ref()
+                    .map(|c| &c.subject)
+            );
+        } else {
+            // A weak name is kept only before the engine has counted Dan.
+            num_kept_weak += usize::from(is_weak);
+            assert_eq!(before, after);
+        }
+    }
+    assert!(num_withheld > 0, "no name withheld");
+    assert!(
+        num_withheld > num_kept_weak,
+        "{num_withheld} withheld, {num_kept_weak} kept"
+    );
+    // Dan registered, with a band of his own.
+    let dan = people.iter_mut().find(|p| p.subject.is_none()).unwrap();
+    dan.subject = Some("dan");
+    assert_eq!(identified(&people, 0.0), identified(&people, minimum));
+    // A score minimum is in 0..=1.
+    let bad = EngineConfig {
+        open_set_min_score: -0.1,
+        ..EngineConfig::default()
+    };
+    assert!(run_batch(&registry(&people), &recording(&people, 5.0), &bad).is_err());
 }

@@ -77,7 +77,8 @@ pub enum DecisionRule {
     NoEvidence,
     /// Anonymous: a rule gave a name whose calibrated probability of being right is below the
     /// run's minimum (the engine's `min_name_probability`, or `open_set_min_name_probability`
-    /// where more people were seen than subjects whose wearables stream).
+    /// where more people were seen than subjects whose wearables stream), or there a name
+    /// resting on motion whose score is below the engine's `open_set_min_score`.
     Improbable,
 }
 

@@ -222,7 +222,7 @@ fn rule_meaning(rule: DecisionRule) -> &'static str {
         }
         DecisionRule::NoEvidence => "no evidence about any subject yet",
         DecisionRule::Improbable => {
-            "the name (shown as the runner-up) is less likely to be right than the run's minimum (min_name_probability, or open_set_min_name_probability once more people were in view than subjects stream)"
+            "the name (shown as the runner-up) is less likely to be right than the run's minimum (min_name_probability; once more people were in view than subjects stream, open_set_min_name_probability, and a score of at least open_set_min_score)"
         }
     }
 }
