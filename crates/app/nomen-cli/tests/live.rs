@@ -524,19 +524,41 @@ fn replay(recording: &Path, args: &[&str]) -> std::process::Output {
     nomen(&[&["replay", recording.to_str().unwrap()], args].concat())
 }
 
+/// A started `nomen replay`, killed (SIGKILL) when dropped, so that a failing test leaves
+/// none behind.
+struct Replay(Option<std::process::Child>);
+
+impl Replay {
+    /// Waits for it to end, and returns what it wrote.
+    fn wait_with_output(mut self) -> std::io::Result<std::process::Output> {
+        self.0.take().unwrap().wait_with_output()
+    }
+}
+
+impl Drop for Replay {
+    fn drop(&mut self) {
+        if let Some(child) = &mut self.0 {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
 /// `nomen replay RECORDING --mqtt URL --speed SPEED` started, its stderr to `stderr`.
-fn spawn_replay(recording: &Path, url: &str, speed: &str, stderr: Stdio) -> std::process::Child {
-    nomen_command(&[
-        "replay",
-        recording.to_str().unwrap(),
-        "--mqtt",
-        url,
-        "--speed",
-        speed,
-    ])
-    .stderr(stderr)
-    .spawn()
-    .unwrap()
+fn spawn_replay(recording: &Path, url: &str, speed: &str, stderr: Stdio) -> Replay {
+    Replay(Some(
+        nomen_command(&[
+            "replay",
+            recording.to_str().unwrap(),
+            "--mqtt",
+            url,
+            "--speed",
+            speed,
+        ])
+        .stderr(stderr)
+        .spawn()
+        .unwrap(),
+    ))
 }
 
 /// Checks that a command failed, saying `says` and never `never` (a password, say).
@@ -640,8 +662,9 @@ fn serve_and_replay_log_in_to_a_mosquitto_that_asks_for_a_password() {
 /// The embedded broker behind TLS that asks for a client certificate and a password: `nomen
 /// serve` starts it and connects over TLS (CA, certificate and key from serve.toml), `nomen
 /// replay` publishes over TLS (flags), every sample arrives, while a client that opened a
-/// connection and never speaks holds up nobody. A CA that did not sign the broker's
-/// certificate, the system's CAs, no client certificate, plain MQTT and a wrong password are
+/// connection and never speaks holds up nobody. A TLS broker without a password is refused
+/// at the start; a CA that did not sign the broker's certificate, the system's CAs (another
+/// CA's, through `SSL_CERT_FILE`), no client certificate, plain MQTT and a wrong password are
 /// refused, the first two with the CA named.
 #[test]
 fn serve_and_replay_speak_tls_to_the_embedded_broker() {
@@ -658,6 +681,18 @@ fn serve_and_replay_speak_tls_to_the_embedded_broker() {
              mqtt_username = \"nomen\"\nmqtt_password = \"s3cret\"\n"
         ),
     );
+    // Without a password, local programs could skip TLS: refused.
+    let config = tmp.path().join("serve.toml");
+    let with_password = std::fs::read_to_string(&config).unwrap();
+    let without: String = with_password
+        .lines()
+        .filter(|line| !line.starts_with("mqtt_username") && !line.starts_with("mqtt_password"))
+        .map(|line| format!("{line}\n"))
+        .collect();
+    std::fs::write(&config, without).unwrap();
+    let o = nomen(&["serve", "--config", config.to_str().unwrap()]);
+    assert_refused(&o, "(mqtt_username, mqtt_password)", "s3cret");
+    std::fs::write(&config, with_password).unwrap();
     let serve = Serve::start(tmp.path(), &[]);
     wait_for_port(port);
     // A connection that never starts its handshake.
@@ -685,7 +720,18 @@ fn serve_and_replay_speak_tls_to_the_embedded_broker() {
         &format!("not signed by the CA file {other_ca}"),
         "s3cret",
     );
-    let o = replay(&recording, &[&["--mqtt", &url], &client[..]].concat());
+    // The system's CA certificates: those of SSL_CERT_FILE, here the other CA.
+    let o = nomen_command(
+        &[
+            &["replay", recording.to_str().unwrap(), "--mqtt", &url],
+            &client[..],
+        ]
+        .concat(),
+    )
+    .env("SSL_CERT_FILE", other_ca)
+    .env_remove("SSL_CERT_DIR")
+    .output()
+    .unwrap();
     assert_refused(&o, "not signed by the system's CA certificates", "s3cret");
     let ca = pki.ca.to_str().unwrap();
     let o = replay(&recording, &["--mqtt", &url, "--mqtt-ca", ca]);
@@ -718,6 +764,15 @@ fn serve_and_replay_speak_tls_to_the_embedded_broker() {
             && stderr.contains("received 10 messages"),
         "{stderr}"
     );
+    // The other CA, the system's, no client certificate and plain MQTT: four handshakes
+    // failed (five once the silent connection's time is up).
+    let num_failed: u64 = stderr
+        .split("refused 0 connections over its limit of 1000 and ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no count of the TLS front's refusals: {stderr}"));
+    assert!((4..=5).contains(&num_failed), "{stderr}");
 }
 
 /// Mosquitto with a TLS listener that asks for a client certificate and a password: `nomen
@@ -912,7 +967,7 @@ fn after_kill_9_the_identity_log_holds_every_published_decision() {
     let log = tmp.path().join("identity.sqlite");
     let (mut serve, port, seen) = serve_embedded(tmp.path(), &["--log", log.to_str().unwrap()]);
     let url = format!("mqtt://127.0.0.1:{port}");
-    let mut replay = spawn_replay(&recording, &url, "4", Stdio::null());
+    let replay = spawn_replay(&recording, &url, "4", Stdio::null());
     // Mid-stream: a third of the scene's decisions published.
     let started = Instant::now();
     while seen.lock().unwrap().num_identified < 300 {
@@ -921,8 +976,7 @@ fn after_kill_9_the_identity_log_holds_every_published_decision() {
     }
     serve.child().kill().unwrap(); // SIGKILL
     serve.child().wait().unwrap();
-    let _ = replay.kill();
-    let _ = replay.wait();
+    drop(replay);
     // What was in flight to the watcher when the broker died is in its hands now.
     std::thread::sleep(Duration::from_millis(200));
     let published = seen.lock().unwrap().identified.clone();

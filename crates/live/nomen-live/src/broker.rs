@@ -2,10 +2,11 @@
 //! when it is given none, in plain MQTT or behind a TLS front ([`crate::tls`]).
 
 use crate::decode::MAX_PAYLOAD_BYTES;
-use crate::tls::{ClientTls, ServerTls};
+use crate::tls::{ClientTls, FrontCounts, ServerTls};
 use crate::{LiveError, Result};
 use std::collections::HashMap;
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr, TcpListener, TcpStream};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// The MQTT port brokers listen on by default.
@@ -94,13 +95,16 @@ impl BrokerAddr {
                 |ca| format!("the CA file {}", ca.display()),
             );
             format!("{why} (the broker's certificate is not signed by {ca})")
-        } else if why.contains("NotValidForName") {
+        } else if why.contains("not valid for name") || why.contains("NotValidForName") {
             format!(
                 "{why} (the broker's certificate does not name the host '{}')",
                 self.host
             )
         } else if why.contains("CertificateRequired") || why.contains("certificate required") {
             format!("{why} (the broker asks for a client certificate)")
+        } else if why.contains("InvalidContentType") {
+            // A plain MQTT packet read as a TLS record.
+            format!("{why} (the broker may speak plain MQTT only: mqtt://)")
         } else {
             why.to_owned()
         }
@@ -236,7 +240,7 @@ impl std::fmt::Display for BrokerAddr {
     }
 }
 
-/// How long [`start_embedded`] waits for the broker to accept connections.
+/// How long [`start_embedded`] waits for the broker to answer a CONNECT.
 const START_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// What the embedded broker listens on and whom it lets in.
@@ -283,20 +287,37 @@ impl EmbeddedOptions {
 }
 
 /// Starts rumqttd in this process, listening on `listen` (MQTT 3.1.1, plain, anyone let in),
-/// and returns once it accepts connections. It runs on its own threads until the process ends.
+/// and returns once it answers an MQTT CONNECT. It runs on its own threads until the process
+/// ends.
 pub fn start_embedded(listen: SocketAddr) -> Result<()> {
-    start_embedded_with(&EmbeddedOptions::plain(listen))
+    start_embedded_with(&EmbeddedOptions::plain(listen)).map(|_| ())
 }
 
-/// Starts rumqttd in this process as `options` say, and returns once it accepts connections.
-/// With TLS, rumqttd listens on a free loopback port and the TLS front ([`crate::tls`]) on
-/// `options.listen`. It runs on its own threads until the process ends.
-pub fn start_embedded_with(options: &EmbeddedOptions) -> Result<()> {
+/// The embedded broker, started.
+#[derive(Debug, Clone)]
+pub struct EmbeddedBroker {
+    /// What its TLS front refused so far; `None`: plain MQTT, no front.
+    pub tls_front: Option<Arc<FrontCounts>>,
+}
+
+/// Starts rumqttd in this process as `options` say, and returns once it answers an MQTT
+/// CONNECT. With TLS, rumqttd listens on a port of a random loopback address (127.x.y.z, all
+/// of 127/8 being the loopback on Linux; 127.0.0.1 where that cannot be bound) and the TLS front
+/// ([`crate::tls`]) on `options.listen`; TLS needs `options.credentials`, since local programs
+/// can reach rumqttd's port without TLS. It runs on its own threads until the process ends.
+pub fn start_embedded_with(options: &EmbeddedOptions) -> Result<EmbeddedBroker> {
     let listen = options.listen;
     let fail = |why: String| LiveError::Broker {
         listen: listen.to_string(),
         why,
     };
+    if options.tls.is_some() && options.credentials.is_none() {
+        return Err(fail(
+            "TLS needs a user and password (mqtt_username, mqtt_password): local programs \
+             reach the broker behind the TLS front without TLS"
+                .to_owned(),
+        ));
+    }
     // Read first: a bad certificate or key stops the start.
     let server_tls = options
         .tls
@@ -304,11 +325,12 @@ pub fn start_embedded_with(options: &EmbeddedOptions) -> Result<()> {
         .map(crate::tls::server_config)
         .transpose()?;
     // rumqttd reports a port in use from a thread of its own; find out here instead. The TLS
-    // front keeps its listener; rumqttd takes a port just freed on the loopback.
+    // front keeps its listener; rumqttd takes a port just freed, on an address of its own.
     let listener = TcpListener::bind(listen).map_err(|e| fail(e.to_string()))?;
     let (front, broker_listen) = match server_tls {
         Some(config) => {
-            let backend = TcpListener::bind((Ipv4Addr::LOCALHOST, 0))
+            let backend = TcpListener::bind((random_loopback(), 0))
+                .or_else(|_| TcpListener::bind((Ipv4Addr::LOCALHOST, 0)))
                 .and_then(|l| l.local_addr())
                 .map_err(|e| fail(e.to_string()))?;
             (Some((listener, config)), backend)
@@ -350,29 +372,96 @@ dynamic_filters = true
     std::thread::Builder::new()
         .name("nomen-broker".to_owned())
         .spawn(move || {
-            // A broker that fails to start is found below: it never accepts a connection.
+            // A broker that fails to start is found below: it never answers.
             let _ = broker.start();
         })
         .map_err(|e| fail(e.to_string()))?;
     let started = Instant::now();
     loop {
-        if TcpStream::connect_timeout(&broker_listen, Duration::from_millis(200)).is_ok() {
-            return match front {
-                Some((listener, config)) => {
+        if answers_connect(broker_listen, options.credentials.as_ref()) {
+            let tls_front = match front {
+                Some((listener, config)) => Some(
                     crate::tls::start_front(listener, broker_listen, config)
-                        .map_err(|e| fail(e.to_string()))
-                }
-                None => Ok(()),
+                        .map_err(|e| fail(e.to_string()))?,
+                ),
+                None => None,
             };
+            return Ok(EmbeddedBroker { tls_front });
         }
         if started.elapsed() > START_TIMEOUT {
             return Err(fail(format!(
-                "not accepting connections after {} s",
+                "not answering an MQTT CONNECT after {} s",
                 START_TIMEOUT.as_secs()
             )));
         }
         std::thread::sleep(Duration::from_millis(20));
     }
+}
+
+/// A loopback address 127.x.y.z picked at random (x, y, z from std's randomly keyed hasher),
+/// so that no other program is likely to bind the same address and port in the meantime.
+fn random_loopback() -> Ipv4Addr {
+    use std::hash::{BuildHasher, Hasher};
+    let mut hasher = std::collections::hash_map::RandomState::new().build_hasher();
+    hasher.write_u32(std::process::id());
+    let [_, x, y, z, ..] = hasher.finish().to_be_bytes();
+    // Neither the network's nor the broadcast address of a /24.
+    Ipv4Addr::new(127, x, y, z.clamp(1, 254))
+}
+
+/// Whether an MQTT 3.1.1 broker at `addr` accepts a CONNECT (as the user of `credentials`)
+/// with a CONNACK; the connection is closed with a DISCONNECT.
+fn answers_connect(addr: SocketAddr, credentials: Option<&Credentials>) -> bool {
+    use std::io::{Read, Write};
+    let Ok(mut tcp) = TcpStream::connect_timeout(&addr, Duration::from_millis(200)) else {
+        return false;
+    };
+    let timeout = Some(Duration::from_secs(1));
+    if tcp.set_read_timeout(timeout).is_err() || tcp.set_write_timeout(timeout).is_err() {
+        return false;
+    }
+    let Some(connect) = connect_packet("nomen-start-check", credentials) else {
+        return false;
+    };
+    let mut connack = [0_u8; 4];
+    let is_accepted = tcp.write_all(&connect).is_ok()
+        && tcp.read_exact(&mut connack).is_ok()
+        && connack[0] == 0x20
+        && connack[1] == 0x02
+        && connack[3] == 0x00;
+    let _ = tcp.write_all(&[0xe0, 0x00]);
+    is_accepted
+}
+
+/// An MQTT 3.1.1 CONNECT packet (clean session, a 10-s keep-alive); `None` when a field is
+/// over MQTT's 65535 bytes.
+fn connect_packet(client_id: &str, credentials: Option<&Credentials>) -> Option<Vec<u8>> {
+    let mut body = vec![0x00, 0x04, b'M', b'Q', b'T', b'T', 0x04];
+    body.push(if credentials.is_some() { 0xc2 } else { 0x02 });
+    body.extend_from_slice(&10_u16.to_be_bytes());
+    let mut field = |text: &str| -> Option<()> {
+        body.extend_from_slice(&u16::try_from(text.len()).ok()?.to_be_bytes());
+        body.extend_from_slice(text.as_bytes());
+        Some(())
+    };
+    field(client_id)?;
+    if let Some(c) = credentials {
+        field(&c.username)?;
+        field(&c.password)?;
+    }
+    let mut packet = vec![0x10];
+    // The remaining length, 7 bits a byte, the lowest first.
+    let mut len = body.len();
+    loop {
+        let byte = u8::try_from(len % 128).ok()?;
+        len /= 128;
+        packet.push(if len > 0 { byte | 0x80 } else { byte });
+        if len == 0 {
+            break;
+        }
+    }
+    packet.extend_from_slice(&body);
+    Some(packet)
 }
 
 #[cfg(test)]
@@ -437,7 +526,8 @@ mod tests {
         });
         let told = b.connect_failure(why);
         assert!(told.starts_with(why) && told.contains("ca.pem"), "{told}");
-        assert!(b.connect_failure("NotValidForName").contains("'broker'"));
+        let plain = "TLS: I/O: received corrupt message of type InvalidContentType";
+        assert!(b.connect_failure(plain).contains("mqtt://"));
         // Plain MQTT: the client's words as they are, but for a TLS alert read as MQTT.
         assert_eq!(BrokerAddr::new("h", 1).connect_failure(why), why);
         let alert = "Mqtt serialization/deserialization error: Promised boundary crossed: 768";
@@ -446,6 +536,21 @@ mod tests {
                 .connect_failure(alert)
                 .contains("mqtts://")
         );
+    }
+
+    #[test]
+    fn the_start_check_sends_an_mqtt_3_1_1_connect() {
+        let anonymous = connect_packet("a", None).unwrap();
+        assert_eq!(anonymous, b"\x10\x0d\x00\x04MQTT\x04\x02\x00\x0a\x00\x01a");
+        let user = Credentials {
+            username: "u".to_owned(),
+            password: "p".repeat(200),
+        };
+        let with_user = connect_packet("a", Some(&user)).unwrap();
+        // 13 bytes as above, 3 of the user name, 202 of the password: 218 = 0x5a + 1 × 128.
+        assert_eq!(&with_user[..4], b"\x10\xda\x01\x00");
+        assert_eq!(with_user.len(), 3 + 218);
+        assert_eq!(with_user[10], 0xc2);
     }
 
     #[test]

@@ -17,7 +17,8 @@ pub struct ServeConfig {
     /// start the embedded broker on `embedded_listen`. `--mqtt` overrides it.
     pub mqtt: Option<String>,
     /// The user name to log in to the broker with, replacing one in the URL; with the
-    /// embedded broker, the one user it lets in. Default: none (the URL's, or anonymous).
+    /// embedded broker, the one user it lets in (then it needs `mqtt_password`). Default: none
+    /// (the URL's, or anonymous).
     pub mqtt_username: Option<String>,
     /// Its password; here rather than in the URL, it stays out of the process list. Needs
     /// `mqtt_username`. It travels in clear text over `mqtt://`, encrypted over `mqtts://`.
@@ -36,8 +37,10 @@ pub struct ServeConfig {
     pub embedded_listen: String,
     /// The embedded broker's certificate (PEM, naming the address clients use, e.g. an IP
     /// address entry `127.0.0.1`): with it, the broker speaks only TLS (`mqtts://`), and
-    /// the service connects to it checking it against `mqtt_ca`. Needs `embedded_tls_key`.
-    /// Default: none (plain MQTT).
+    /// the service connects to it checking it against `mqtt_ca`. Needs `embedded_tls_key`,
+    /// and `mqtt_username` with `mqtt_password`: local programs reach the broker behind the
+    /// TLS front on a loopback port without TLS. Ignored with a broker given (`mqtt`,
+    /// `--mqtt`). Default: none (plain MQTT).
     pub embedded_tls_cert: Option<PathBuf>,
     /// The private key (PEM) of `embedded_tls_cert`. Default: none.
     pub embedded_tls_key: Option<PathBuf>,

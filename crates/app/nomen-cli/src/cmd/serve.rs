@@ -229,8 +229,27 @@ pub fn run(args: ServeArgs) -> Result<()> {
             _ => None,
         },
     };
+    let mut tls_front = None;
     let broker = match args.mqtt.as_ref().or(config.mqtt.as_ref()) {
         Some(url) => {
+            let ignored: Vec<&str> = [
+                ("embedded_tls_cert", config.embedded_tls_cert.is_some()),
+                ("embedded_tls_key", config.embedded_tls_key.is_some()),
+                (
+                    "embedded_tls_client_ca",
+                    config.embedded_tls_client_ca.is_some(),
+                ),
+            ]
+            .into_iter()
+            .filter_map(|(key, is_set)| is_set.then_some(key))
+            .collect();
+            if !ignored.is_empty() {
+                eprintln!(
+                    "nomen serve: warning: {} of serve.toml ignored: no embedded broker starts \
+                     with a broker given (--mqtt, mqtt)",
+                    ignored.join(", ")
+                );
+            }
             let mut broker = BrokerAddr::parse(url)?;
             if credentials.is_some() {
                 broker.credentials = credentials;
@@ -278,12 +297,25 @@ pub fn run(args: ServeArgs) -> Result<()> {
                      (embedded_tls_cert, embedded_tls_key)"
                 );
             }
+            if config.mqtt_username.is_some() && config.mqtt_password.is_none() {
+                bail!(
+                    "mqtt_username needs mqtt_password: the embedded broker lets in the one user \
+                     with that password"
+                );
+            }
+            if tls.is_some() && credentials.is_none() {
+                bail!(
+                    "the embedded broker's TLS (embedded_tls_cert) needs a user and password \
+                     (mqtt_username, mqtt_password): local programs reach the broker behind \
+                     the TLS front on a loopback port without TLS or a client certificate"
+                );
+            }
             let embedded = EmbeddedOptions {
                 listen,
                 credentials,
                 tls,
             };
-            start_embedded_with(&embedded)?;
+            tls_front = start_embedded_with(&embedded)?.tls_front;
             eprintln!(
                 "nomen serve: embedded broker listening on {}://{listen}{}",
                 if embedded.tls.is_some() {
@@ -385,6 +417,15 @@ pub fn run(args: ServeArgs) -> Result<()> {
         summary.num_decisions,
         summary.num_events
     );
+    if let Some(front) = &tls_front {
+        eprintln!(
+            "nomen serve: the embedded broker's TLS front refused {} connections over its \
+             limit of {} and {} failed or timed-out handshakes",
+            front.num_refused(),
+            nomen_live::tls::MAX_CONNECTIONS,
+            front.num_failed_handshakes()
+        );
+    }
     for path in &summary.recorded {
         eprintln!("nomen serve: recorded {}", path.display());
     }

@@ -229,24 +229,24 @@ impl Mosquitto {
             ),
         )
         .unwrap();
-        let child = Self::spawn(binary, &conf, port);
-        Mosquitto {
+        // Owned before the wait, so that a slow start that fails the test kills it too.
+        let mosquitto = Mosquitto {
             binary,
+            child: Self::spawn(binary, &conf),
             conf,
             port,
-            child,
-        }
+        };
+        wait_for_port(port);
+        mosquitto
     }
 
-    fn spawn(binary: &str, conf: &Path, port: u16) -> Child {
-        let child = Command::new(binary)
+    fn spawn(binary: &str, conf: &Path) -> Child {
+        Command::new(binary)
             .args(["-c", conf.to_str().unwrap()])
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
-            .unwrap();
-        wait_for_port(port);
-        child
+            .unwrap()
     }
 
     /// Kills it (SIGKILL) and waits for it to end.
@@ -257,7 +257,8 @@ impl Mosquitto {
 
     /// Starts it again, with the same configuration, on the same port.
     pub fn restart(&mut self) {
-        self.child = Self::spawn(self.binary, &self.conf, self.port);
+        self.child = Self::spawn(self.binary, &self.conf);
+        wait_for_port(self.port);
     }
 }
 
