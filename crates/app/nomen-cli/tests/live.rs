@@ -6,12 +6,17 @@
 
 mod common;
 
-use common::{Serve, data_dir, free_port, nomen, nomen_command, short_scene, text, wait_for_port};
+use common::{
+    Mosquitto, Serve, TestPki, data_dir, free_port, mosquitto_binary, mosquitto_passwords, nomen,
+    nomen_command, short_scene, text, wait_for_port,
+};
+use nomen_live::broker::{BrokerAddr, Credentials};
+use nomen_live::tls::{CertAndKey, ClientTls};
 use rumqttc::{Client, Event, MqttOptions, Packet, QoS};
 use serde_json::Value;
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Stdio;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -94,6 +99,15 @@ fn watch_with(port: u16, is_clean: bool) -> Arc<Mutex<Seen>> {
     seen
 }
 
+/// Waits (up to [`TIMEOUT`]) for the watcher's first health report: the service is subscribed.
+fn wait_for_health(seen: &Mutex<Seen>) {
+    let started = Instant::now();
+    while seen.lock().unwrap().health.is_none() {
+        assert!(started.elapsed() < TIMEOUT, "no health report");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 fn publish_raw(port: u16, messages: &[(&str, &[u8])]) {
     let (client, mut connection) = Client::new(
         MqttOptions::new(format!("raw-{port}"), "127.0.0.1", port),
@@ -154,12 +168,7 @@ fn replay_into(
     out: &Path,
     speed: &str,
 ) {
-    // The first health report says the service is subscribed.
-    let started = Instant::now();
-    while seen.lock().unwrap().health.is_none() {
-        assert!(started.elapsed() < TIMEOUT, "no health report");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    wait_for_health(seen);
     publish_raw(
         port,
         &[
@@ -168,14 +177,7 @@ fn replay_into(
         ],
     );
     let url = format!("mqtt://127.0.0.1:{port}");
-    let o = nomen(&[
-        "replay",
-        recording.to_str().unwrap(),
-        "--mqtt",
-        &url,
-        "--speed",
-        speed,
-    ]);
+    let o = replay(recording, &["--mqtt", &url, "--speed", speed]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     let num_inputs = message_lines(recording)
         .iter()
@@ -399,47 +401,6 @@ fn serve_on_the_embedded_broker_decides_as_run_does_and_records_what_run_reads()
     );
 }
 
-/// Mosquitto's binary, or `None` (after saying why the test skips; in CI a failure).
-fn mosquitto_binary() -> Option<&'static str> {
-    // Debian installs it in /usr/sbin, which a user's PATH may lack.
-    let mosquitto = ["mosquitto", "/usr/sbin/mosquitto"]
-        .into_iter()
-        .find(|m| Command::new(m).arg("-h").output().is_ok());
-    if mosquitto.is_none() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "mosquitto is not installed (CI installs it: apt-get install mosquitto)"
-        );
-        eprintln!("skipping: mosquitto is not installed (apt-get install mosquitto)");
-    }
-    mosquitto
-}
-
-/// Starts Mosquitto on `port` with `conf_lines` added to a configuration in `dir` that sets no
-/// limit on queued QoS 1 messages (the default, 1000, drops beyond it for a slow subscriber)
-/// and lets anonymous clients in unless `conf_lines` says otherwise; returns once it listens.
-fn start_mosquitto(binary: &str, dir: &Path, port: u16, conf_lines: &str) -> Child {
-    let conf = dir.join("mosquitto.conf");
-    let anonymous = if conf_lines.contains("allow_anonymous") {
-        ""
-    } else {
-        "allow_anonymous true\n"
-    };
-    std::fs::write(
-        &conf,
-        format!("listener {port} 127.0.0.1\n{anonymous}max_queued_messages 0\n{conf_lines}"),
-    )
-    .unwrap();
-    let child = Command::new(binary)
-        .args(["-c", conf.to_str().unwrap()])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    wait_for_port(port);
-    child
-}
-
 #[test]
 fn serve_on_mosquitto_decides_as_run_does() {
     let Some(binary) = mosquitto_binary() else {
@@ -450,16 +411,9 @@ fn serve_on_mosquitto_decides_as_run_does() {
         return;
     };
     let port = free_port();
-    let mut mosquitto = start_mosquitto(binary, tmp.path(), port, "persistence false\n");
+    let _mosquitto = Mosquitto::start(binary, tmp.path(), port, "persistence false\n");
     write_config(tmp.path(), "");
-    let result = std::panic::catch_unwind(|| {
-        replay_and_compare(tmp.path(), port, &recording, &expected, "max");
-    });
-    let _ = mosquitto.kill();
-    let _ = mosquitto.wait();
-    if let Err(e) = result {
-        std::panic::resume_unwind(e);
-    }
+    replay_and_compare(tmp.path(), port, &recording, &expected, "max");
 }
 
 #[test]
@@ -481,11 +435,8 @@ fn serve_records_the_calibrated_registry_its_engine_runs_on() {
             record.to_str().unwrap(),
         ],
     );
+    wait_for_health(&seen);
     let started = Instant::now();
-    while seen.lock().unwrap().health.is_none() {
-        assert!(started.elapsed() < TIMEOUT, "no health report");
-        std::thread::sleep(Duration::from_millis(20));
-    }
     // The same registry, as it is in the file, on MQTT: no new session. The sample after it,
     // of a device the registry lacks, is refused once the session has taken the registry.
     publish_raw(
@@ -524,11 +475,11 @@ fn serve_records_the_calibrated_registry_its_engine_runs_on() {
     assert_eq!(header["registry"]["cameras"][0]["scale"], 0.01, "{header}");
 }
 
-/// A subscriber logged in as `user`: waits (up to [`TIMEOUT`]) for a health report of the
-/// service on the broker at `port` that says `num_received` messages were received.
-fn wait_for_received(port: u16, user: &str, password: &str, num_received: u64) {
-    let mut options = MqttOptions::new(format!("auth-watch-{port}"), "127.0.0.1", port);
-    options.set_credentials(user, password);
+/// A subscriber to the broker at `broker` (as the service reaches it: its user, its TLS):
+/// waits (up to [`TIMEOUT`]) for a health report of the service that says `num_received`
+/// messages were received.
+fn wait_for_received(broker: &BrokerAddr, num_received: u64) {
+    let mut options = broker.client_options("auth-watch").unwrap();
     options.set_max_packet_size(1 << 20, 1 << 20);
     let (client, mut connection) = Client::new(options, 16);
     client
@@ -553,99 +504,335 @@ fn wait_for_received(port: u16, user: &str, password: &str, num_received: u64) {
     }
 }
 
-#[test]
-fn serve_and_replay_log_in_to_a_mosquitto_that_asks_for_a_password() {
-    let Some(binary) = mosquitto_binary() else {
-        return;
-    };
-    let tmp = tempfile::tempdir().unwrap();
-    let passwords = tmp.path().join("passwords");
-    let made = Command::new("mosquitto_passwd")
-        .args(["-b", "-c", passwords.to_str().unwrap(), "nomen", "s3cret"])
-        .output();
-    if !made.is_ok_and(|o| o.status.success()) {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "mosquitto_passwd does not run (CI installs mosquitto)"
+/// A recording of ten IMU samples of one registered device, in `dir`.
+fn ten_samples(dir: &Path) -> PathBuf {
+    let recording = dir.join("imu.jsonl");
+    let mut lines = r#"{"type":"header","format":"nomen-recording","version":1,"registry":{"subjects":[{"id":"ana","wears":[{"device":"w1","kind":"imu","site":"left_wrist"}]}]}}"#.to_owned() + "\n";
+    for k in 0..10 {
+        lines += &format!(
+            r#"{{"type":"imu","t":{},"device":"w1","accel_mps2":[0.0,0.0,9.81],"gyro_radps":[0.0,0.0,0.0]}}"#,
+            k * 10_000_000
         );
-        eprintln!("skipping: mosquitto_passwd does not run");
-        return;
+        lines += "\n";
     }
-    let port = free_port();
-    let mut mosquitto = start_mosquitto(
-        binary,
-        tmp.path(),
-        port,
-        &format!(
-            "allow_anonymous false\npassword_file {}\n",
-            passwords.display()
-        ),
-    );
-    let result = std::panic::catch_unwind(|| {
-        // A recording of ten IMU samples of one registered device.
-        let recording = tmp.path().join("imu.jsonl");
-        let mut lines = r#"{"type":"header","format":"nomen-recording","version":1,"registry":{"subjects":[{"id":"ana","wears":[{"device":"w1","kind":"imu","site":"left_wrist"}]}]}}"#.to_owned() + "\n";
-        for k in 0..10 {
-            lines += &format!(
-                r#"{{"type":"imu","t":{},"device":"w1","accel_mps2":[0.0,0.0,9.81],"gyro_radps":[0.0,0.0,0.0]}}"#,
-                k * 10_000_000
-            );
-            lines += "\n";
-        }
-        std::fs::write(&recording, lines).unwrap();
-        let wrong = format!("mqtt://nomen:wrong@127.0.0.1:{port}");
-        let right = format!("mqtt://nomen:s3cret@127.0.0.1:{port}");
+    std::fs::write(&recording, lines).unwrap();
+    recording
+}
 
-        // A wrong password: both refuse to go on, naming the broker but not the password.
-        write_config(tmp.path(), "");
-        let config = tmp.path().join("serve.toml");
-        let o = nomen(&[
-            "serve",
-            "--config",
-            config.to_str().unwrap(),
-            "--mqtt",
-            &wrong,
-        ]);
-        let stderr = text(&o.stderr);
-        assert!(!o.status.success());
-        assert!(
-            stderr.contains("nomen@127.0.0.1") && !stderr.contains("wrong"),
-            "{stderr}"
-        );
-        let o = nomen(&["replay", recording.to_str().unwrap(), "--mqtt", &wrong]);
-        assert!(!o.status.success());
-        assert!(!text(&o.stderr).contains("wrong"));
+/// `nomen replay RECORDING ARGS`.
+fn replay(recording: &Path, args: &[&str]) -> std::process::Output {
+    nomen(&[&["replay", recording.to_str().unwrap()], args].concat())
+}
 
-        // The password in serve.toml, the replay's in its URL: every sample arrives.
-        write_config(
-            tmp.path(),
-            &format!(
-                "mqtt = \"mqtt://127.0.0.1:{port}\"\nmqtt_username = \"nomen\"\nmqtt_password = \"s3cret\"\n"
-            ),
-        );
-        let serve = Serve::start(tmp.path(), &[]);
-        wait_for_received(port, "nomen", "s3cret", 0);
-        let o = nomen(&[
-            "replay",
-            recording.to_str().unwrap(),
-            "--mqtt",
-            &right,
-            "--speed",
-            "max",
-        ]);
-        assert!(o.status.success(), "{}", text(&o.stderr));
-        wait_for_received(port, "nomen", "s3cret", 10);
-        let stderr = serve.stop();
-        assert!(stderr.contains("received 10 messages"), "{stderr}");
-    });
-    let _ = mosquitto.kill();
-    let _ = mosquitto.wait();
-    if let Err(e) = result {
-        std::panic::resume_unwind(e);
+/// A started `nomen replay`, killed (SIGKILL) when dropped, so that a failing test leaves
+/// none behind.
+struct Replay(Option<std::process::Child>);
+
+impl Replay {
+    /// Waits for it to end, and returns what it wrote.
+    fn wait_with_output(mut self) -> std::io::Result<std::process::Output> {
+        self.0.take().unwrap().wait_with_output()
     }
 }
 
-/// The decisions of an identity log: (camera, track, t_ns), one per row.
+impl Drop for Replay {
+    fn drop(&mut self) {
+        if let Some(child) = &mut self.0 {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+/// `nomen replay RECORDING --mqtt URL --speed SPEED` started, its stderr to `stderr`.
+fn spawn_replay(recording: &Path, url: &str, speed: &str, stderr: Stdio) -> Replay {
+    Replay(Some(
+        nomen_command(&[
+            "replay",
+            recording.to_str().unwrap(),
+            "--mqtt",
+            url,
+            "--speed",
+            speed,
+        ])
+        .stderr(stderr)
+        .spawn()
+        .unwrap(),
+    ))
+}
+
+/// Checks that a command failed, saying `says` and never `never` (a password, say).
+fn assert_refused(o: &std::process::Output, says: &str, never: &str) {
+    let stderr = text(&o.stderr);
+    assert!(!o.status.success(), "it went on: {stderr}");
+    assert!(stderr.contains(says) && !stderr.contains(never), "{stderr}");
+}
+
+/// `nomen serve ARGS` (its configuration in `dir/serve.toml` already) and `nomen replay` of
+/// ten IMU samples into the broker `watcher` reaches, with `replay_args`: the service takes
+/// every sample.
+fn serve_takes_ten_samples(
+    dir: &Path,
+    watcher: &BrokerAddr,
+    serve_args: &[&str],
+    replay_args: &[&str],
+) {
+    let serve = Serve::start(dir, serve_args);
+    wait_for_port(watcher.port);
+    wait_for_received(watcher, 0);
+    let o = replay(
+        &ten_samples(dir),
+        &[replay_args, &["--speed", "max"]].concat(),
+    );
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    wait_for_received(watcher, 10);
+    let stderr = serve.stop();
+    assert!(stderr.contains("received 10 messages"), "{stderr}");
+}
+
+/// The broker at `port` of 127.0.0.1 as user `nomen`, password `s3cret`, over TLS when `ca`
+/// is given (with `client_cert`).
+fn test_broker(port: u16, ca: Option<&Path>, client_cert: Option<(&Path, &Path)>) -> BrokerAddr {
+    let mut broker = BrokerAddr::new("127.0.0.1", port);
+    broker.credentials = Some(Credentials {
+        username: "nomen".to_owned(),
+        password: "s3cret".to_owned(),
+    });
+    broker.tls = ca.map(|ca| ClientTls {
+        ca: Some(ca.to_path_buf()),
+        client_cert: client_cert.map(|(cert, key)| CertAndKey {
+            cert: cert.to_path_buf(),
+            key: key.to_path_buf(),
+        }),
+    });
+    broker
+}
+
+/// Mosquitto on a free port with `conf_lines`, letting in only user `nomen` (password
+/// `s3cret`), its files in `dir`; `None` when the test skips (no Mosquitto).
+fn mosquitto_with_password(dir: &Path, conf_lines: &str) -> Option<(Mosquitto, u16)> {
+    let binary = mosquitto_binary()?;
+    let passwords = mosquitto_passwords(dir, "nomen", "s3cret")?;
+    let port = free_port();
+    let conf = format!(
+        "allow_anonymous false\npassword_file {}\n{conf_lines}",
+        passwords.display()
+    );
+    Some((Mosquitto::start(binary, dir, port, &conf), port))
+}
+
+#[test]
+fn serve_and_replay_log_in_to_a_mosquitto_that_asks_for_a_password() {
+    let tmp = tempfile::tempdir().unwrap();
+    let Some((_mosquitto, port)) = mosquitto_with_password(tmp.path(), "") else {
+        return;
+    };
+    let recording = ten_samples(tmp.path());
+    let wrong = format!("mqtt://nomen:wrong@127.0.0.1:{port}");
+    let right = format!("mqtt://nomen:s3cret@127.0.0.1:{port}");
+
+    // A wrong password: both refuse to go on, naming the broker but not the password.
+    write_config(tmp.path(), "");
+    let config = tmp.path().join("serve.toml");
+    let o = nomen(&[
+        "serve",
+        "--config",
+        config.to_str().unwrap(),
+        "--mqtt",
+        &wrong,
+    ]);
+    assert_refused(&o, "nomen@127.0.0.1", "wrong");
+    assert_refused(&replay(&recording, &["--mqtt", &wrong]), "", "wrong");
+
+    // The password in serve.toml, the replay's in its URL: every sample arrives.
+    write_config(
+        tmp.path(),
+        &format!(
+            "mqtt = \"mqtt://127.0.0.1:{port}\"\nmqtt_username = \"nomen\"\nmqtt_password = \"s3cret\"\n"
+        ),
+    );
+    serve_takes_ten_samples(
+        tmp.path(),
+        &test_broker(port, None, None),
+        &[],
+        &["--mqtt", &right],
+    );
+}
+
+/// The embedded broker behind TLS that asks for a client certificate and a password: `nomen
+/// serve` starts it and connects over TLS (CA, certificate and key from serve.toml), `nomen
+/// replay` publishes over TLS (flags), every sample arrives, while a client that opened a
+/// connection and never speaks holds up nobody. A TLS broker without a password is refused
+/// at the start; a CA that did not sign the broker's certificate, the system's CAs (another
+/// CA's, through `SSL_CERT_FILE`), no client certificate, plain MQTT and a wrong password are
+/// refused, the first two with the CA named.
+#[test]
+fn serve_and_replay_speak_tls_to_the_embedded_broker() {
+    let tmp = tempfile::tempdir().unwrap();
+    let pki = TestPki::new(tmp.path());
+    let recording = ten_samples(tmp.path());
+    let port = free_port();
+    write_config(
+        tmp.path(),
+        &format!(
+            "embedded_listen = \"127.0.0.1:{port}\"\nembedded_tls_cert = \"server.pem\"\n\
+             embedded_tls_key = \"server.key\"\nembedded_tls_client_ca = \"ca.pem\"\n\
+             mqtt_ca = \"ca.pem\"\nmqtt_cert = \"client.pem\"\nmqtt_key = \"client.key\"\n\
+             mqtt_username = \"nomen\"\nmqtt_password = \"s3cret\"\n"
+        ),
+    );
+    // Without a password, local programs could skip TLS: refused.
+    let config = tmp.path().join("serve.toml");
+    let with_password = std::fs::read_to_string(&config).unwrap();
+    let without: String = with_password
+        .lines()
+        .filter(|line| !line.starts_with("mqtt_username") && !line.starts_with("mqtt_password"))
+        .map(|line| format!("{line}\n"))
+        .collect();
+    std::fs::write(&config, without).unwrap();
+    let o = nomen(&["serve", "--config", config.to_str().unwrap()]);
+    assert_refused(&o, "(mqtt_username, mqtt_password)", "s3cret");
+    std::fs::write(&config, with_password).unwrap();
+    let serve = Serve::start(tmp.path(), &[]);
+    wait_for_port(port);
+    // A connection that never starts its handshake.
+    let _silent = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    let broker = test_broker(
+        port,
+        Some(&pki.ca),
+        Some((&pki.client_cert, &pki.client_key)),
+    );
+    wait_for_received(&broker, 0);
+    let url = format!("mqtts://nomen:s3cret@127.0.0.1:{port}");
+    let client = [
+        "--mqtt-cert",
+        pki.client_cert.to_str().unwrap(),
+        "--mqtt-key",
+        pki.client_key.to_str().unwrap(),
+    ];
+    let other_ca = pki.other_ca.to_str().unwrap();
+    let o = replay(
+        &recording,
+        &[&["--mqtt", &url, "--mqtt-ca", other_ca], &client[..]].concat(),
+    );
+    assert_refused(
+        &o,
+        &format!("not signed by the CA file {other_ca}"),
+        "s3cret",
+    );
+    // The system's CA certificates: those of SSL_CERT_FILE, here the other CA.
+    let o = nomen_command(
+        &[
+            &["replay", recording.to_str().unwrap(), "--mqtt", &url],
+            &client[..],
+        ]
+        .concat(),
+    )
+    .env("SSL_CERT_FILE", other_ca)
+    .env_remove("SSL_CERT_DIR")
+    .output()
+    .unwrap();
+    assert_refused(&o, "not signed by the system's CA certificates", "s3cret");
+    let ca = pki.ca.to_str().unwrap();
+    let o = replay(&recording, &["--mqtt", &url, "--mqtt-ca", ca]);
+    assert_refused(&o, "connect to mqtts://nomen@127.0.0.1", "s3cret");
+    let plain = format!("mqtt://nomen:s3cret@127.0.0.1:{port}");
+    assert_refused(
+        &replay(&recording, &["--mqtt", &plain]),
+        "connect to",
+        "s3cret",
+    );
+    let wrong = format!("mqtts://nomen:wrong@127.0.0.1:{port}");
+    let o = replay(
+        &recording,
+        &[&["--mqtt", &wrong, "--mqtt-ca", ca], &client[..]].concat(),
+    );
+    assert_refused(&o, "connect to mqtts://nomen@127.0.0.1", "wrong");
+    let o = replay(
+        &recording,
+        &[
+            &["--mqtt", &url, "--mqtt-ca", ca, "--speed", "max"],
+            &client[..],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    wait_for_received(&broker, 10);
+    let stderr = serve.stop();
+    assert!(
+        stderr.contains("embedded broker listening on mqtts://")
+            && stderr.contains("received 10 messages"),
+        "{stderr}"
+    );
+    // The other CA, the system's, no client certificate and plain MQTT: four handshakes
+    // failed (five once the silent connection's time is up).
+    let num_failed: u64 = stderr
+        .split("refused 0 connections over its limit of 1000 and ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no count of the TLS front's refusals: {stderr}"));
+    assert!((4..=5).contains(&num_failed), "{stderr}");
+}
+
+/// Mosquitto with a TLS listener that asks for a client certificate and a password: `nomen
+/// serve` (CA, certificate, key and password in serve.toml) and `nomen replay` (flags) log
+/// in and every sample arrives; the service checking the broker against another CA, and a
+/// replay without a client certificate, are refused.
+#[test]
+fn serve_and_replay_speak_tls_to_a_mosquitto_that_asks_for_a_client_certificate() {
+    let tmp = tempfile::tempdir().unwrap();
+    let pki = TestPki::new(tmp.path());
+    let tls = format!(
+        "cafile {}\ncertfile {}\nkeyfile {}\nrequire_certificate true\n",
+        pki.ca.display(),
+        pki.server_cert.display(),
+        pki.server_key.display()
+    );
+    let Some((_mosquitto, port)) = mosquitto_with_password(tmp.path(), &tls) else {
+        return;
+    };
+    let recording = ten_samples(tmp.path());
+    let url = format!("mqtts://nomen:s3cret@127.0.0.1:{port}");
+    let ca = pki.ca.to_str().unwrap();
+    let serve_toml = |ca: &str| {
+        format!(
+            "mqtt = \"mqtts://127.0.0.1:{port}\"\nmqtt_ca = \"{ca}\"\nmqtt_cert = \"client.pem\"\n\
+             mqtt_key = \"client.key\"\nmqtt_username = \"nomen\"\nmqtt_password = \"s3cret\"\n"
+        )
+    };
+    write_config(tmp.path(), &serve_toml("other-ca.pem"));
+    let config = tmp.path().join("serve.toml");
+    let o = nomen(&["serve", "--config", config.to_str().unwrap()]);
+    assert_refused(&o, "not signed by the CA file", "s3cret");
+    let o = replay(&recording, &["--mqtt", &url, "--mqtt-ca", ca]);
+    assert_refused(&o, "connect to mqtts://nomen@127.0.0.1", "s3cret");
+
+    write_config(tmp.path(), &serve_toml("ca.pem"));
+    let broker = test_broker(
+        port,
+        Some(&pki.ca),
+        Some((&pki.client_cert, &pki.client_key)),
+    );
+    serve_takes_ten_samples(
+        tmp.path(),
+        &broker,
+        &[],
+        &[
+            "--mqtt",
+            &url,
+            "--mqtt-ca",
+            ca,
+            "--mqtt-cert",
+            pki.client_cert.to_str().unwrap(),
+            "--mqtt-key",
+            pki.client_key.to_str().unwrap(),
+        ],
+    );
+}
+
+/// The decisions of an identity log: (camera, track, t_ns), one per row, each checked to say
+/// why (the engine's decision trace).
 fn logged_decisions(log: &Path) -> Vec<(String, i64, i64)> {
     let o = nomen(&["log", "query", log.to_str().unwrap(), "--json"]);
     assert!(o.status.success(), "{}", text(&o.stderr));
@@ -653,6 +840,7 @@ fn logged_decisions(log: &Path) -> Vec<(String, i64, i64)> {
         .lines()
         .map(|l| {
             let d: Value = serde_json::from_str(l).unwrap();
+            assert!(d["decision"]["rule"].is_string(), "{l}");
             (
                 d["camera"].as_str().unwrap().to_owned(),
                 d["track"].as_i64().unwrap(),
@@ -684,8 +872,8 @@ fn serve_and_replay_ride_out_a_mosquitto_restart() {
         "persistence true\npersistence_location {}/\nautosave_interval 1\n",
         tmp.path().display()
     );
-    let mosquitto = Mutex::new(start_mosquitto(binary, tmp.path(), port, &conf));
-    let result = std::panic::catch_unwind(|| {
+    let mut mosquitto = Mosquitto::start(binary, tmp.path(), port, &conf);
+    {
         write_config(tmp.path(), "");
         let url = format!("mqtt://127.0.0.1:{port}");
         let seen = watch_with(port, false);
@@ -704,32 +892,15 @@ fn serve_and_replay_ride_out_a_mosquitto_restart() {
                 out.to_str().unwrap(),
             ],
         );
+        wait_for_health(&seen);
         let started = Instant::now();
-        while seen.lock().unwrap().health.is_none() {
-            assert!(started.elapsed() < TIMEOUT, "no health report");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let replay = nomen_command(&[
-            "replay",
-            recording.to_str().unwrap(),
-            "--mqtt",
-            &url,
-            "--speed",
-            "1",
-        ])
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+        let replay = spawn_replay(&recording, &url, "1", Stdio::piped());
         // Mid-stream.
         while seen.lock().unwrap().num_identified < 200 {
             assert!(started.elapsed() < TIMEOUT, "too few decisions published");
             std::thread::sleep(Duration::from_millis(5));
         }
-        {
-            let mut m = mosquitto.lock().unwrap();
-            m.kill().unwrap(); // SIGKILL
-            m.wait().unwrap();
-        }
+        mosquitto.kill(); // SIGKILL
         let t_kill_ns = seen
             .lock()
             .unwrap()
@@ -739,7 +910,7 @@ fn serve_and_replay_ride_out_a_mosquitto_restart() {
             .max()
             .unwrap();
         std::thread::sleep(Duration::from_secs(1));
-        *mosquitto.lock().unwrap() = start_mosquitto(binary, tmp.path(), port, &conf);
+        mosquitto.restart();
         let o = replay.wait_with_output().unwrap();
         assert!(o.status.success(), "replay: {}", text(&o.stderr));
         // The service reports its reconnection, and has decided what the replay sent once
@@ -783,14 +954,6 @@ fn serve_and_replay_ride_out_a_mosquitto_restart() {
             missing.len(),
             missing.first()
         );
-    });
-    let mut m = mosquitto
-        .into_inner()
-        .unwrap_or_else(std::sync::PoisonError::into_inner);
-    let _ = m.kill();
-    let _ = m.wait();
-    if let Err(e) = result {
-        std::panic::resume_unwind(e);
     }
 }
 
@@ -803,17 +966,8 @@ fn after_kill_9_the_identity_log_holds_every_published_decision() {
     let recording = short_scene(tmp.path(), &data, SCENE_S);
     let log = tmp.path().join("identity.sqlite");
     let (mut serve, port, seen) = serve_embedded(tmp.path(), &["--log", log.to_str().unwrap()]);
-    let mut replay = nomen_command(&[
-        "replay",
-        recording.to_str().unwrap(),
-        "--mqtt",
-        &format!("mqtt://127.0.0.1:{port}"),
-        "--speed",
-        "4",
-    ])
-    .stderr(Stdio::null())
-    .spawn()
-    .unwrap();
+    let url = format!("mqtt://127.0.0.1:{port}");
+    let replay = spawn_replay(&recording, &url, "4", Stdio::null());
     // Mid-stream: a third of the scene's decisions published.
     let started = Instant::now();
     while seen.lock().unwrap().num_identified < 300 {
@@ -822,26 +976,11 @@ fn after_kill_9_the_identity_log_holds_every_published_decision() {
     }
     serve.child().kill().unwrap(); // SIGKILL
     serve.child().wait().unwrap();
-    let _ = replay.kill();
-    let _ = replay.wait();
+    drop(replay);
     // What was in flight to the watcher when the broker died is in its hands now.
     std::thread::sleep(Duration::from_millis(200));
     let published = seen.lock().unwrap().identified.clone();
-    let o = nomen(&["log", "query", log.to_str().unwrap(), "--json"]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
-    let logged: std::collections::BTreeSet<(String, i64, i64)> = text(&o.stdout)
-        .lines()
-        .map(|l| {
-            let d: Value = serde_json::from_str(l).unwrap();
-            // Each logged decision says why: the engine's decision trace.
-            assert!(d["decision"]["rule"].is_string(), "{l}");
-            (
-                d["camera"].as_str().unwrap().to_owned(),
-                d["track"].as_i64().unwrap(),
-                d["t_ns"].as_i64().unwrap(),
-            )
-        })
-        .collect();
+    let logged: std::collections::BTreeSet<_> = logged_decisions(&log).into_iter().collect();
     assert!(published.len() >= 300);
     let missing: Vec<_> = published.iter().filter(|d| !logged.contains(*d)).collect();
     assert!(
@@ -861,21 +1000,19 @@ fn after_kill_9_the_identity_log_holds_every_published_decision() {
 #[test]
 fn serve_and_replay_refuse_a_bad_broker_with_its_address() {
     let o = nomen(&["serve", "--mqtt", "http://127.0.0.1:1883"]);
-    assert!(!o.status.success());
-    assert!(
-        text(&o.stderr).contains("must start with mqtt://"),
-        "{}",
-        text(&o.stderr)
-    );
+    assert_refused(&o, "must start with mqtt://", "panicked");
     // Nothing listens on a port just freed.
     let url = format!("mqtt://127.0.0.1:{}", free_port());
     let o = nomen(&["serve", "--mqtt", &url]);
-    assert!(!o.status.success());
-    assert!(
-        text(&o.stderr).contains(&format!("connect to {url}")),
-        "{}",
-        text(&o.stderr)
-    );
+    assert_refused(&o, &format!("connect to {url}"), "panicked");
+    // TLS files: only with mqtts://, a certificate with its key, a file that is there.
+    let o = nomen(&["serve", "--mqtt", &url, "--mqtt-ca", "ca.pem"]);
+    assert_refused(&o, "needs an mqtts:// broker", "panicked");
+    let o = nomen(&["serve", "--mqtt-cert", "client.pem"]);
+    assert_refused(&o, "--mqtt-key", "panicked");
+    let tls_url = format!("mqtts://127.0.0.1:{}", free_port());
+    let o = nomen(&["serve", "--mqtt", &tls_url, "--mqtt-ca", "no-such-ca.pem"]);
+    assert_refused(&o, "TLS no-such-ca.pem", "panicked");
     let tmp = tempfile::tempdir().unwrap();
     let recording = tmp.path().join("r.jsonl");
     std::fs::write(
@@ -883,19 +1020,12 @@ fn serve_and_replay_refuse_a_bad_broker_with_its_address() {
         "{\"type\":\"header\",\"format\":\"nomen-recording\",\"version\":1,\"registry\":null}\n",
     )
     .unwrap();
-    let o = nomen(&["replay", recording.to_str().unwrap(), "--mqtt", &url]);
-    assert!(!o.status.success());
-    assert!(
-        text(&o.stderr).contains(&format!("connect to {url}")),
-        "{}",
-        text(&o.stderr)
-    );
-    let o = nomen(&["replay", recording.to_str().unwrap(), "--speed", "0"]);
-    assert!(!o.status.success());
-    assert!(
-        text(&o.stderr).contains("not a speed"),
-        "{}",
-        text(&o.stderr)
+    let o = replay(&recording, &["--mqtt", &url]);
+    assert_refused(&o, &format!("connect to {url}"), "panicked");
+    assert_refused(
+        &replay(&recording, &["--speed", "0"]),
+        "not a speed",
+        "panicked",
     );
 }
 

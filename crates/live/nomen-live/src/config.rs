@@ -13,18 +13,41 @@ pub const MAX_CAPACITY: usize = 1_000_000;
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ServeConfig {
-    /// The broker to use, `mqtt://host:port`; none: start the embedded broker on
-    /// `embedded_listen`. `--mqtt` overrides it.
+    /// The broker to use, `mqtt://host:port`, or `mqtts://host:port` for MQTT over TLS; none:
+    /// start the embedded broker on `embedded_listen`. `--mqtt` overrides it.
     pub mqtt: Option<String>,
-    /// The user name to log in to the broker of `mqtt` (or `--mqtt`) with, replacing one in
-    /// the URL. Default: none (the URL's, or anonymous).
+    /// The user name to log in to the broker with, replacing one in the URL; with the
+    /// embedded broker, the one user it lets in (then it needs `mqtt_password`). Default: none
+    /// (the URL's, or anonymous).
     pub mqtt_username: Option<String>,
     /// Its password; here rather than in the URL, it stays out of the process list. Needs
-    /// `mqtt_username`. Both travel in clear text: MQTT over TLS is not supported. Default:
-    /// none.
+    /// `mqtt_username`. It travels in clear text over `mqtt://`, encrypted over `mqtts://`.
+    /// Default: none.
     pub mqtt_password: Option<String>,
+    /// The CA certificates (PEM) a TLS broker's certificate must chain to, relative to the
+    /// configuration file's folder and inside it. `--mqtt-ca` overrides it. Default: none (the
+    /// system's CA certificates).
+    pub mqtt_ca: Option<PathBuf>,
+    /// A client certificate (PEM) for a TLS broker that asks for one; needs `mqtt_key`.
+    /// `--mqtt-cert` overrides it. Default: none.
+    pub mqtt_cert: Option<PathBuf>,
+    /// The private key (PEM) of `mqtt_cert`. `--mqtt-key` overrides it. Default: none.
+    pub mqtt_key: Option<PathBuf>,
     /// Where the embedded broker listens. Default `127.0.0.1:1883`.
     pub embedded_listen: String,
+    /// The embedded broker's certificate (PEM, naming the address clients use, e.g. an IP
+    /// address entry `127.0.0.1`): with it, the broker speaks only TLS (`mqtts://`), and
+    /// the service connects to it checking it against `mqtt_ca`. Needs `embedded_tls_key`,
+    /// and `mqtt_username` with `mqtt_password`: local programs reach the broker behind the
+    /// TLS front on a loopback port without TLS. Ignored with a broker given (`mqtt`,
+    /// `--mqtt`). Default: none (plain MQTT).
+    pub embedded_tls_cert: Option<PathBuf>,
+    /// The private key (PEM) of `embedded_tls_cert`. Default: none.
+    pub embedded_tls_key: Option<PathBuf>,
+    /// CA certificates (PEM): with them, the embedded broker's TLS asks each client for a
+    /// certificate that chains to them (the service's own is `mqtt_cert`). Needs
+    /// `embedded_tls_cert`. Default: none.
+    pub embedded_tls_client_ca: Option<PathBuf>,
     /// The registry: a JSON file holding one registry object, or a recording whose header carries
     /// one, relative to the configuration file's folder and inside it (no absolute path, no
     /// `..`). Without it the service waits for one on `nomen/in/registry`.
@@ -79,7 +102,13 @@ impl Default for ServeConfig {
             mqtt: None,
             mqtt_username: None,
             mqtt_password: None,
+            mqtt_ca: None,
+            mqtt_cert: None,
+            mqtt_key: None,
             embedded_listen: "127.0.0.1:1883".to_owned(),
+            embedded_tls_cert: None,
+            embedded_tls_key: None,
+            embedded_tls_client_ca: None,
             registry: None,
             log: None,
             record: None,
@@ -118,6 +147,15 @@ impl ServeConfig {
         };
         if self.mqtt_password.is_some() && self.mqtt_username.is_none() {
             return bad("mqtt_password needs mqtt_username");
+        }
+        if self.mqtt_cert.is_some() != self.mqtt_key.is_some() {
+            return bad("mqtt_cert and mqtt_key go together");
+        }
+        if self.embedded_tls_cert.is_some() != self.embedded_tls_key.is_some() {
+            return bad("embedded_tls_cert and embedded_tls_key go together");
+        }
+        if self.embedded_tls_client_ca.is_some() && self.embedded_tls_cert.is_none() {
+            return bad("embedded_tls_client_ca needs embedded_tls_cert and embedded_tls_key");
         }
         if !(1..=MAX_CAPACITY).contains(&self.queue_capacity)
             || !(1..=MAX_CAPACITY).contains(&self.publish_capacity)
@@ -168,5 +206,12 @@ mod tests {
         assert!(ServeConfig::from_toml("queue = 1", "serve.toml").is_err());
         assert!(ServeConfig::from_toml("queue_capacity = 0", "serve.toml").is_err());
         assert!(ServeConfig::from_toml("outbox_capacity = 0", "serve.toml").is_err());
+        let e = ServeConfig::from_toml("mqtt_cert = \"c.pem\"", "serve.toml").unwrap_err();
+        assert!(e.to_string().contains("mqtt_key"), "{e}");
+        let e = ServeConfig::from_toml("embedded_tls_key = \"k.pem\"", "serve.toml").unwrap_err();
+        assert!(e.to_string().contains("embedded_tls_cert"), "{e}");
+        let e = ServeConfig::from_toml("embedded_tls_client_ca = \"ca.pem\"", "serve.toml")
+            .unwrap_err();
+        assert!(e.to_string().contains("embedded_tls_cert"), "{e}");
     }
 }

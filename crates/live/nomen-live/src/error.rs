@@ -6,7 +6,7 @@ use thiserror::Error;
 /// reported on the health topic ([`crate::health`]).
 #[derive(Debug, Error)]
 pub enum LiveError {
-    /// A broker URL that is not `mqtt://host[:port]`.
+    /// A broker URL that is not `mqtt[s]://[user:password@]host[:port]`.
     #[error("invalid broker url '{url}': {why}")]
     BrokerUrl {
         /// The URL as given.
@@ -28,6 +28,14 @@ pub enum LiveError {
         /// Its listening address.
         listen: String,
         /// What went wrong.
+        why: String,
+    },
+    /// A TLS certificate, key or CA file, or the TLS settings made of them.
+    #[error("TLS {what}: {why}")]
+    Tls {
+        /// The file (or what was being set up).
+        what: String,
+        /// What is wrong.
         why: String,
     },
     /// The MQTT client failed in a way that does not heal by reconnecting.

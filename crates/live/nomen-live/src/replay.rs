@@ -111,7 +111,7 @@ const ACK_TIMEOUT: Duration = Duration::from_secs(60);
 pub fn replay(recording: &Path, options: &ReplayOptions) -> Result<ReplaySummary> {
     let mut reader =
         nomen_mcap::open_recording(recording, nomen_recording::ReadOptions::default())?;
-    let mqtt = options.broker.client_options(&options.client_id);
+    let mqtt = options.broker.client_options(&options.client_id)?;
     let (client, mut connection) = Client::new(mqtt, 1024);
     let counts = Arc::new(ConnectionCounts::default());
     let (connected_tx, connected) = sync_channel(1);
@@ -156,7 +156,7 @@ pub fn replay(recording: &Path, options: &ReplayOptions) -> Result<ReplaySummary
     };
     match connected.recv_timeout(options.connect_timeout) {
         Ok(Ok(())) => {}
-        Ok(Err(why)) => return Err(connect_error(why)),
+        Ok(Err(why)) => return Err(connect_error(options.broker.connect_failure(&why))),
         Err(_) => {
             return Err(connect_error(format!(
                 "no answer in {} s",

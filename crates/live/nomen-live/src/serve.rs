@@ -115,7 +115,7 @@ pub fn serve(
     stop: &AtomicBool,
 ) -> Result<ServeSummary> {
     let started = Instant::now();
-    let mqtt = options.broker.client_options(&options.client_id);
+    let mqtt = options.broker.client_options(&options.client_id)?;
     let (client, connection) = Client::new(mqtt, options.publish_capacity);
     let health: SharedHealth = Arc::default();
     let (queue_in, queue) = sync_channel(options.queue_capacity);
@@ -153,7 +153,7 @@ pub fn serve(
         Ok(Err(why)) => {
             return Err(LiveError::Mqtt {
                 what: format!("connect to {}", options.broker),
-                why,
+                why: options.broker.connect_failure(&why),
             });
         }
         Err(_) => {

@@ -1,6 +1,7 @@
 //! `nomen replay`: a recording published to an MQTT broker with its timing, as live sources
 //! would publish it (`docs/live.md`), e.g. into `nomen serve`.
 
+use super::serve::{MqttTlsArgs, with_tls};
 use anyhow::Result;
 use clap::Args;
 use nomen_live::broker::BrokerAddr;
@@ -13,9 +14,11 @@ use std::time::Duration;
 pub struct ReplayArgs {
     /// The recording. Its header's registry is published first, retained.
     pub recording: PathBuf,
-    /// The broker, `mqtt://[user:password@]host:port`.
+    /// The broker, `mqtt://[user:password@]host:port`, or `mqtts://...` for MQTT over TLS.
     #[arg(long, value_name = "URL", default_value = "mqtt://127.0.0.1:1883")]
     pub mqtt: String,
+    #[command(flatten)]
+    pub tls: MqttTlsArgs,
     /// Seconds of recording per second: 1 is real time, 10 ten times faster, `max` as fast as
     /// the broker acknowledges.
     #[arg(long, default_value = "1", value_name = "1|N|max")]
@@ -25,7 +28,11 @@ pub struct ReplayArgs {
 /// Runs `nomen replay`.
 pub fn run(args: ReplayArgs) -> Result<()> {
     let options = ReplayOptions {
-        broker: BrokerAddr::parse(&args.mqtt)?,
+        broker: with_tls(
+            BrokerAddr::parse(&args.mqtt)?,
+            args.tls.mqtt_ca.clone(),
+            args.tls.client_cert(),
+        )?,
         client_id: format!("nomen-replay-{}", std::process::id()),
         speed: args.speed,
         connect_timeout: Duration::from_secs(10),

@@ -1,5 +1,6 @@
-//! `nomen serve`: the engine as a live service over MQTT (`docs/live.md`). With no broker given
-//! it starts one in this process (rumqttd on 127.0.0.1); inputs come on `nomen/in/#`, decisions,
+//! `nomen serve`: the engine as a live service over MQTT or MQTT over TLS (`docs/live.md`). With
+//! no broker given it starts one in this process (rumqttd on 127.0.0.1, optionally behind TLS);
+//! inputs come on `nomen/in/#`, decisions,
 //! events and health go out on `nomen/out/...`. Ctrl-C or SIGTERM stops it cleanly: the engine
 //! is flushed and its last decisions published.
 
@@ -8,8 +9,9 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use nomen_core::{Message, Registry};
 use nomen_live::ServeOptions;
-use nomen_live::broker::{BrokerAddr, Credentials, start_embedded};
+use nomen_live::broker::{BrokerAddr, Credentials, EmbeddedOptions, start_embedded_with};
 use nomen_live::session::{Session, SessionOptions};
+use nomen_live::tls::{CertAndKey, ServerTls};
 use nomen_live::{DecisionSink, Observer, ServeConfig};
 use nomen_recording::{Header, RecordingWriter};
 use nomen_viewer::{Viewer, ViewerOptions};
@@ -25,12 +27,14 @@ pub struct ServeArgs {
     /// Service configuration (TOML, `docs/live.md`): broker, registry, queue sizes, `[engine]`.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// An existing broker, `mqtt://[user:password@]host:port`; without it (and without `mqtt`
-    /// in the configuration) an embedded broker starts on 127.0.0.1:1883 (`embedded_listen`).
-    /// A password is better in `serve.toml` (`mqtt_username`, `mqtt_password`), out of the
-    /// process list.
+    /// An existing broker, `mqtt://[user:password@]host:port`, or `mqtts://...` for MQTT over
+    /// TLS; without it (and without `mqtt` in the configuration) an embedded broker starts on
+    /// 127.0.0.1:1883 (`embedded_listen`). A password is better in `serve.toml`
+    /// (`mqtt_username`, `mqtt_password`), out of the process list.
     #[arg(long, value_name = "URL")]
     pub mqtt: Option<String>,
+    #[command(flatten)]
+    pub tls: MqttTlsArgs,
     /// The registry: a JSON file with one registry object, or a recording whose header carries
     /// one. Without it (and without `registry` in the configuration) the service waits for one
     /// on `nomen/in/registry`.
@@ -71,6 +75,55 @@ pub struct ServeArgs {
     /// registry the service takes, from a file or from `nomen/in/registry`.
     #[arg(long, value_name = "FILE")]
     pub calibration: Option<PathBuf>,
+}
+
+/// The TLS flags of `nomen serve` and `nomen replay`.
+#[derive(Debug, Args)]
+pub struct MqttTlsArgs {
+    /// With an `mqtts://` broker: the CA certificates (PEM) its certificate must chain to,
+    /// instead of the system's CA certificates.
+    #[arg(long, value_name = "CA.pem")]
+    pub mqtt_ca: Option<PathBuf>,
+    /// With an `mqtts://` broker that asks for one: the client certificate (PEM).
+    #[arg(long, value_name = "CERT.pem", requires = "mqtt_key")]
+    pub mqtt_cert: Option<PathBuf>,
+    /// The private key (PEM) of `--mqtt-cert`.
+    #[arg(long, value_name = "KEY.pem", requires = "mqtt_cert")]
+    pub mqtt_key: Option<PathBuf>,
+}
+
+impl MqttTlsArgs {
+    /// The client certificate and key of the flags.
+    pub fn client_cert(&self) -> Option<CertAndKey> {
+        match (&self.mqtt_cert, &self.mqtt_key) {
+            (Some(cert), Some(key)) => Some(CertAndKey {
+                cert: cert.clone(),
+                key: key.clone(),
+            }),
+            _ => None,
+        }
+    }
+}
+
+/// `broker` with the CA file `ca` and the client certificate `client_cert`, which need an
+/// `mqtts://` broker.
+pub fn with_tls(
+    mut broker: BrokerAddr,
+    ca: Option<PathBuf>,
+    client_cert: Option<CertAndKey>,
+) -> Result<BrokerAddr> {
+    match &mut broker.tls {
+        Some(tls) => {
+            tls.ca = ca;
+            tls.client_cert = client_cert;
+        }
+        None if ca.is_some() || client_cert.is_some() => bail!(
+            "a CA file or a client certificate (--mqtt-ca, --mqtt-cert; mqtt_ca, mqtt_cert) \
+             needs an mqtts:// broker, not {broker}"
+        ),
+        None => {}
+    }
+    Ok(broker)
 }
 
 /// Where `--http` alone serves the viewer.
@@ -158,16 +211,50 @@ pub fn run(args: ServeArgs) -> Result<()> {
     // The registry as the file has it: the session lays the calibration over it, as over one
     // from nomen/in/registry, so that the same registry on MQTT is no change.
     let registry = registry_path.as_deref().map(load_registry).transpose()?;
+    let credentials = config.mqtt_username.as_ref().map(|username| Credentials {
+        username: username.clone(),
+        password: config.mqtt_password.clone().unwrap_or_default(),
+    });
+    let ca = match &args.tls.mqtt_ca {
+        Some(path) => Some(path.clone()),
+        None => in_config(&config.mqtt_ca, "mqtt_ca of serve.toml")?,
+    };
+    let client_cert = match args.tls.client_cert() {
+        Some(ck) => Some(ck),
+        None => match (
+            in_config(&config.mqtt_cert, "mqtt_cert of serve.toml")?,
+            in_config(&config.mqtt_key, "mqtt_key of serve.toml")?,
+        ) {
+            (Some(cert), Some(key)) => Some(CertAndKey { cert, key }),
+            _ => None,
+        },
+    };
+    let mut tls_front = None;
     let broker = match args.mqtt.as_ref().or(config.mqtt.as_ref()) {
         Some(url) => {
-            let mut broker = BrokerAddr::parse(url)?;
-            if let Some(username) = &config.mqtt_username {
-                broker.credentials = Some(Credentials {
-                    username: username.clone(),
-                    password: config.mqtt_password.clone().unwrap_or_default(),
-                });
+            let ignored: Vec<&str> = [
+                ("embedded_tls_cert", config.embedded_tls_cert.is_some()),
+                ("embedded_tls_key", config.embedded_tls_key.is_some()),
+                (
+                    "embedded_tls_client_ca",
+                    config.embedded_tls_client_ca.is_some(),
+                ),
+            ]
+            .into_iter()
+            .filter_map(|(key, is_set)| is_set.then_some(key))
+            .collect();
+            if !ignored.is_empty() {
+                eprintln!(
+                    "nomen serve: warning: {} of serve.toml ignored: no embedded broker starts \
+                     with a broker given (--mqtt, mqtt)",
+                    ignored.join(", ")
+                );
             }
-            broker
+            let mut broker = BrokerAddr::parse(url)?;
+            if credentials.is_some() {
+                broker.credentials = credentials;
+            }
+            with_tls(broker, ca, client_cert)?
         }
         None => {
             let listen: SocketAddr = config.embedded_listen.parse().with_context(|| {
@@ -176,9 +263,72 @@ pub fn run(args: ServeArgs) -> Result<()> {
                     config.embedded_listen
                 )
             })?;
-            start_embedded(listen)?;
-            eprintln!("nomen serve: embedded broker listening on mqtt://{listen}");
-            BrokerAddr::new(listen.ip().to_string(), listen.port())
+            let tls = match (
+                in_config(&config.embedded_tls_cert, "embedded_tls_cert of serve.toml")?,
+                in_config(&config.embedded_tls_key, "embedded_tls_key of serve.toml")?,
+            ) {
+                (Some(cert), Some(key)) => Some(ServerTls {
+                    cert_and_key: CertAndKey { cert, key },
+                    client_ca: in_config(
+                        &config.embedded_tls_client_ca,
+                        "embedded_tls_client_ca of serve.toml",
+                    )?,
+                }),
+                _ => None,
+            };
+            if let Some(tls) = &tls {
+                if ca.is_none() {
+                    bail!(
+                        "the embedded broker's TLS (embedded_tls_cert) needs the CA that signed \
+                         its certificate (mqtt_ca or --mqtt-ca): the service checks the broker \
+                         it connects to"
+                    );
+                }
+                if tls.client_ca.is_some() && client_cert.is_none() {
+                    bail!(
+                        "embedded_tls_client_ca asks every client for a certificate: give the \
+                         service's own (mqtt_cert and mqtt_key, or --mqtt-cert and --mqtt-key)"
+                    );
+                }
+            } else if ca.is_some() || client_cert.is_some() {
+                bail!(
+                    "a CA file or a client certificate (--mqtt-ca, --mqtt-cert; mqtt_ca, \
+                     mqtt_cert) needs an mqtts:// broker, or the embedded broker with TLS \
+                     (embedded_tls_cert, embedded_tls_key)"
+                );
+            }
+            if config.mqtt_username.is_some() && config.mqtt_password.is_none() {
+                bail!(
+                    "mqtt_username needs mqtt_password: the embedded broker lets in the one user \
+                     with that password"
+                );
+            }
+            if tls.is_some() && credentials.is_none() {
+                bail!(
+                    "the embedded broker's TLS (embedded_tls_cert) needs a user and password \
+                     (mqtt_username, mqtt_password): local programs reach the broker behind \
+                     the TLS front on a loopback port without TLS or a client certificate"
+                );
+            }
+            let embedded = EmbeddedOptions {
+                listen,
+                credentials,
+                tls,
+            };
+            tls_front = start_embedded_with(&embedded)?.tls_front;
+            eprintln!(
+                "nomen serve: embedded broker listening on {}://{listen}{}",
+                if embedded.tls.is_some() {
+                    "mqtts"
+                } else {
+                    "mqtt"
+                },
+                match &embedded.credentials {
+                    Some(c) => format!(", for user {} only", c.username),
+                    None => String::new(),
+                }
+            );
+            embedded.client_addr(ca, client_cert)
         }
     };
     let extras = EngineExtras {
@@ -267,6 +417,15 @@ pub fn run(args: ServeArgs) -> Result<()> {
         summary.num_decisions,
         summary.num_events
     );
+    if let Some(front) = &tls_front {
+        eprintln!(
+            "nomen serve: the embedded broker's TLS front refused {} connections over its \
+             limit of {} and {} failed or timed-out handshakes",
+            front.num_refused(),
+            nomen_live::tls::MAX_CONNECTIONS,
+            front.num_failed_handshakes()
+        );
+    }
     for path in &summary.recorded {
         eprintln!("nomen serve: recorded {}", path.display());
     }
