@@ -1850,6 +1850,33 @@ fn mask_unseen(thinned: &mut [f64], seen: &[bool]) {
     }
 }
 
+/// Records in [`EngineStats::offsets_at_search_edge`] whether `mean`, an IMU's best-track sum
+/// over `lags` (relative to its registry offset, increasing), peaks at an end of the search:
+/// its largest finite value is the first or the last lag's.
+fn note_search_edge(stats: &mut EngineStats, device: &DeviceId, mean: &[f64], lags: &[i64]) {
+    let best = mean
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.is_finite())
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(k, _)| k);
+    let edge = match best {
+        Some(0) => lags.first(),
+        Some(k) if k + 1 == mean.len() => lags.last(),
+        _ => None,
+    };
+    match edge {
+        Some(&lag_ns) => {
+            stats
+                .offsets_at_search_edge
+                .insert(device.clone(), lag_ns as f64 * 1e-9);
+        }
+        None => {
+            stats.offsets_at_search_edge.remove(device);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -2027,32 +2054,5 @@ mod tests {
         assert_eq!(unseen, [2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14]);
         assert!((2..7).all(|k| joints[k].get(Joint::LeftWrist).is_some()));
         assert!((9..15).all(|k| joints[k].is_empty()));
-    }
-}
-
-/// Records in [`EngineStats::offsets_at_search_edge`] whether `mean`, an IMU's best-track sum
-/// over `lags` (relative to its registry offset, increasing), peaks at an end of the search:
-/// its largest finite value is the first or the last lag's.
-fn note_search_edge(stats: &mut EngineStats, device: &DeviceId, mean: &[f64], lags: &[i64]) {
-    let best = mean
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.is_finite())
-        .max_by(|a, b| a.1.total_cmp(b.1))
-        .map(|(k, _)| k);
-    let edge = match best {
-        Some(0) => lags.first(),
-        Some(k) if k + 1 == mean.len() => lags.last(),
-        _ => None,
-    };
-    match edge {
-        Some(&lag_ns) => {
-            stats
-                .offsets_at_search_edge
-                .insert(device.clone(), lag_ns as f64 * 1e-9);
-        }
-        None => {
-            stats.offsets_at_search_edge.remove(device);
-        }
     }
 }
