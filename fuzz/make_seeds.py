@@ -108,6 +108,7 @@ write("csv_imu", "snake.csv", "t_ms,accel_x_mps2,accel_y_mps2,accel_z_mps2,gyro_
       "0,0.1,0.2,9.8,1,2,3\n10,0.1,0.2,9.7,1,2,3\n20,0.0,0.1,9.9,0,1,2\n")
 write("csv_imu", "ns.csv", "timestamp_ns,accX (m/s^2),accY (m/s^2),accZ (m/s^2),gyroX (rad/s),gyroY (rad/s),gyroZ (rad/s)\n"
       "1000000000,0,0,9.81,0,0,0\n1010000000,0,0,9.81,0,0,0.01\n")
+write("csv_imu", "accel_only.csv", "t (s),acc_x (g),acc_y (g),acc_z (g)\n0.00,0.01,0.02,1.00\n0.08,0.02,0.01,0.99\n0.16,0.00,0.00,1.01\n")
 write("csv_fixes", "fixes.csv", "t (s),tag,x (m),y (m),z (m),quality\n0.0,tag-1,1.0,2.0,1.1,0.9\n0.1,tag-1,1.05,2.0,1.1,\n0.1,tag-2,3.0,1.0,1.2,1\n")
 write("csv_fixes", "fixes_mm.csv", "t_ms,tag,x [mm],y [mm],z [mm]\n0,a,1000,2000,1100\n100,a,1010,2000,1100\n")
 joints = ["pelvis", "head", "left_wrist", "right_wrist"]
@@ -134,6 +135,7 @@ write("fit_csv", "anchors.csv", "\x05id,x,y,z\n1,0,0,2.5\n2,5,0,2.5\n3,5,5,2.5\n
 write("multiview", "openpose.json", "\x00" + '{"version":1.3,"people":[{"pose_keypoints_2d":[100,200,0.9,110,210,0.8]}]}')
 write("multiview", "camera.toml", "\x01" + '[[cameras]]\nid = "cam-1"\nwidth_px = 640\nheight_px = 480\nfx_px = 500\nfy_px = 500\ncx_px = 320\ncy_px = 240\n')
 write("mqtt_payload", "imu.txt", 'nomen/in/imu/imu-1\n{"type":"imu","t":1000000000,"device":"imu-1","accel_mps2":[0,0,9.81],"gyro_radps":[0,0,0]}')
+write("mqtt_payload", "imu_accel_only.txt", 'nomen/in/imu/watch-1\n{"type":"imu","t":1000000000,"device":"watch-1","accel_mps2":[0.3,-1.2,9.7]}')
 write("mqtt_payload", "registry.txt", 'nomen/in/registry\n{"subjects":[],"cameras":[]}')
 write("mqtt_payload", "pozyx.txt", 'nomen/in/vendor/pozyx/site\n[{"tagId":"30331","timestamp":1615984968.5,"success":true,"data":{"coordinates":{"x":1200,"y":-350,"z":1100}}}]')
 write("engine_config", "empty.toml", "")

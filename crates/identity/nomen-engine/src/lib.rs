@@ -24,7 +24,15 @@
 //!   (re)starts, at the first sample and after a gap of a second, from the vertical of the
 //!   next second of samples (the per-axis median of their specific forces, brought into the
 //!   first sample's frame by the gyroscope), not from one reading, which a swing or a knock
-//!   turns away from the vertical;
+//!   turns away from the vertical. An IMU whose samples carry no `gyro_radps` (an
+//!   accelerometer-only watch; a device either always or never sends it, and a sample that
+//!   differs from the device's first is refused) takes its gravity frame instead: the
+//!   shortest rotation onto the vertical of its specific force low-passed over 1 s, an
+//!   estimate of gravity that needs no gyroscope. Its models read that frame
+//!   ([`ACCEL_ONLY_EVIDENCE`], listed per device in [`EngineStats::accel_only_imus`]): the
+//!   vertical acceleration and velocity, the acceleration magnitude, and the elevation of its
+//!   axes and their change; its turn rate and heading are missing (the frame turns with the
+//!   sensor);
 //! - location-tag fixes (`rtls_fix`, UWB or BLE tags) are buffered per tag (`tags`);
 //! - RSSI reads (RFID and BLE tags) wait for the reorder window and are then scored at each
 //!   window against every track's path (`engine/rssi.rs`), with a calibrated model
@@ -77,7 +85,9 @@
 //!    and turn rate, at 15 Hz on the track side and 33 Hz on the IMU's; lags within
 //!    ±[`EngineConfig::max_clock_offset_s`] of the registry's offset for the device, the prior,
 //!    in 40 ms steps, then 10 ms around the coarse peak; near-tied peaks go to the one nearer
-//!    the prior; a peak at the end of the range is no candidate). Every offset path searches
+//!    the prior; a peak at the end of the range is no candidate, and an IMU without an
+//!    accepted offset whose best-track sum, below, peaks there is listed in
+//!    [`EngineStats::offsets_at_search_edge`]). Every offset path searches
 //!    around that prior. An IMU's lag signals are kept from one window's search to the next
 //!    (`lag_memo`): each search filters only its newest samples, with 1.5 s of older ones
 //!    before them, and keeps the values lying 1 s or more before the newest sample.
@@ -267,7 +277,7 @@ pub use error::{EngineError, Result};
 pub use nomen_evidence::{Fusion, FusionConfig, GeometricConfig, KinematicConfig};
 pub use retrack::{RetrackConfig, Retracker};
 pub use stats::{
-    ClockOffsetEstimate, EngineStats, FAR_TAG_MIN_COMPARED, HeadingEstimate,
+    ACCEL_ONLY_EVIDENCE, ClockOffsetEstimate, EngineStats, FAR_TAG_MIN_COMPARED, HeadingEstimate,
     PLAUSIBLE_START_GRAVITY_MPS2, RejectCounts, TagNearCount,
 };
 

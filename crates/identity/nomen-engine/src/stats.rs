@@ -159,6 +159,17 @@ pub struct EngineStats {
     /// [`EngineStats::implausible_gravity`].
     #[serde(default)]
     pub imu_start_gravity_mps2: BTreeMap<DeviceId, f64>,
+    /// The IMUs without an accepted clock offset whose best-track sum (the lag curves' best
+    /// value over the candidate tracks at each lag, summed over passes) last peaked at an end
+    /// of the offset search (`EngineConfig::max_clock_offset_s` around the registry's offset):
+    /// their offset is probably beyond it. With that end, s relative to the registry's offset
+    /// (negative: the low end). An IMU whose offset is accepted later leaves the map.
+    #[serde(default)]
+    pub offsets_at_search_edge: BTreeMap<DeviceId, f64>,
+    /// The IMUs without a gyroscope (every sample without `gyro_radps`): their evidence is
+    /// [`ACCEL_ONLY_EVIDENCE`], the models that need no orientation.
+    #[serde(default)]
+    pub accel_only_imus: Vec<DeviceId>,
     /// Why the session's first message was dropped, if it was: the next message was stamped
     /// more than `EngineConfig::max_time_jump_s` before it (a corrupt timestamp). Counted in
     /// `rejected.num_time_jump`; no [`crate::Engine::push`] returned it, as the push that
@@ -173,6 +184,17 @@ pub struct EngineStats {
 /// 5.9). Accelerations in g read about 1, in ft/s² about 32, in cm/s² about 981, in milli-g
 /// about 1,000.
 pub const PLAUSIBLE_START_GRAVITY_MPS2: std::ops::RangeInclusive<f64> = 3.0..=25.0;
+
+/// The evidence an accelerometer-only IMU gives. Its frame is its gravity frame (the shortest
+/// rotation onto the vertical of its specific force low-passed over 1 s, so no heading, and a
+/// tilt that lags a swing): the vertical linear acceleration and its leaky integral against
+/// the joint's, the acceleration magnitude, and the elevation of the sensor's axes and their
+/// change against the carrying segment's (inclination, swing, De Marchi's orientation change,
+/// Belmonte-Hernández's band pitch). The turn rate and the room-frame heading need a gyroscope
+/// and are not used.
+pub const ACCEL_ONLY_EVIDENCE: &str = "gravity frame from the low-passed accelerometer: \
+     vertical acceleration and velocity, acceleration magnitude, axis elevations \
+     (inclination, swing, orientation change); no turn rate or heading (they need a gyroscope)";
 
 /// How often a tag's fixes were near a track they were compared with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

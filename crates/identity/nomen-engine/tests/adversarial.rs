@@ -130,7 +130,9 @@ fn broken_number(m: &Message, rng: &mut ChaCha8Rng) -> Message {
             if rng.random() {
                 s.accel_mps2[axis] = v;
             } else {
-                s.gyro_radps[axis] = v;
+                if let Some(g) = s.gyro_radps.as_mut() {
+                    g[axis] = v;
+                }
             }
         }
         Message::Skeleton(s) => {

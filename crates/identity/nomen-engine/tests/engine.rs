@@ -686,7 +686,7 @@ fn bad_messages_are_rejected_and_counted_while_the_rest_goes_on() {
             t: SessionTime::from_ns(t_ns),
             device: DeviceId::new(device),
             accel_mps2: nalgebra::Vector3::new(x, 0.0, 9.81),
-            gyro_radps: nalgebra::Vector3::zeros(),
+            gyro_radps: Some(nalgebra::Vector3::zeros()),
             mag_ut: None,
             orientation_wxyz: None,
         })

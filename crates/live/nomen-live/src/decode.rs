@@ -163,6 +163,18 @@ mod tests {
             panic!("decodes");
         };
         assert_eq!(m.device.as_str(), "w1");
+        assert!(m.gyro_radps.is_some());
+    }
+
+    #[test]
+    fn an_accelerometer_only_sample_decodes_without_angular_rate() {
+        let watch = r#"{"type":"imu","t":1000000,"device":"w1","accel_mps2":[0.3,-1.2,9.7]}"#;
+        let Ok(Input::Message(Message::Imu(m))) = decode("nomen/in/imu/w1", watch.as_bytes())
+        else {
+            panic!("decodes");
+        };
+        assert_eq!(m.gyro_radps, None);
+        assert_eq!(m.accel_mps2.y, -1.2);
     }
 
     #[test]

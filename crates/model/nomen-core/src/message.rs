@@ -401,7 +401,7 @@ mod tests {
                 t: SessionTime(1),
                 device: DeviceId::new("band"),
                 accel_mps2: Vector3::new(0.0, 0.0, 9.81),
-                gyro_radps: Vector3::zeros(),
+                gyro_radps: Some(Vector3::zeros()),
                 mag_ut: None,
                 orientation_wxyz: None,
             }),

@@ -24,8 +24,11 @@ pub struct ImuSample {
     pub device: DeviceId,
     /// Specific force (what an accelerometer measures: gravity reaction included), m/s².
     pub accel_mps2: Vector3<f64>,
-    /// Angular rate, rad/s.
-    pub gyro_radps: Vector3<f64>,
+    /// Angular rate, rad/s; `None` for a device that has no gyroscope (an accelerometer-only
+    /// IMU). A device either always or never sends it: the engine takes a device's first
+    /// sample as saying which, and refuses a later sample that says otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gyro_radps: Option<Vector3<f64>>,
     /// Magnetic field, µT, if the device has a magnetometer.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mag_ut: Option<Vector3<f64>>,
@@ -40,7 +43,9 @@ impl ImuSample {
     pub fn validate(&self) -> Result<()> {
         self.t.check_plausible()?;
         check_finite_all_lazy(|| "accel_mps2".into(), self.accel_mps2.as_slice())?;
-        check_finite_all_lazy(|| "gyro_radps".into(), self.gyro_radps.as_slice())?;
+        if let Some(g) = &self.gyro_radps {
+            check_finite_all_lazy(|| "gyro_radps".into(), g.as_slice())?;
+        }
         for (i, v) in self.accel_mps2.iter().enumerate() {
             check_range_lazy(
                 || format!("accel_mps2[{i}]"),
@@ -50,7 +55,7 @@ impl ImuSample {
                 "m/s²",
             )?;
         }
-        for (i, v) in self.gyro_radps.iter().enumerate() {
+        for (i, v) in self.gyro_radps.iter().flat_map(|g| g.iter()).enumerate() {
             check_range_lazy(
                 || format!("gyro_radps[{i}]"),
                 *v,
@@ -211,7 +216,7 @@ mod tests {
             t: SessionTime(0),
             device: DeviceId::new("imu"),
             accel_mps2: Vector3::new(0.0, 0.0, 9.81),
-            gyro_radps: Vector3::new(0.0, f64::NAN, 0.0),
+            gyro_radps: Some(Vector3::new(0.0, f64::NAN, 0.0)),
             mag_ut: None,
             orientation_wxyz: None,
         };
@@ -220,6 +225,27 @@ mod tests {
                 .unwrap_err()
                 .to_string()
                 .contains("gyro_radps[1]")
+        );
+    }
+
+    #[test]
+    fn accelerometer_only_sample_has_no_gyro_field() {
+        let text = r#"{"t":0,"device":"watch","accel_mps2":[0.0,0.0,9.81]}"#;
+        let s: ImuSample = serde_json::from_str(text).unwrap();
+        assert_eq!(s.gyro_radps, None);
+        s.validate().unwrap();
+        let back = serde_json::to_string(&s).unwrap();
+        assert!(!back.contains("gyro"), "{back}");
+        // A gyroscope reading out of range is still refused, on the axis it is on.
+        let fast = ImuSample {
+            gyro_radps: Some(Vector3::new(0.0, 0.0, -2.0 * MAX_GYRO_RADPS)),
+            ..s
+        };
+        assert!(
+            fast.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("gyro_radps[2]")
         );
     }
 

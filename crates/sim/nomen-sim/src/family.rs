@@ -86,6 +86,9 @@ pub struct WearableMix {
     pub wrist_imu: f64,
     /// Of the wrist IMUs, the fraction registered without a side (`either_side`). Default 0.
     pub wrist_side_unknown: f64,
+    /// Of the wrist IMUs, the fraction without a gyroscope (accelerometer-only watches,
+    /// `gyro = false`). Default 0.
+    pub wrist_accel_only: f64,
     /// A UWB location tag (chest badge or wrist band), position fixes from the RTLS.
     pub uwb_tag: f64,
     /// A wrist IMU and a UWB tag.
@@ -277,6 +280,12 @@ impl FamilyDef {
         check_range(
             "wearables.wrist_side_unknown",
             [w.wrist_side_unknown; 2],
+            0.0,
+            1.0,
+        )?;
+        check_range(
+            "wearables.wrist_accel_only",
+            [w.wrist_accel_only; 2],
             0.0,
             1.0,
         )?;
@@ -564,13 +573,16 @@ pub fn generate(family: &FamilyDef, pools: &ClipPools, index: usize, seed: u64) 
             let subject = format!("s{:02}", i + 1);
             let wear = choose(&mut rng, &wear_weights).unwrap_or(WearKind::WristImu);
             let mut wears = Vec::new();
-            let imu = |site: &str, either_side: bool| {
+            let imu = |site: &str, either_side: bool, accel_only: bool| {
                 let mut w = Table::new();
                 w.insert("device".into(), format!("{subject}_{site}").into());
                 w.insert("kind".into(), "imu".into());
                 w.insert("site".into(), site.into());
                 if either_side {
                     w.insert("either_side".into(), true.into());
+                }
+                if accel_only {
+                    w.insert("gyro".into(), false.into());
                 }
                 Value::Table(w)
             };
@@ -580,9 +592,15 @@ pub fn generate(family: &FamilyDef, pools: &ClipPools, index: usize, seed: u64) 
                 "right_wrist"
             };
             let either = rng.random_bool(family.wearables.wrist_side_unknown);
+            // Drawn only where the family has such watches, so other families' scenes stay
+            // as they are.
+            let accel_only = family.wearables.wrist_accel_only > 0.0
+                && rng.random_bool(family.wearables.wrist_accel_only);
             match wear {
-                WearKind::Ban => wears.extend(BAN_SITES.iter().map(|s| imu(s, false))),
-                WearKind::WristImu | WearKind::WristImuAndUwbTag => wears.push(imu(wrist, either)),
+                WearKind::Ban => wears.extend(BAN_SITES.iter().map(|s| imu(s, false, false))),
+                WearKind::WristImu | WearKind::WristImuAndUwbTag => {
+                    wears.push(imu(wrist, either, accel_only))
+                }
                 WearKind::UwbTag => {}
             }
             if matches!(wear, WearKind::UwbTag | WearKind::WristImuAndUwbTag) {

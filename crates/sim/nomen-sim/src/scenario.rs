@@ -183,6 +183,14 @@ pub struct WearDef {
     /// registry does not say which wrist a watch is on. The device is simulated at `site`.
     #[serde(default)]
     pub either_side: bool,
+    /// For an IMU: whether it has a gyroscope, overriding `[sensors.imu] gyro` for this
+    /// device (`false`: an accelerometer-only watch). Omit to take the scene's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gyro: Option<bool>,
+    /// For an IMU: its output rate, Hz, in `10..=300`, overriding `[sensors.imu] rate_hz`
+    /// for this device. Omit to take the scene's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate_hz: Option<f64>,
     /// What happens to the device during the scene; omit when it stays where it is worn.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub change: Option<WearChange>,
@@ -377,6 +385,20 @@ impl Scenario {
                 }
                 if !devices.insert(w.device.as_str()) {
                     return bad(format!("device '{}' is worn twice", w.device));
+                }
+                if w.kind != DeviceKind::Imu && (w.gyro.is_some() || w.rate_hz.is_some()) {
+                    return bad(format!(
+                        "device '{}': gyro and rate_hz are for IMUs only",
+                        w.device
+                    ));
+                }
+                if let Some(rate_hz) = w.rate_hz
+                    && !(rate_hz.is_finite() && (10.0..=300.0).contains(&rate_hz))
+                {
+                    return bad(format!(
+                        "device '{}': rate_hz must be in 10..=300 Hz, got {rate_hz}",
+                        w.device
+                    ));
                 }
                 if matches!(w.kind, DeviceKind::RfidTag | DeviceKind::BleTag)
                     && self.antennas.is_empty()

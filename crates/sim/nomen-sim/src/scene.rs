@@ -392,7 +392,9 @@ pub fn simulate(
                 DeviceKind::Imu => {
                     let mut rng = stream(seed, &format!("imu/{}", w.device));
                     let mount = Mount::at(w.site, UnitQuaternion::identity());
-                    let config = scenario.sensors.imu.for_device(&draw);
+                    let mut config = scenario.sensors.imu.for_device(&draw);
+                    config.rate_hz = w.rate_hz.unwrap_or(config.rate_hz);
+                    config.gyro = w.gyro.unwrap_or(config.gyro);
                     let mut run = simulate_imu(motion, &device, &mount, span, &config, &mut rng)?;
                     if carried.may_be_away {
                         // Stamps are device time; the true clock says when each was taken.
@@ -405,7 +407,7 @@ pub fn simulate(
                     dt.clock_offset_s = run.truth.clock.offset_s;
                     dt.clock_drift_ppm = run.truth.clock.drift_ppm;
                     dt.segment_from_sensor_wxyz = Some([q.w, q.i, q.j, q.k]);
-                    dt.gyro_bias_radps = Some(vec3(&run.truth.gyro_bias_radps));
+                    dt.gyro_bias_radps = config.gyro.then(|| vec3(&run.truth.gyro_bias_radps));
                     dt.accel_bias_mps2 = Some(vec3(&run.truth.accel_bias_mps2));
                     dt.num_messages = run.samples.len();
                     dt.num_lost = run.truth.num_lost;
@@ -677,7 +679,7 @@ pub fn wearable_message_bytes(scenario: &Scenario) -> f64 {
         .iter()
         .flat_map(|p| &p.wears)
         .map(|w| match w.kind {
-            DeviceKind::Imu => s.imu.rate_hz,
+            DeviceKind::Imu => w.rate_hz.unwrap_or(s.imu.rate_hz),
             DeviceKind::UwbTag => {
                 2.0 * s.rtls.rate_hz
                     + s.uwb_range

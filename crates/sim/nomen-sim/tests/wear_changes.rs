@@ -131,9 +131,9 @@ fn a_wearable_left_on_a_table_feels_gravity_alone_and_its_wearer_becomes_nobody(
                 // Clock offset and drift are 0: stamps are session times (± jitter).
                 let t_s = s.t.as_secs_f64();
                 if t_s < 1.9 {
-                    before.push((s.accel_mps2.norm(), s.gyro_radps.norm()));
+                    before.push((s.accel_mps2.norm(), s.gyro_radps.unwrap().norm()));
                 } else if t_s > 2.1 {
-                    after.push((s.accel_mps2.norm(), s.gyro_radps.norm()));
+                    after.push((s.accel_mps2.norm(), s.gyro_radps.unwrap().norm()));
                 }
             }
         }

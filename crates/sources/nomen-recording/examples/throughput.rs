@@ -83,7 +83,7 @@ fn main() -> Result<()> {
                 t,
                 device: DeviceId::new(format!("band{i}")),
                 accel_mps2: Vector3::new(0.3 * phase.sin(), 0.2 * phase.cos(), 9.81),
-                gyro_radps: Vector3::new(0.01 * i as f64, 0.5 * phase.cos(), -0.1),
+                gyro_radps: Some(Vector3::new(0.01 * i as f64, 0.5 * phase.cos(), -0.1)),
                 mag_ut: Some(Vector3::new(15.3, 0.43, -41.06)),
                 orientation_wxyz: None,
             }))?;

@@ -1,6 +1,6 @@
 //! Plausibility of a stream's time stamps and units, beyond what each message checks alone: a
-//! camera whose frames come ten times faster or slower than the rate it declares, an IMU at
-//! 100 kHz or below 1 Hz (every `t` in milliseconds instead of nanoseconds looks like both), and
+//! camera whose frames come ten times faster or slower than the rate it declares, an IMU above
+//! 10 kHz or below 5 Hz (every `t` in milliseconds instead of nanoseconds looks like both), and
 //! accelerations whose magnitude is 1 where gravity alone gives 9.81 m/s² (a column in g).
 //!
 //! [`Plausibility`] is sans-IO: push messages in file order; it judges each source once it has
@@ -20,8 +20,9 @@ pub const MIN_INTERVALS: usize = 8;
 pub const MAX_RATE_FACTOR: f64 = 10.0;
 /// The fastest plausible skeleton stream of a camera that declares no rate, Hz: 1 kHz.
 pub const MAX_CAMERA_HZ: f64 = 1_000.0;
-/// The plausible IMU rates, Hz: 1 Hz to 10 kHz (wearable IMUs stream 25 Hz to 2 kHz).
-pub const IMU_RATE_RANGE_HZ: (f64, f64) = (1.0, 10_000.0);
+/// The plausible IMU rates, Hz: 5 Hz to 10 kHz (wearable IMUs stream 10 Hz to 2 kHz; below
+/// 5 Hz the samples cannot follow the steps of a walk, about two a second).
+pub const IMU_RATE_RANGE_HZ: (f64, f64) = (5.0, 10_000.0);
 /// The plausible median magnitude of an IMU's accelerations, m/s²: 3 to 30. Gravity alone is
 /// 9.81; walking, running and jumping move the median by a few m/s². A median of 1 is gravity
 /// in g, of 1000 gravity in milli-g.
@@ -112,6 +113,13 @@ impl fmt::Display for Finding {
                          (multiply them by {})",
                         time_unit_of_factor(*k),
                         sig(*k)
+                    ),
+                    None if *kind == "imu" && *observed_hz < IMU_RATE_RANGE_HZ.0 => write!(
+                        f,
+                        ": an IMU slower than {} Hz cannot follow the steps of a walk; the \
+                         times are probably wrong (a recording's t is in nanoseconds), or the \
+                         device sends summaries rather than samples",
+                        sig(IMU_RATE_RANGE_HZ.0)
                     ),
                     None => write!(
                         f,
@@ -330,7 +338,7 @@ fn judge_rate(
         ("camera", None) => (observed_hz > MAX_CAMERA_HZ, (5.0, 240.0)),
         _ => (
             !(IMU_RATE_RANGE_HZ.0..=IMU_RATE_RANGE_HZ.1).contains(&observed_hz),
-            (20.0, 4_000.0),
+            (10.0, 2_000.0),
         ),
     };
     is_implausible.then(|| Finding::Rate {
@@ -413,7 +421,7 @@ mod tests {
             t: SessionTime(t_ns),
             device: DeviceId::new("band"),
             accel_mps2: Vector3::new(0.1, 0.0, accel_z),
-            gyro_radps: Vector3::zeros(),
+            gyro_radps: Some(Vector3::zeros()),
             mag_ut: None,
             orientation_wxyz: None,
         })
@@ -523,6 +531,56 @@ mod tests {
             found[0].to_string().contains("probably in milli-g"),
             "{}",
             found[0]
+        );
+    }
+
+    /// The findings of one IMU sampled every `interval_ns` for 100 samples.
+    fn imu_findings(interval_ns: i64) -> Vec<Finding> {
+        let mut check = Plausibility::new(None);
+        let mut out: Vec<Finding> = (0..100)
+            .filter_map(|k| check.push(&imu(k * interval_ns, 9.81)))
+            .collect();
+        out.extend(check.finish());
+        out
+    }
+
+    #[test]
+    fn an_imu_below_5_hz_is_implausible_and_a_12_5_hz_watch_is_not() {
+        assert_eq!(imu_findings(80_000_000), vec![]);
+        assert_eq!(imu_findings(100_000_000), vec![]);
+        let slow = imu_findings(250_000_000);
+        assert_eq!(slow.len(), 1, "{slow:?}");
+        let Finding::Rate {
+            kind,
+            observed_hz,
+            factor,
+            ..
+        } = &slow[0]
+        else {
+            panic!("{slow:?}")
+        };
+        assert_eq!((*kind, *factor), ("imu", None));
+        assert!((observed_hz - 4.0).abs() < 1e-9, "{observed_hz}");
+        let text = slow[0].to_string();
+        assert!(
+            text.contains("an IMU slower than 5 Hz cannot follow the steps of a walk"),
+            "{text}"
+        );
+        // A 100-Hz IMU stamped in picoseconds (times 1000 times too large) reads 0.1 Hz.
+        let picoseconds = imu_findings(10_000_000_000);
+        assert!(
+            picoseconds[0]
+                .to_string()
+                .contains("probably in picoseconds"),
+            "{picoseconds:?}"
+        );
+        // Above 10 kHz: a 100-Hz IMU stamped in microseconds reads 100 kHz.
+        let microseconds = imu_findings(10_000);
+        assert!(
+            microseconds[0]
+                .to_string()
+                .contains("probably in microseconds"),
+            "{microseconds:?}"
         );
     }
 

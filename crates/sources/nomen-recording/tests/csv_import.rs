@@ -63,9 +63,9 @@ fn xio_export_is_still_at_the_start_and_sampled_at_100_hz() {
         let a = s.accel_mps2.norm();
         assert!((a - 9.81).abs() < 0.02 * 9.81, "|a| = {a} at {}", s.t);
         assert!(
-            s.gyro_radps.norm() < 0.05,
+            s.gyro_radps.unwrap().norm() < 0.05,
             "|w| = {} at {}",
-            s.gyro_radps.norm(),
+            s.gyro_radps.unwrap().norm(),
             s.t
         );
         let m = s.mag_ut.unwrap().norm();
@@ -75,7 +75,7 @@ fn xio_export_is_still_at_the_start_and_sampled_at_100_hz() {
         );
     }
     // Somewhere later the sensor moves: the gyro sees more than 1 rad/s.
-    assert!(samples.iter().any(|s| s.gyro_radps.norm() > 1.0));
+    assert!(samples.iter().any(|s| s.gyro_radps.unwrap().norm() > 1.0));
 }
 
 #[test]
@@ -110,7 +110,7 @@ fn explicit_spec_converts_units_and_offsets_time() {
     };
     assert_eq!(second.t.as_ns(), 10_000_000);
     assert_eq!(second.accel_mps2.z, 9.806_65);
-    assert!((second.gyro_radps.z + std::f64::consts::PI).abs() < 1e-12);
+    assert!((second.gyro_radps.unwrap().z + std::f64::consts::PI).abs() < 1e-12);
     assert!(second.mag_ut.is_none());
 }
 
@@ -540,5 +540,31 @@ fn endless_good_rows_are_refused_when_their_messages_pass_the_memory_limit() {
             "imu.csv:{line}: the rows so far make more than 512 MiB of messages, the most a CSV \
              import may hold: split the file"
         )
+    );
+}
+
+#[test]
+fn a_file_without_gyroscope_columns_is_an_accelerometer_only_device() {
+    // A watch at 12.5 Hz that has only an accelerometer, in g.
+    let text = "t_s,accel_x_g,accel_y_g,accel_z_g\n0.00,0,0,1\n0.08,0.1,0,0.98\n0.16,0,0.2,1.01\n";
+    let (spec, imported) = imu_csv(text.as_bytes()).unwrap();
+    assert_eq!(spec.columns.len(), 3);
+    let samples: Vec<_> = imported
+        .messages
+        .iter()
+        .map(|m| match m {
+            Message::Imu(s) => s,
+            other => panic!("not an imu sample: {other:?}"),
+        })
+        .collect();
+    assert_eq!(samples.len(), 3);
+    assert!(samples.iter().all(|s| s.gyro_radps.is_none()));
+    assert!((samples[1].accel_mps2.x - 0.980_665).abs() < 1e-12);
+    // Two of the three gyroscope axes is still an error: all three or none.
+    let partial = "t_s,accel_x_g,accel_y_g,accel_z_g,gyro_x_dps,gyro_y_dps\n0.00,0,0,1,0,0\n";
+    let err = imu_csv(partial.as_bytes()).unwrap_err().to_string();
+    assert!(
+        err.contains("the gyroscope needs x, y and z columns, found 2"),
+        "{err}"
     );
 }

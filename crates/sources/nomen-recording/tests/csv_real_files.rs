@@ -51,7 +51,7 @@ fn a_spreadsheet_export_with_semicolons_and_decimal_commas_reads_as_its_numbers(
     let s = samples(&import);
     assert_eq!(s[1].t.as_ns(), 10_000_000);
     assert!((s[1].accel_mps2.z - 0.998 * 9.806_65).abs() < 1e-12);
-    assert!((s[1].gyro_radps.z + 90.5_f64.to_radians()).abs() < 1e-12);
+    assert!((s[1].gyro_radps.unwrap().z + 90.5_f64.to_radians()).abs() < 1e-12);
     // The same file with the separators given.
     let given = CsvOptions {
         delimiter: Some(b';'),
@@ -199,7 +199,7 @@ fn repeated_times_are_averaged_by_default_or_dropped_and_counted() {
     let s = samples(&averaged);
     assert_eq!(s.len(), 3);
     assert!((s[1].accel_mps2.z - 1.1 * 9.806_65).abs() < 1e-12);
-    assert!((s[1].gyro_radps.z - 20_f64.to_radians()).abs() < 1e-12);
+    assert!((s[1].gyro_radps.unwrap().z - 20_f64.to_radians()).abs() < 1e-12);
     let options = CsvOptions {
         order: OrderPolicy {
             duplicates: Duplicates::Drop,
@@ -210,7 +210,7 @@ fn repeated_times_are_averaged_by_default_or_dropped_and_counted() {
     let dropped = imu(&text, &options).unwrap();
     assert_eq!(dropped.report.num_duplicates, 2);
     let s = samples(&dropped);
-    assert!((s[1].gyro_radps.z - 10_f64.to_radians()).abs() < 1e-12);
+    assert!((s[1].gyro_radps.unwrap().z - 10_f64.to_radians()).abs() < 1e-12);
     assert!(
         dropped
             .report

@@ -46,7 +46,7 @@ fn message(t_ns: i64, r: fn(f64) -> f64) -> impl Strategy<Value = Message> {
                     t,
                     device: DeviceId::new(device),
                     accel_mps2: Vector3::new(r(a.0), r(a.1), r(a.2)),
-                    gyro_radps: Vector3::new(r(g.0), r(g.1), r(g.2)),
+                    gyro_radps: Some(Vector3::new(r(g.0), r(g.1), r(g.2))),
                     mag_ut: m.map(|m| Vector3::new(r(m.0), r(m.1), r(m.2))),
                     orientation_wxyz: None,
                 })

@@ -631,6 +631,7 @@ pub fn run_file(
     skip: Option<SkipLimit>,
     extras: &EngineExtras,
 ) -> Result<String> {
+    let max_clock_offset_s = config.max_clock_offset_s;
     // Live, the wall clock vouches for a pause: a line after one is not held for the two lines
     // that would otherwise confirm it (while the engine's clock runs on without it).
     let options = ReadOptions {
@@ -679,6 +680,7 @@ pub fn run_file(
     // Time stamps whose rate contradicts the declared one (every t in milliseconds) would make
     // every decision anonymous: the run stops as soon as a source shows it.
     let mut plausibility = Plausibility::new(Some(&registry));
+    let mut rate_warnings: Vec<String> = Vec::new();
     let mut writer = open_writer(out, recording, registry, "nomen run", is_followed)?;
     // Live (reading stdin or writing stdout): each batch of decisions goes out as soon as it is
     // decided, instead of when the output buffer fills, so a consumer's wait is the engine's
@@ -779,8 +781,21 @@ pub fn run_file(
         }
         match event {
             Event::Message(Ok(m)) => {
-                // Gravity in g is the engine's warning (`gravity_warnings`), not a stop.
-                if let Some(finding @ Finding::Rate { .. }) = plausibility.push(&m) {
+                // Gravity in g is the engine's warning (`gravity_warnings`), not a stop; so is
+                // an IMU whose rate no unit mistake explains (a slow device's evidence is weak,
+                // the others' is not).
+                let finding = plausibility.push(&m);
+                if let Some(
+                    finding @ Finding::Rate {
+                        kind: "imu",
+                        factor: None,
+                        ..
+                    },
+                ) = &finding
+                {
+                    bar.suspend(|| eprintln!("warning: {finding}"));
+                    rate_warnings.push(finding.to_string());
+                } else if let Some(finding @ Finding::Rate { .. }) = finding {
                     bar.finish_and_clear();
                     bail!(
                         "{}: {finding}; stopped with no result (the time stamps, or the \
@@ -877,6 +892,10 @@ pub fn run_file(
         summary.push_str(&format!("\n  side {device}: found at {site}"));
     }
     summary.push_str(&gravity_warnings(engine.stats()));
+    summary.push_str(&device_notes(engine.stats(), max_clock_offset_s));
+    for warning in &rate_warnings {
+        summary.push_str(&format!("\n  warning: {warning}"));
+    }
     for (tag, share) in engine.stats().tags_far_from_skeletons() {
         summary.push_str(&format!(
             "\n  warning: tag {tag}: its fixes were near a skeleton in {:.1} % of the times they \
@@ -905,6 +924,27 @@ pub fn run_file(
         ));
     }
     within_skip_limit(summary, skip, &stats, recording)
+}
+
+/// A line per accelerometer-only IMU saying which evidence it gives
+/// ([`nomen_engine::ACCEL_ONLY_EVIDENCE`]), and a warning per IMU whose clock offset peaked at
+/// an end of the engine's search ([`nomen_engine::EngineStats::offsets_at_search_edge`]).
+fn device_notes(stats: &nomen_engine::EngineStats, max_clock_offset_s: f64) -> String {
+    let mut notes = String::new();
+    for device in &stats.accel_only_imus {
+        notes.push_str(&format!(
+            "\n  imu {device}: accelerometer only (no gyro_radps), evidence: {}",
+            nomen_engine::ACCEL_ONLY_EVIDENCE
+        ));
+    }
+    for (device, edge_s) in &stats.offsets_at_search_edge {
+        notes.push_str(&format!(
+            "\n  warning: offset of {device} at the edge of the ±{max_clock_offset_s:.1} s search \
+             ({edge_s:+.2} s from the registry's): probably larger; raise max_clock_offset_s \
+             (nomen run --config) or put the device's clock offset in the registry"
+        ));
+    }
+    notes
 }
 
 /// A warning line per IMU whose accelerations do not look like m/s²

@@ -2,10 +2,12 @@
 //! window before scoring (see the crate docs, step 1), and the per-window caches of its signals
 //! and curves.
 
+#[cfg(test)]
+use super::MAX_IMU_GAP_NS;
 use super::{
     COARSE_LAG_STEPS, COARSE_TRACK_STRIDE, Engine, ImuState, LAG_DECIMATION, LAG_MIN_TRACK_SAMPLES,
-    LAG_STEP_NS, MAX_IMU_GAP_NS, OFFSET_PEAK_SEPARATION_NS, TrackKey, TrackSample, TrackState,
-    covered_span, sample_range, scaled_count,
+    LAG_STEP_NS, OFFSET_PEAK_SEPARATION_NS, TrackKey, TrackSample, TrackState, covered_span,
+    max_imu_gap_ns, sample_range, scaled_count,
 };
 use crate::config::{EngineConfig, OFFSET_CONFIRM_HISTORY, ns};
 use crate::lag_memo::{self, ImuLagMemo};
@@ -686,6 +688,9 @@ impl Engine {
                     continue;
                 }
                 let mean = mean_curve(&imu.best_track_curve);
+                if !imu.is_offset_known {
+                    note_search_edge(&mut self.stats, &imu.device, &mean, &coarse[..]);
+                }
                 let Some((offset, peak, rival)) = summed_peak(
                     &grid,
                     &mean,
@@ -1353,7 +1358,7 @@ impl LagScratch {
     }
 
     /// The lag curve of `imu` against `track` at `offsets_ns` ([`lag_curve`], across IMU gaps
-    /// up to [`MAX_IMU_GAP_NS`]).
+    /// up to [`max_imu_gap_ns`]).
     fn curve(
         &mut self,
         imu: &LagSignals,
@@ -1379,7 +1384,7 @@ impl LagScratch {
 pub(super) type TrackSides<'a> = (&'a LagSignals, Option<&'a LagSignals>);
 
 /// The lag curve of `imu` against `track` ([`lag_curve`], across IMU gaps up to
-/// [`MAX_IMU_GAP_NS`]) into `out.0`; with a mirror-image site, the larger of the two sides'
+/// [`max_imu_gap_ns`]) into `out.0`; with a mirror-image site, the larger of the two sides'
 /// values at each lag (`out.1` holds the other side's curve). The search then finds the side
 /// and the lag together: a band on the other wrist than its site peaks about half a stride
 /// away on the site's wrist. Every `track_stride`-th of the track's samples is paired, and the
@@ -1400,7 +1405,7 @@ fn sides_curve(
         track,
         track_stride,
         offsets_ns,
-        MAX_IMU_GAP_NS,
+        max_imu_gap_ns(&imu.t_ns),
         scaled_count(min_samples, scale(track)),
         weights,
         out,
@@ -1411,7 +1416,7 @@ fn sides_curve(
             mirror,
             track_stride,
             offsets_ns,
-            MAX_IMU_GAP_NS,
+            max_imu_gap_ns(&imu.t_ns),
             scaled_count(min_samples, scale(mirror)),
             weights,
             mirror_out,
@@ -1531,6 +1536,7 @@ pub(super) fn record_offset(
     offset_ns: i64,
     correlation: f64,
 ) {
+    stats.offsets_at_search_edge.remove(device);
     let entry = stats.clock_offsets.entry(device.clone()).or_default();
     entry.offset_ns = offset_ns;
     entry.correlation = correlation;
@@ -1840,6 +1846,33 @@ fn mask_unseen(thinned: &mut [f64], seen: &[bool]) {
     for (v, s) in thinned.iter_mut().zip(seen.iter().step_by(LAG_DECIMATION)) {
         if !s {
             *v = f64::NAN;
+        }
+    }
+}
+
+/// Records in [`EngineStats::offsets_at_search_edge`] whether `mean`, an IMU's best-track sum
+/// over `lags` (relative to its registry offset, increasing), peaks at an end of the search:
+/// its largest finite value is the first or the last lag's.
+fn note_search_edge(stats: &mut EngineStats, device: &DeviceId, mean: &[f64], lags: &[i64]) {
+    let best = mean
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.is_finite())
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(k, _)| k);
+    let edge = match best {
+        Some(0) => lags.first(),
+        Some(k) if k + 1 == mean.len() => lags.last(),
+        _ => None,
+    };
+    match edge {
+        Some(&lag_ns) => {
+            stats
+                .offsets_at_search_edge
+                .insert(device.clone(), lag_ns as f64 * 1e-9);
+        }
+        None => {
+            stats.offsets_at_search_edge.remove(device);
         }
     }
 }

@@ -2,9 +2,9 @@
 //! location-tag and RSSI scores, accumulated per track (see the crate docs, step 2).
 
 use super::{
-    Accumulator, Engine, MAX_IMU_GAP_NS, OrientationTerms, SIDE_MIN_MEAN_VOTE, SIDE_MIN_VOTES,
+    Accumulator, Engine, OrientationTerms, SIDE_MIN_MEAN_VOTE, SIDE_MIN_VOTES,
     SILENT_WEARER_SLACK_NS, TrackKey, TrackState, WINDOW_MIN_TRACK_SAMPLES, accumulate,
-    accumulate_weighted, covered_span, sample_range, scaled_count,
+    accumulate_weighted, covered_span, max_imu_gap_ns, sample_range, scaled_count,
 };
 use crate::config::MotionScore;
 use crate::signal::imu_window_on_grid;
@@ -415,7 +415,7 @@ impl Engine {
                                 &imu.series(),
                                 offset,
                                 frame_times,
-                                MAX_IMU_GAP_NS,
+                                max_imu_gap_ns(imu.series().t_ns),
                                 (end - imu.offset_ns).min(imu.settled_until_ns),
                                 &mut window,
                                 &mut orientation_from,

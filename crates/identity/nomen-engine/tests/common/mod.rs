@@ -240,7 +240,7 @@ pub fn recording(people: &[Person], duration_s: f64) -> Vec<Message> {
                 t: ns(t - p.imu_offset_s),
                 device: DeviceId::new(format!("{s}_imu{suffix}")),
                 accel_mps2: accel,
-                gyro_radps: gyro,
+                gyro_radps: Some(gyro),
                 mag_ut: None,
                 orientation_wxyz: None,
             }));

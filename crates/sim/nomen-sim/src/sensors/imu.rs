@@ -14,7 +14,7 @@
 
 use super::{
     BurstLoss, BurstLossConfig, ClockConfig, DeviceClock, DeviceDraw, MAX_DEVICE_SPREAD, check_in,
-    check_span, is_one, normal, symmetric,
+    check_span, is_one, is_true, normal, symmetric,
 };
 use crate::body::{BodyMotion, Mount, mounted_kinematics_in_span};
 use crate::error::Result;
@@ -38,9 +38,16 @@ pub const DEFAULT_GYRO_RANGE_RADPS: f64 = 2000.0 * std::f64::consts::PI / 180.0;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ImuConfig {
-    /// Output rate on the device clock, Hz, in `50..=300`. Default 100 Hz (typical wearable
-    /// rate; the x-io recording runs at 99.2 Hz, BROAD at 285.7 Hz).
+    /// Output rate on the device clock, Hz, in `10..=300`. Default 100 Hz (typical wearable
+    /// rate; the x-io recording runs at 99.2 Hz, BROAD at 285.7 Hz). Each sample is the
+    /// instantaneous reading at its tick (no anti-aliasing filter), so a slow watch (12.5 Hz)
+    /// aliases the faster parts of the motion, as a sensor read without its digital low-pass does.
     pub rate_hz: f64,
+    /// Whether the device has a gyroscope. Default true; without one (an accelerometer-only
+    /// watch) its samples carry no `gyro_radps`. The gyroscope's noise is drawn either way, so
+    /// the accelerometer's readings do not depend on it.
+    #[serde(skip_serializing_if = "is_true")]
+    pub gyro: bool,
     /// σ of the Gaussian error of each timestamp around the device tick, s (clamped to ±0.4 of a
     /// period so time stays strictly increasing). Default 0.5 ms: **not in the data** (the
     /// recordings have regular stamps); a modest value for device-stamped samples. Host-stamped
@@ -102,6 +109,7 @@ impl Default for ImuConfig {
     fn default() -> Self {
         Self {
             rate_hz: 100.0,
+            gyro: true,
             timestamp_jitter_s: 0.0005,
             gyro_noise_density_radps_per_sqrt_hz: 1.02e-4,
             accel_noise_density_mps2_per_sqrt_hz: 2.7e-3,
@@ -127,6 +135,7 @@ impl ImuConfig {
     pub fn noise_free() -> Self {
         Self {
             rate_hz: 100.0,
+            gyro: true,
             timestamp_jitter_s: 0.0,
             gyro_noise_density_radps_per_sqrt_hz: 0.0,
             accel_noise_density_mps2_per_sqrt_hz: 0.0,
@@ -174,7 +183,7 @@ impl ImuConfig {
     /// Checks every field; errors name it (`imu.rate_hz`, ...).
     pub fn validate(&self) -> Result<()> {
         let p = "imu";
-        check_in(p, "rate_hz", self.rate_hz, 50.0, 300.0)?;
+        check_in(p, "rate_hz", self.rate_hz, 10.0, 300.0)?;
         check_in(p, "timestamp_jitter_s", self.timestamp_jitter_s, 0.0, 1.0)?;
         check_in(
             p,
@@ -426,7 +435,7 @@ pub fn simulate_imu_into(
                 + accel_sigma * normal3(rng),
             config.accel_range_mps2,
         );
-        num_gyro_saturated += usize::from(is_gyro_saturated);
+        num_gyro_saturated += usize::from(is_gyro_saturated && config.gyro);
         num_accel_saturated += usize::from(is_accel_saturated);
         let mag_ut = config.magnetometer.as_ref().map(|m| {
             sensor_from_world * m.field_world_ut(&kin.position_m) + m.noise_ut * normal3(rng)
@@ -455,7 +464,7 @@ pub fn simulate_imu_into(
             t: SessionTime::from_ns(ns),
             device: device.clone(),
             accel_mps2: accel,
-            gyro_radps: gyro,
+            gyro_radps: config.gyro.then_some(gyro),
             mag_ut,
             orientation_wxyz: None,
         });

@@ -315,6 +315,11 @@ pub(crate) fn is_one(v: &f64) -> bool {
     *v == 1.0
 }
 
+/// Whether a flag is `true` (for `skip_serializing_if` on flags that default to true).
+pub(crate) fn is_true(v: &bool) -> bool {
+    *v
+}
+
 /// A standard normal draw.
 #[inline]
 pub(crate) fn normal(rng: &mut SimRng) -> f64 {

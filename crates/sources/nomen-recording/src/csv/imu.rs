@@ -51,9 +51,10 @@ pub struct ImuColumn {
 
 /// How to read an IMU CSV file: which column holds what, in which unit, for which device.
 ///
-/// Accelerometer and gyroscope need all three axes; the magnetometer is optional (all three or
-/// none; a row whose three magnetometer cells are empty has no magnetometer reading). Columns the
-/// spec does not name are ignored.
+/// The accelerometer needs all three axes; the gyroscope is optional (all three or none: a file
+/// without gyroscope columns is an accelerometer-only device, whose samples carry no
+/// `gyro_radps`); the magnetometer too (all three or none; a row whose three magnetometer cells
+/// are empty has no magnetometer reading). Columns the spec does not name are ignored.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImuCsvSpec {
     /// The device the samples belong to.
@@ -277,7 +278,7 @@ fn import_with<R: Read>(mut csv: CsvInput<R>, spec: &ImuCsvSpec) -> Result<CsvIm
         let n = row.iter().flatten().count();
         full[slot] = match (n, slot) {
             (3, _) => Some([row[0], row[1], row[2]].map(|c| c.unwrap_or((0, 0.0)))),
-            (0, 2) => None,
+            (0, 1 | 2) => None,
             _ => {
                 return Err(csv.error(
                     1,
@@ -286,9 +287,10 @@ fn import_with<R: Read>(mut csv: CsvInput<R>, spec: &ImuCsvSpec) -> Result<CsvIm
             }
         };
     }
-    let (Some(accel), Some(gyro)) = (full[0], full[1]) else {
-        return Err(csv.error(1, "the accelerometer and gyroscope need x, y and z columns"));
+    let Some(accel) = full[0] else {
+        return Err(csv.error(1, "the accelerometer needs x, y and z columns"));
     };
+    let gyro = full[1];
     let mag = full[2];
 
     let mut record = StringRecord::new();
@@ -308,7 +310,7 @@ fn import_with<R: Read>(mut csv: CsvInput<R>, spec: &ImuCsvSpec) -> Result<CsvIm
             Ok(v)
         };
         let accel_mps2 = vector(accel)?;
-        let gyro_radps = vector(gyro)?;
+        let gyro_radps = gyro.map(vector).transpose()?;
         let mag_ut = match mag {
             Some(m)
                 if m.iter()

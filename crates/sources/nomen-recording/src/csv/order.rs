@@ -334,7 +334,10 @@ fn average_into(kept: &mut Message, next: &Message, n: u32) {
     match (kept, next) {
         (Message::Imu(a), Message::Imu(b)) => {
             a.accel_mps2 += (b.accel_mps2 - a.accel_mps2) * w;
-            a.gyro_radps += (b.gyro_radps - a.gyro_radps) * w;
+            a.gyro_radps = match (a.gyro_radps, b.gyro_radps) {
+                (Some(ga), Some(gb)) => Some(ga + (gb - ga) * w),
+                (ga, gb) => ga.or(gb),
+            };
             a.mag_ut = match (a.mag_ut, b.mag_ut) {
                 (Some(ma), Some(mb)) => Some(ma + (mb - ma) * w),
                 (ma, mb) => ma.or(mb),

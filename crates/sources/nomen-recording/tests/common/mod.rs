@@ -69,7 +69,7 @@ pub fn imu(t_ns: i64, device: &str) -> Message {
         t: SessionTime(t_ns),
         device: DeviceId::new(device),
         accel_mps2: Vector3::new(0.1, -0.2, 9.81),
-        gyro_radps: Vector3::new(0.01, 0.0, -0.3),
+        gyro_radps: Some(Vector3::new(0.01, 0.0, -0.3)),
         mag_ut: Some(Vector3::new(15.3, 0.4, -41.1)),
         orientation_wxyz: None,
     })
