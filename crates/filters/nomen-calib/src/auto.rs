@@ -70,7 +70,8 @@ pub struct AutoCalibrationConfig {
     /// enough to calibrate with, m. Default 0.5 m (three times the fixes' horizontal σ).
     pub min_tag_motion_m: f64,
     /// A track whose clock-offset curve's contrast ([`crate::clock::ClockOffsetFit::contrast`])
-    /// is below this is not the tag's wearer. Default 2 (a walker's curve gives 5 and more).
+    /// is below this is not the tag's wearer. Default 1.3: over the ±2 s search a walker's
+    /// curve gives 1.5–2 against 2D fixes from a 4-Hz counter, someone sitting about 1.
     pub min_contrast: f64,
     /// Fewest points of its key joint a track needs to be a candidate. Default 20.
     pub min_track_points: usize,
@@ -92,7 +93,7 @@ impl Default for AutoCalibrationConfig {
             refine_every_s: 30.0,
             max_history_s: 600.0,
             min_tag_motion_m: 0.5,
-            min_contrast: 2.0,
+            min_contrast: 1.3,
             min_track_points: 20,
             clock: ClockSearchConfig {
                 max_gap_s: 0.6,
@@ -483,7 +484,7 @@ impl AutoCalibrator {
         fixes: &[TimedPoint],
     ) -> std::result::Result<CameraFit, String> {
         let motion_m = horizontal_rms_spread_m(fixes);
-        if !(motion_m >= self.config.min_tag_motion_m) {
+        if motion_m.is_nan() || motion_m < self.config.min_tag_motion_m {
             return Err(format!(
                 "the tag's {} fixes lie within {motion_m:.2} m (horizontal RMS) of their mean: \
                  too little motion to calibrate with (at least {} m)",
