@@ -149,8 +149,12 @@ fn a_walker_who_does_not_move_leaves_the_counter_uncalibrated_and_says_why() {
     let err = text(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("could not calibrate everything"), "{err}");
+    // The waving wearer's fixes may spread past the motion threshold (σ 0.15 m, NLOS
+    // outliers): then no track's clock-offset curve has a clear minimum instead.
     assert!(
-        err.contains("warning: camera counter not calibrated") && err.contains("too little motion"),
+        err.contains("warning: camera counter not calibrated")
+            && (err.contains("too little motion")
+                || err.contains("none of the camera's 2 tracks moves with the tag")),
         "{err}"
     );
 }
