@@ -27,6 +27,7 @@
 mod error;
 pub use error::{CalibError, Result};
 
+pub mod auto;
 pub mod best_pose;
 pub mod clock;
 pub mod fit;

@@ -955,6 +955,74 @@ impl Engine {
         self
     }
 
+    /// Lays an updated calibration over the running engine (a calibration refined online,
+    /// `nomen run --calibrate auto`): each camera it names takes its pose and scale for the
+    /// skeletons pushed from now on, each location tag its clock for the fixes pushed from
+    /// now on (a fix the new clock puts before what the tag has settled is refused as late).
+    /// A camera's clock cannot change in a running engine (its frames would move in time):
+    /// a calibration that changes one is refused, as is one that names a camera or location
+    /// tag the registry does not have; a refused calibration changes nothing.
+    pub fn update_calibration(&mut self, calibration: &nomen_core::Calibration) -> Result<()> {
+        let refuse = |why: String| Err(EngineError::Registry(nomen_core::CoreError::Invalid(why)));
+        let mut camera_updates = Vec::with_capacity(calibration.cameras.len());
+        for c in &calibration.cameras {
+            let Some(i) = self.camera_index.get(&c.id).copied() else {
+                return refuse(format!(
+                    "the calibration has camera '{}', which the engine does not know",
+                    c.id
+                ));
+            };
+            let Some(camera) = self.cameras.get(i) else {
+                return refuse(format!("camera '{}' has no state", c.id));
+            };
+            if c.clock.is_some_and(|k| k != camera.clock) {
+                return refuse(format!(
+                    "the calibration changes the clock of camera '{}', which a running engine keeps",
+                    c.id
+                ));
+            }
+            let world_from_camera = match c.world_from_camera {
+                Some(t) => {
+                    t.validate(&format!("camera '{}'.world_from_camera", c.id))
+                        .map_err(EngineError::Registry)?;
+                    t.to_isometry()
+                }
+                None => camera.world_from_camera,
+            };
+            let scale = c.scale.unwrap_or(camera.scale);
+            let (lo, hi) = nomen_core::registry::CAMERA_SCALE_RANGE;
+            if !(lo..=hi).contains(&scale) {
+                return refuse(format!(
+                    "camera '{}': scale {scale} is outside {lo}..={hi}",
+                    c.id
+                ));
+            }
+            camera_updates.push((i, world_from_camera, scale));
+        }
+        let mut tag_updates = Vec::with_capacity(calibration.devices.len());
+        for d in &calibration.devices {
+            let Some(i) = self.tag_index.get(&d.device).copied() else {
+                return refuse(format!(
+                    "the calibration has device '{}', which is no location tag of the engine",
+                    d.device
+                ));
+            };
+            tag_updates.push((i, d.clock));
+        }
+        for (i, world_from_camera, scale) in camera_updates {
+            if let Some(camera) = self.cameras.get_mut(i) {
+                camera.world_from_camera = world_from_camera;
+                camera.scale = scale;
+            }
+        }
+        for (i, clock) in tag_updates {
+            if let Some(tag) = self.tags.get_mut(i) {
+                tag.clock = clock;
+            }
+        }
+        Ok(())
+    }
+
     /// Scores RSSI reads with a calibrated model (`nomen calibrate rssi`) instead of the fitted
     /// default ([`RssiModel::fitted_default`]); gains are refined online either way. Errors when
     /// the model does not validate or names an antenna the registry does not list.

@@ -1,7 +1,7 @@
 //! Running a scenario: people, cameras and wearables over the scene's duration, with ground truth.
 
 use crate::body::{BodyMotion, Handover, LyingStill, Mount};
-use crate::camera::{CameraModel, PersonInScene, is_limb};
+use crate::camera::{CameraModel, PersonInScene, is_limb, to_position_only};
 use crate::clips::ClipDef;
 use crate::error::{Result, SimError};
 use crate::geometry::{
@@ -96,9 +96,10 @@ pub struct DeviceTruth {
     pub kind: DeviceKind,
     /// The person wearing it.
     pub person: String,
-    /// `session − device` clock offset at device time 0, s (IMUs; 0 otherwise).
+    /// `session − device` clock offset at device time 0, s (IMUs, and location tags with a
+    /// clock of their own, `rtls.clock`; 0 otherwise).
     pub clock_offset_s: f64,
-    /// Device clock rate error, ppm (IMUs; 0 otherwise).
+    /// Device clock rate error, ppm (as `clock_offset_s`; 0 otherwise).
     pub clock_drift_ppm: f64,
     /// `segment_from_sensor` actually used, `[w, x, y, z]` (IMUs).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -277,6 +278,13 @@ pub fn simulate(
             &mut rng,
             relabel_rng,
         )?;
+        let out = match &cam.position_only {
+            Some(config) => {
+                let mut point_rng = stream(seed, &format!("camera/{}/point", cam.id));
+                to_position_only(out, &model, config, &mut point_rng)
+            }
+            None => out,
+        };
         held.add_skeletons(out.observations.len(), out.truths.len());
         recording.extend(out.observations.into_iter().map(Message::from));
         truth.extend(out.truths.into_iter().map(Message::from));
@@ -445,6 +453,36 @@ pub fn simulate(
                             .unzip();
                         (run.fixes, run.truth) = (fixes, truths);
                     }
+                    if config.planar {
+                        for fix in &mut run.fixes {
+                            fix.position_m.z = 0.0;
+                        }
+                    }
+                    // The tag's own clock: its fixes (and their truth, which the evaluation
+                    // pairs with them by stamp) carry its readings.
+                    let tag_clock = config.clock.map(|c| {
+                        let clock = c.draw(&mut stream(seed, &format!("rtls/{}/clock", w.device)));
+                        dt.clock_offset_s = clock.offset_s;
+                        dt.clock_drift_ppm = clock.drift_ppm;
+                        clock
+                    });
+                    let restamp = |t: nomen_core::SessionTime| {
+                        tag_clock
+                            .and_then(|c| {
+                                nomen_core::SessionTime::from_secs_f64(
+                                    c.to_device_s(t.as_secs_f64()),
+                                )
+                            })
+                            .unwrap_or(t)
+                    };
+                    if tag_clock.is_some() {
+                        for fix in &mut run.fixes {
+                            fix.t = restamp(fix.t);
+                        }
+                        for t in &mut run.truth {
+                            t.t = restamp(t.t);
+                        }
+                    }
                     dt.num_messages = run.fixes.len();
                     dt.num_lost = run.num_lost;
                     recording.extend(run.fixes.into_iter().map(Message::RtlsFix));
@@ -464,6 +502,11 @@ pub fn simulate(
                         )?;
                         if carried.may_be_away {
                             run.ranges.retain(|r| !is_away(r.t.as_secs_f64(), false));
+                        }
+                        if tag_clock.is_some() {
+                            for r in &mut run.ranges {
+                                r.t = restamp(r.t);
+                            }
                         }
                         dt.num_messages += run.ranges.len();
                         recording.extend(run.ranges.into_iter().map(Message::UwbRange));

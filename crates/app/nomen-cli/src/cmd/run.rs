@@ -11,6 +11,7 @@ use crate::skip::{SkipLimit, read_policy};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use nomen_calib::auto::{AutoCalibration, AutoCalibrationConfig, AutoCalibrator};
 use nomen_core::{Calibration, CameraId, ClockModel, Message, Registry};
 use nomen_engine::{Engine, EngineConfig, Retracker};
 use nomen_recording::plausibility::{Finding, Plausibility};
@@ -96,6 +97,22 @@ pub struct RunArgs {
     /// registry.
     #[arg(long, value_name = "FILE")]
     pub calibration: Option<PathBuf>,
+    /// `auto`: estimate each camera's transform to the location tags' frame (rigid, or a
+    /// similarity when the rigid fit is poor) and each location tag's clock offset from the
+    /// recording itself (`nomen_calib::auto`; engine only, from a file). A first pass reads the
+    /// recording until the estimate is complete (from 20 s of data on) or the first 60 s are
+    /// read, and the run then starts from the beginning with it; during the run the estimate is
+    /// refined every 30 s of data and laid over the engine. The summary starts with what was
+    /// estimated, and warns when a camera or tag could not be calibrated.
+    #[arg(long, value_enum, value_name = "MODE", conflicts_with = "calibration")]
+    pub calibrate: Option<CalibrateMode>,
+}
+
+/// How `nomen run` calibrates cameras and tags beyond the registry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CalibrateMode {
+    /// From the recording's own tracks and fixes (`nomen_calib::auto`).
+    Auto,
 }
 
 /// What the engine path of `nomen run` adds to the engine itself.
@@ -115,6 +132,8 @@ pub struct EngineExtras {
     pub retrack: bool,
     /// Laid over the input's registry (`--calibration`).
     pub calibration: Option<Calibration>,
+    /// Estimate the calibration from the input (`--calibrate auto`).
+    pub calibrate_auto: Option<AutoCalibrationConfig>,
 }
 
 /// A calibration file: TOML (`.toml`) or JSON (`nomen_core::Calibration`).
@@ -199,6 +218,9 @@ pub fn run(args: RunArgs) -> Result<()> {
                 live: args.live,
                 retrack: args.retrack,
                 calibration,
+                calibrate_auto: args
+                    .calibrate
+                    .map(|CalibrateMode::Auto| AutoCalibrationConfig::default()),
             };
             run_file(&args.recording, &args.out, config, skip, &extras)?
         }
@@ -208,9 +230,10 @@ pub fn run(args: RunArgs) -> Result<()> {
                 || args.cnn.is_some()
                 || args.live
                 || args.retrack
+                || args.calibrate.is_some()
             {
                 bail!(
-                    "--refine-joints, --environment, --cnn, --live and --retrack work with the engine (--method nomen) only"
+                    "--refine-joints, --environment, --cnn, --live, --retrack and --calibrate work with the engine (--method nomen) only"
                 );
             }
             if args.config.is_some() {
@@ -639,9 +662,12 @@ pub fn run_file(
         ..ReadOptions::with_policy(read_policy(skip))
     };
     let mut input = if extras.live {
-        Input::live(recording, options)?
+        Input::live(recording, options.clone())?
     } else {
-        Input::Reader(Box::new(nomen_mcap::open_recording(recording, options)?))
+        Input::Reader(Box::new(nomen_mcap::open_recording(
+            recording,
+            options.clone(),
+        )?))
     };
     let Some(registry) = input.header().registry.clone() else {
         bail!(
@@ -654,6 +680,28 @@ pub fn run_file(
         extras.calibration.as_ref(),
         &crate::io::source_name(recording),
     )?;
+    // `--calibrate auto`: a first pass to the first estimate, a calibrator that refines it.
+    let mut auto = match &extras.calibrate_auto {
+        Some(config) => Some(AutoRun::start(
+            recording, options, &registry, *config, extras,
+        )?),
+        None => None,
+    };
+    let registry = match &auto {
+        Some(a) => {
+            let mut calibrated = registry;
+            calibrated
+                .apply_calibration(&a.first.calibration)
+                .with_context(|| {
+                    format!(
+                        "{}: the estimated calibration does not fit the registry",
+                        crate::io::source_name(recording)
+                    )
+                })?;
+            calibrated
+        }
+        None => registry,
+    };
     let mut engine = build_engine(
         registry.clone(),
         config,
@@ -803,6 +851,9 @@ pub fn run_file(
                         crate::io::source_name(recording)
                     );
                 }
+                if let Some(a) = auto.as_mut() {
+                    a.push(&m, &mut engine);
+                }
                 feed(Some(m), &mut retracker, &mut engine, &mut refinement);
             }
             Event::Message(Err(e)) => {
@@ -843,7 +894,8 @@ pub fn run_file(
         return Err(stopped_reading(e, num_out, out));
     }
     let stats = input.into_stats();
-    let mut summary = format!(
+    let mut summary = auto.as_ref().map_or_else(String::new, AutoRun::summary);
+    summary.push_str(&format!(
         "{}: {stats}; engine rejected {num_rejected} messages, stitched {} tracks ({} of them seen again), undid {} id swaps, estimated {} clock offsets (moved {}, withdrawn {}, settled {}); wrote {num_out} decisions to {}",
         crate::io::source_name(recording),
         engine.stats().num_stitched,
@@ -854,7 +906,7 @@ pub fn run_file(
         engine.stats().num_offsets_withdrawn,
         engine.stats().num_offsets_settled,
         crate::io::sink_name(out)
-    );
+    ));
     if let Some(first) = first_rejection {
         summary.push_str(&format!(" (first rejection: {first})"));
     }
@@ -960,4 +1012,207 @@ fn gravity_warnings(stats: &nomen_engine::EngineStats) -> String {
             )
         })
         .collect()
+}
+
+/// `--calibrate auto` in a run: the first estimate (from a first pass over the recording) and
+/// the calibrator that refines it as the run reads on.
+struct AutoRun {
+    /// The estimate the run started with.
+    first: AutoCalibration,
+    /// Refines it; fed every message of the run.
+    calibrator: AutoCalibrator,
+    /// The last refined estimate laid over the engine, and how many were.
+    last_applied: Option<AutoCalibration>,
+    num_applied: usize,
+    /// Refined estimates that were not complete, or that the engine refused (the first
+    /// reason).
+    num_not_applied: usize,
+    first_refusal: Option<String>,
+}
+
+impl AutoRun {
+    /// Reads `recording` until the calibrator's first estimate is complete, or final at its
+    /// window, or the recording ends (a bad line ends it too: the run proper reports it).
+    fn start(
+        recording: &Path,
+        options: ReadOptions,
+        registry: &Registry,
+        config: AutoCalibrationConfig,
+        extras: &EngineExtras,
+    ) -> Result<Self> {
+        if extras.live || crate::io::is_std_stream(recording) {
+            bail!(
+                "--calibrate auto reads the recording twice (its first minute, then all of it): \
+                 give a file, not stdin or --live"
+            );
+        }
+        let mut calibrator = AutoCalibrator::new(registry, config)?;
+        let mut reader = nomen_mcap::open_recording(recording, options)?;
+        let mut first = None;
+        for m in reader.by_ref() {
+            let Ok(m) = m else { break };
+            calibrator.push(&m);
+            if let Some(estimate) = calibrator.poll()
+                && calibrator.is_settled()
+            {
+                first = Some(estimate);
+                break;
+            }
+        }
+        let first = match first {
+            Some(e) => e,
+            None => calibrator.finish().with_context(|| {
+                format!(
+                    "{}: --calibrate auto found no skeleton or location fix to calibrate with",
+                    crate::io::source_name(recording)
+                )
+            })?,
+        };
+        if !first.is_complete() {
+            eprintln!(
+                "nomen run: warning: --calibrate auto could not calibrate everything from the \
+                 first {:.0} s (details at the start of the summary)",
+                first.span_s
+            );
+        }
+        Ok(Self {
+            calibrator: AutoCalibrator::new(registry, config)?,
+            first,
+            last_applied: None,
+            num_applied: 0,
+            num_not_applied: 0,
+            first_refusal: None,
+        })
+    }
+
+    /// A message of the run: to the calibrator, and a refined estimate, once one uses more data
+    /// than the estimate in force and calibrates everything, to the engine.
+    fn push(&mut self, m: &Message, engine: &mut Engine) {
+        self.calibrator.push(m);
+        let Some(estimate) = self.calibrator.poll() else {
+            return;
+        };
+        let span_in_force_s = self
+            .last_applied
+            .as_ref()
+            .map_or(self.first.span_s, |e| e.span_s);
+        if estimate.span_s <= span_in_force_s {
+            return;
+        }
+        if !estimate.is_complete() {
+            self.num_not_applied += 1;
+            return;
+        }
+        match engine.update_calibration(&estimate.calibration) {
+            Ok(()) => {
+                self.num_applied += 1;
+                self.last_applied = Some(estimate);
+            }
+            Err(e) => {
+                self.num_not_applied += 1;
+                self.first_refusal.get_or_insert_with(|| e.to_string());
+            }
+        }
+    }
+
+    /// What was estimated: the first estimate, the last refinement, and the warnings.
+    fn summary(&self) -> String {
+        let mut text = format!(
+            "calibrate auto: first estimate from the first {:.1} s of data:\n",
+            self.first.span_s
+        );
+        text.push_str(&describe(&self.first));
+        match &self.last_applied {
+            Some(last) => {
+                text.push_str(&format!(
+                    "calibrate auto: refined {} times as the run read on ({} refinements not \
+                     applied); the last, from {:.1} s of data:\n",
+                    self.num_applied, self.num_not_applied, last.span_s
+                ));
+                text.push_str(&describe(last));
+            }
+            None => text.push_str(&format!(
+                "calibrate auto: no refinement applied ({} not applied: incomplete{})\n",
+                self.num_not_applied,
+                if self.first_refusal.is_some() {
+                    " or refused"
+                } else {
+                    ""
+                }
+            )),
+        }
+        if let Some(why) = &self.first_refusal {
+            text.push_str(&format!(
+                "  warning: the engine refused a refined calibration: {why}\n"
+            ));
+        }
+        text
+    }
+}
+
+/// An estimate, a few lines per camera and tag, with a warning for each that failed.
+fn describe(estimate: &AutoCalibration) -> String {
+    let mut text = String::new();
+    for c in &estimate.cameras {
+        match &c.outcome {
+            Ok(fit) => {
+                let t = &fit.world_from_camera;
+                let (axis, angle) = t
+                    .rotation()
+                    .axis_angle()
+                    .map_or(([0.0, 0.0, 1.0], 0.0), |(a, ang)| ([a.x, a.y, a.z], ang));
+                let tr = t.translation_m();
+                let r = &fit.report;
+                text.push_str(&format!(
+                    "  camera {}: {} fit against tag {}: scale {:.5} m per unit, rotation {:.1}° \
+                     about [{:.3}, {:.3}, {:.3}], translation [{:.2}, {:.2}, {:.2}] m; clock \
+                     offset camera − tag {:+.3} s (contrast {:.1}); {} pairs, {} inliers, inlier \
+                     RMS {:.2} m, median {:.2} m; wearer in {} of {} tracks\n",
+                    c.camera,
+                    match fit.kind {
+                        nomen_calib::FitKind::Rigid => "rigid",
+                        nomen_calib::FitKind::Similarity => "similarity",
+                    },
+                    fit.tag,
+                    t.scale,
+                    angle.to_degrees(),
+                    axis[0],
+                    axis[1],
+                    axis[2],
+                    tr.x,
+                    tr.y,
+                    tr.z,
+                    fit.clock_offset_ns as f64 * 1e-9,
+                    fit.contrast,
+                    r.num_points,
+                    r.num_inliers,
+                    r.rmse_inliers_m,
+                    r.median_m,
+                    fit.num_wearer_tracks,
+                    fit.num_candidate_tracks,
+                ));
+            }
+            Err(why) => text.push_str(&format!(
+                "  warning: camera {} not calibrated (its registry pose is used): {why}\n",
+                c.camera
+            )),
+        }
+    }
+    for t in &estimate.tags {
+        match &t.outcome {
+            Ok((camera, clock)) => text.push_str(&format!(
+                "  tag {}: clock offset {:+.3} s (session = stamp + offset; from camera {camera})\n",
+                t.tag,
+                clock.offset_ns as f64 * 1e-9
+            )),
+            Err(why) => text.push_str(&format!(
+                "  warning: tag {} clock not estimated (its registry clock is used): {why}\n",
+                t.tag
+            )),
+        }
+    }
+    if estimate.cameras.is_empty() {
+        text.push_str("  warning: no camera sent skeletons: nothing to calibrate\n");
+    }
+    text
 }

@@ -50,6 +50,113 @@ pub struct CameraModelConfig {
     pub occlusion: OcclusionConfig,
     /// Track-id behaviour of the SDK.
     pub tracking: TrackingConfig,
+    /// A position-only tracker (an overhead people counter) instead of a body-tracking
+    /// camera: one point per track, in the tracker's own frame and units. Default absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position_only: Option<PositionOnlyConfig>,
+}
+
+/// A position-only tracker: an overhead people counter or centroid tracker that reports one
+/// point per track (the top of the head, or the body's centroid) in its own frame and units.
+///
+/// The sensor sees people as the body-tracking camera does (field of view from `position_m`
+/// towards `look_at_m`, occlusion, track ids; an overhead sensor looks almost straight down),
+/// then reports only [`PositionOnlyConfig::joint`]'s position, moved into its own frame,
+/// `p_tracker = tracker_from_world · p_world`, with `tracker_from_world` the inverse of the
+/// similarity `world_from_tracker`: rotate by `rotation_deg_xyz` (about x, then y, then z),
+/// scale by `m_per_unit`, move by `origin_m`. The registry knows nothing of this frame (the
+/// tracker is registered at the identity, scale 1): finding it is the calibration's work.
+///
+/// ```toml
+/// [cameras.position_only]
+/// m_per_unit = 0.0153
+/// origin_m = [4.0, 3.0, 3.5]
+/// rotation_deg_xyz = [180.0, 0.0, 35.0]
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PositionOnlyConfig {
+    /// The joint whose position is reported: `head` (overhead head trackers) or `pelvis`
+    /// (centroid trackers). Default `head`.
+    pub joint: nomen_core::Joint,
+    /// Metres per tracker unit. Default 0.0153 (an overhead people counter in its own units,
+    /// as `nomen calibrate frames --similarity` fitted one, issue 66).
+    pub m_per_unit: f64,
+    /// The tracker frame's origin in the world, m. Default `[0, 0, 0]`.
+    pub origin_m: [f64; 3],
+    /// The tracker frame's rotation in the world: about x, then y, then z (extrinsic), degrees.
+    /// Default `[180, 0, 0]` (a ceiling sensor: z pointing down, away from it).
+    pub rotation_deg_xyz: [f64; 3],
+    /// Extra error of the reported point per horizontal world axis, m: where the tracker puts
+    /// the head or centroid in the blob it segments, on top of the camera's joint noise.
+    /// Default 0.03 m: **an assumption** (counter vendors give counting accuracy, not
+    /// positional error; a head blob is ~0.2 m across).
+    pub point_sigma_m: f64,
+    /// Whether the tracker reports a height; without, it reports z = 0 in its frame (a 2D
+    /// tracker). Default true.
+    pub reports_height: bool,
+}
+
+impl Default for PositionOnlyConfig {
+    fn default() -> Self {
+        Self {
+            joint: nomen_core::Joint::Head,
+            m_per_unit: 0.0153,
+            origin_m: [0.0; 3],
+            rotation_deg_xyz: [180.0, 0.0, 0.0],
+            point_sigma_m: 0.03,
+            reports_height: true,
+        }
+    }
+}
+
+impl PositionOnlyConfig {
+    /// `world_from_tracker` as (scale, rotation, translation): `p_world = R · (s · p) + t`.
+    pub fn world_from_tracker(&self) -> (f64, nalgebra::Isometry3<f64>) {
+        let [rx, ry, rz] = self.rotation_deg_xyz.map(f64::to_radians);
+        let rotation = nalgebra::UnitQuaternion::from_euler_angles(rx, ry, rz);
+        (
+            self.m_per_unit,
+            nalgebra::Isometry3::from_parts(
+                nalgebra::Translation3::from(nalgebra::Vector3::from(self.origin_m)),
+                rotation,
+            ),
+        )
+    }
+
+    /// The world point `p_world` as the tracker reports it (before noise).
+    pub fn to_tracker(&self, p_world: &nalgebra::Point3<f64>) -> nalgebra::Point3<f64> {
+        let (scale, iso) = self.world_from_tracker();
+        let mut p = nalgebra::Point3::from((iso.inverse() * p_world).coords / scale);
+        if !self.reports_height {
+            p.z = 0.0;
+        }
+        p
+    }
+
+    fn validate(&self) -> std::result::Result<(), String> {
+        if !(self.m_per_unit.is_finite() && self.m_per_unit >= 1e-6 && self.m_per_unit <= 1e3) {
+            return Err(format!(
+                "position_only.m_per_unit must be in [1e-6, 1e3], got {}",
+                self.m_per_unit
+            ));
+        }
+        if !self
+            .origin_m
+            .iter()
+            .chain(&self.rotation_deg_xyz)
+            .all(|v| v.is_finite())
+        {
+            return Err("position_only.origin_m/rotation_deg_xyz must be finite".to_owned());
+        }
+        if !(self.point_sigma_m.is_finite() && (0.0..=10.0).contains(&self.point_sigma_m)) {
+            return Err(format!(
+                "position_only.point_sigma_m must be in [0, 10] m, got {}",
+                self.point_sigma_m
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Default for CameraModelConfig {
@@ -68,6 +175,7 @@ impl Default for CameraModelConfig {
             noise: JointNoiseConfig::default(),
             occlusion: OcclusionConfig::default(),
             tracking: TrackingConfig::default(),
+            position_only: None,
         }
     }
 }
@@ -302,6 +410,14 @@ impl CameraModelConfig {
         }
         if t.track_id_base_max == 0 || t.track_id_base_max > u64::MAX / 2 {
             return bad("tracking.track_id_base_max", "must be in [1, 2^63)");
+        }
+        if let Some(p) = &self.position_only
+            && let Err(why) = p.validate()
+        {
+            return Err(SimError::InvalidScenario(format!(
+                "camera '{}': {why}",
+                self.id
+            )));
         }
         Ok(())
     }

@@ -23,8 +23,12 @@
 //! caller maps times with the registry's `ClockModel`).
 
 mod config;
+mod position_only;
 mod sim;
 
-pub use config::{CameraModelConfig, JointNoiseConfig, OcclusionConfig, TrackingConfig};
+pub use config::{
+    CameraModelConfig, JointNoiseConfig, OcclusionConfig, PositionOnlyConfig, TrackingConfig,
+};
+pub use position_only::to_position_only;
 pub(crate) use sim::is_limb;
 pub use sim::{CameraModel, CameraOutput, CameraSimulator, PersonInScene};

@@ -107,8 +107,16 @@ impl CameraModel {
         }
     }
 
-    /// The registry entry for this camera (clock on the session clock).
+    /// The registry entry for this camera (clock on the session clock). A position-only
+    /// tracker is registered at the identity, scale 1, without intrinsics: its frame is what a
+    /// calibration finds.
     pub fn registry_camera(&self) -> Camera {
+        if self.config.position_only.is_some() {
+            return Camera {
+                fps_hz: Some(self.config.fps_hz),
+                ..Camera::new(self.id.clone(), RigidTransform::IDENTITY)
+            };
+        }
         Camera {
             id: self.id.clone(),
             world_from_camera: RigidTransform::from_isometry(&self.world_from_camera),

@@ -84,6 +84,16 @@ pub struct RtlsConfig {
     /// assumption** when set: no recording here has blocked fixes to fit.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub blocked_nlos_probability: Option<f64>,
+    /// The location system solves x and y only and reports every fix at z = 0 (many
+    /// deployments with anchors at one height do). Default false.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub planar: bool,
+    /// Each tag's fixes stamped on a clock of its own (an RTLS server that is not synchronised
+    /// with the cameras): every tag draws its clock from this model, from its stream
+    /// `rtls/<device>/clock`, and stamps its fixes (and raw ranges) with that clock's reading.
+    /// Default absent: the session clock.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clock: Option<super::ClockConfig>,
 }
 
 impl Default for RtlsConfig {
@@ -101,6 +111,8 @@ impl Default for RtlsConfig {
             loss: BurstLossConfig::bursts(0.01, 2.0),
             device_spread: 1.0,
             blocked_nlos_probability: None,
+            planar: false,
+            clock: None,
         }
     }
 }
@@ -146,6 +158,9 @@ impl RtlsConfig {
         )?;
         if let Some(b) = self.blocked_nlos_probability {
             check_in(p, "blocked_nlos_probability", b, 0.0, 1.0)?;
+        }
+        if let Some(clock) = &self.clock {
+            clock.validate("rtls.clock")?;
         }
         self.loss.validate("rtls.loss")
     }
