@@ -988,7 +988,7 @@ fn run_retrack_numbers_detections_anew_and_reports_under_their_own_ids() {
     ]);
     assert!(!o.status.success());
     assert!(
-        text(&o.stderr).contains("--retrack work with the engine"),
+        text(&o.stderr).contains("--retrack and --calibrate work with the engine"),
         "{}",
         text(&o.stderr)
     );
