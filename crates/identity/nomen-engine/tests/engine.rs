@@ -2932,6 +2932,25 @@ fn every_decision_carries_a_trace_that_agrees_with_its_identity() {
     assert!(line.contains("\"decision\":{\"rule\":"), "{line}");
 }
 
+/// The identified skeletons of an output.
+fn identified(out: &[Message]) -> Vec<IdentifiedSkeleton> {
+    out.iter()
+        .filter_map(|m| match m {
+            Message::Identified(id) => Some((**id).clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Halfway between the lowest and the highest of `values` (`what` in the message when they
+/// do not differ).
+fn midway(values: &[f64], what: &str) -> f64 {
+    let lowest = values.iter().copied().fold(f64::INFINITY, f64::min);
+    let highest = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    assert!(lowest < highest, "{what} {lowest}..{highest}");
+    0.5 * (lowest + highest)
+}
+
 #[test]
 fn a_minimum_name_probability_withholds_exactly_the_names_below_it() {
     // The gate acts where a frame's name is sent: the decisions stay the same, a name whose
@@ -2947,24 +2966,13 @@ fn a_minimum_name_probability_withholds_exactly_the_names_below_it() {
         ..EngineConfig::default()
     };
     let (plain, _) = run_batch(&reg, &msgs, &plain_config).unwrap();
-    let identified = |out: &[Message]| -> Vec<IdentifiedSkeleton> {
-        out.iter()
-            .filter_map(|m| match m {
-                Message::Identified(id) => Some((**id).clone()),
-                _ => None,
-            })
-            .collect()
-    };
     let plain = identified(&plain);
     let named: Vec<f64> = plain
         .iter()
         .filter(|id| matches!(id.identity, Identity::Subject(_)))
         .map(|id| id.confidence)
         .collect();
-    let lowest = named.iter().copied().fold(f64::INFINITY, f64::min);
-    let highest = named.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    assert!(lowest < highest, "named confidences {lowest}..{highest}");
-    let minimum = 0.5 * (lowest + highest);
+    let minimum = midway(&named, "named confidences");
     let config = EngineConfig {
         min_name_probability: minimum,
         ..plain_config
@@ -3009,30 +3017,22 @@ fn with_more_people_in_view_than_subjects_streaming_a_name_less_likely_than_not_
     // nothing.
     let mut people = ana_and_her_look_alike(0.8);
     people.push(Person::new(Some("ben"), 1.3, 2.5, 3));
-    let identified = |people: &[Person], minimum: f64| -> Vec<IdentifiedSkeleton> {
+    let identified_with = |people: &[Person], minimum: f64| -> Vec<IdentifiedSkeleton> {
         let config = EngineConfig {
             open_set_min_name_probability: minimum,
             ..EngineConfig::default()
         };
         let (out, _) = run_batch(&registry(people), &recording(people, 20.0), &config).unwrap();
-        out.iter()
-            .filter_map(|m| match m {
-                Message::Identified(id) => Some((**id).clone()),
-                _ => None,
-            })
-            .collect()
+        identified(&out)
     };
-    let plain = identified(&people, 0.0);
+    let plain = identified_with(&people, 0.0);
     let named: Vec<f64> = plain
         .iter()
         .filter(|id| matches!(id.identity, Identity::Subject(_)))
         .map(|id| id.confidence)
         .collect();
-    let lowest = named.iter().copied().fold(f64::INFINITY, f64::min);
-    let highest = named.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    assert!(lowest < highest, "named confidences {lowest}..{highest}");
-    let minimum = 0.5 * (lowest + highest);
-    let gated = identified(&people, minimum);
+    let minimum = midway(&named, "named confidences");
+    let gated = identified_with(&people, minimum);
     assert_eq!(plain.len(), gated.len());
     let mut num_withheld = 0;
     for (before, after) in plain.iter().zip(&gated) {
@@ -3051,7 +3051,10 @@ fn with_more_people_in_view_than_subjects_streaming_a_name_less_likely_than_not_
     // Dan registered, with a band of his own.
     let dan = people.iter_mut().find(|p| p.subject.is_none()).unwrap();
     dan.subject = Some("dan");
-    assert_eq!(identified(&people, 0.0), identified(&people, minimum));
+    assert_eq!(
+        identified_with(&people, 0.0),
+        identified_with(&people, minimum)
+    );
 }
 
 #[test]
@@ -3062,19 +3065,14 @@ fn with_more_people_in_view_than_subjects_streaming_a_name_that_fits_poorly_is_w
     // nothing else changes. When everyone in view streams, the option changes nothing.
     let mut people = ana_and_her_look_alike(0.8);
     people.push(Person::new(Some("ben"), 1.3, 2.5, 3));
-    let identified = |people: &[Person], minimum: f64| -> Vec<IdentifiedSkeleton> {
+    let identified_with = |people: &[Person], minimum: f64| -> Vec<IdentifiedSkeleton> {
         let config = EngineConfig {
             open_set_min_name_probability: 0.0,
             open_set_min_score: minimum,
             ..EngineConfig::default()
         };
         let (out, _) = run_batch(&registry(people), &recording(people, 20.0), &config).unwrap();
-        out.iter()
-            .filter_map(|m| match m {
-                Message::Identified(id) => Some((**id).clone()),
-                _ => None,
-            })
-            .collect()
+        identified(&out)
     };
     let named_score = |id: &IdentifiedSkeleton| -> Option<f64> {
         match id.identity {
@@ -3082,13 +3080,10 @@ fn with_more_people_in_view_than_subjects_streaming_a_name_that_fits_poorly_is_w
             Identity::Anonymous => None,
         }
     };
-    let plain = identified(&people, 0.0);
+    let plain = identified_with(&people, 0.0);
     let scores: Vec<f64> = plain.iter().filter_map(named_score).collect();
-    let lowest = scores.iter().copied().fold(f64::INFINITY, f64::min);
-    let highest = scores.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    assert!(lowest < highest, "named scores {lowest}..{highest}");
-    let minimum = 0.5 * (lowest + highest);
-    let gated = identified(&people, minimum);
+    let minimum = midway(&scores, "named scores");
+    let gated = identified_with(&people, minimum);
     assert_eq!(plain.len(), gated.len());
     let (mut num_withheld, mut num_kept_weak) = (0, 0);
     for (before, after) in plain.iter().zip(&gated) {
@@ -3121,7 +3116,10 @@ fn with_more_people_in_view_than_subjects_streaming_a_name_that_fits_poorly_is_w
     // Dan registered, with a band of his own.
     let dan = people.iter_mut().find(|p| p.subject.is_none()).unwrap();
     dan.subject = Some("dan");
-    assert_eq!(identified(&people, 0.0), identified(&people, minimum));
+    assert_eq!(
+        identified_with(&people, 0.0),
+        identified_with(&people, minimum)
+    );
     // A score minimum is in 0..=1.
     let bad = EngineConfig {
         open_set_min_score: -0.1,
