@@ -826,10 +826,7 @@ pub struct EngineConfig {
     /// --family wrist_8 --family wrist_32 --family uwb_tags`). The cost shows on the shipped
     /// `hospital_room` (`scenarios/library.sh`, seeds 1–5: 100 → 95.8 % frames correct): the
     /// doctor's one wrist band fits his walk at 0.33–0.74, and while a visitor is in the room
-    /// his name is withheld where it dips below 0.45. Keeping a name that scores near its
-    /// subject's usual score (0.8 of an exponential mean of his sent names' scores) gave that
-    /// back in part (97.0 %) but named people who wear nothing more often (validation:
-    /// intruders 0.9 → 1.6 %, leave-and-return 0.8 → 1.1 %, 64-person crowds 10.4 → 10.9 %).
+    /// his name is withheld where it dips below 0.45.
     pub open_set_min_score: f64,
     /// Two tracks of a camera closer than this across the line of sight are in a close encounter,
     /// after which their ids may have been swapped by the SDK (their evidence is pooled when they
