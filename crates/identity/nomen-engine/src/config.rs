@@ -736,6 +736,18 @@ pub struct EngineConfig {
     /// frames of people wearing nothing named 26 / 41 % (intruders) and 53 / 85 % (same
     /// motion). The shipped scenes (`scenarios/library.sh`, seeds 1–5) stay within 0.2 points.
     pub camera_exclusion_margin: f64,
+    /// Two tracks far apart (see [`EngineConfig::camera_exclusion_distance_m`]) that one decision
+    /// names after the same subject with scores within this much of each other both go
+    /// anonymous, in the window score's units: one person is in one place, and the evidence
+    /// cannot tell which. A holder that leads its far rivals by more keeps the name, and the
+    /// rivals more than [`EngineConfig::camera_exclusion_margin`] below it go anonymous. Default
+    /// 0.1: in 64-person crowds (the benchmark's validation split, scenes 0–3, one decision's
+    /// name given to two far tracks at once), neither holder is the subject in half of the
+    /// cases, and where one is, the lower-scoring one is as often as the higher when they
+    /// score within 0.1. Negative disables the pass (a name then stays off a far track only
+    /// once an earlier decision gave it elsewhere). Measured with
+    /// `scenarios/families/sweep.sh camera_exclusion_tie -1 0 0.05 0.1 -- --count 4`.
+    pub camera_exclusion_tie: f64,
     /// Whether a track that its own decision leaves anonymous may take a name from elsewhere (an
     /// earlier decision about it, the track that continues it, another camera's view of its
     /// person) even when its own evidence speaks against it: its best subject is held by a
@@ -971,6 +983,7 @@ impl Default for EngineConfig {
             camera_pair_distance_m: 0.2,
             camera_exclusion_distance_m: 1.0,
             camera_exclusion_margin: 0.0,
+            camera_exclusion_tie: 0.1,
             names_against_own_evidence: false,
             min_name_probability: 0.0,
             open_set_min_name_probability: 0.5,
@@ -1192,6 +1205,7 @@ impl EngineConfig {
             ),
             ("exclusion_margin", self.exclusion_margin),
             ("camera_exclusion_margin", self.camera_exclusion_margin),
+            ("camera_exclusion_tie", self.camera_exclusion_tie),
         ] {
             if !(v.is_finite() && (-1.0..=1.0).contains(&v)) {
                 return Err(EngineError::InvalidConfig(format!(

@@ -198,7 +198,10 @@
 //!    Across cameras, a subject named on a track far from this one (torsos farther apart than
 //!    [`EngineConfig::camera_exclusion_distance_m`] on average over the last two windows) is
 //!    kept off it unless its score is within [`EngineConfig::camera_exclusion_margin`] (0: at
-//!    least as high) of that track's: one person is not in two places.
+//!    least as high) of that track's: one person is not in two places. The same holds within
+//!    a decision: once every camera has assigned, a subject given to tracks far apart stays
+//!    with the best-scoring one if it leads the others by more than
+//!    [`EngineConfig::camera_exclusion_tie`] (0.1), and otherwise none of them keeps it.
 //!    While none of a subject's IMUs has an accepted offset, a move of her name from one
 //!    track to another that coexists with it must beat the holder's score by
 //!    [`EngineConfig::unsynced_switch_margin`], or neither track holds her for that decision;

@@ -2162,6 +2162,62 @@ fn a_subject_named_by_one_camera_is_kept_off_a_track_of_the_other_camera_far_fro
 }
 
 #[test]
+fn a_name_that_fits_two_tracks_far_apart_equally_stays_off_both() {
+    // Ana wears a band and is seen by the second camera only; Dan, 1.5 m away, wears nothing,
+    // moves exactly like her and is seen by the first camera only. Each camera's assignment
+    // gives Ana's name to its own track; one person is in one place, and nothing tells which
+    // of the two wears the band, so neither track keeps the name.
+    let mut people = ana_and_her_look_alike(1.5);
+    let ana = people[0].clone();
+    for person in &mut people {
+        person.track = 3 - person.track;
+    }
+    if let Some(dan) = people.get_mut(1) {
+        dan.freq_hz = ana.freq_hz;
+        dan.phase_rad = ana.phase_rad;
+        dan.mod_hz = ana.mod_hz;
+    }
+    let (registry, msgs) =
+        with_second_camera_tracks(&people, &recording(&people, 20.0), |_, _, track| {
+            TrackId(100 + track.0)
+        });
+    let msgs: Vec<Message> = msgs
+        .into_iter()
+        .filter(|m| match m {
+            Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => s.track == TrackId(1),
+            Message::Skeleton(s) => s.track == TrackId(102),
+            _ => true,
+        })
+        .collect();
+    let config = EngineConfig {
+        open_set_min_score: 0.0,
+        ..known_offsets()
+    };
+    // Frames of (Dan, Ana) named, and of Ana's track at all.
+    let named = |config: &EngineConfig| {
+        let (out, _) = run_batch(&registry, &msgs, config).unwrap();
+        let count = |camera: &str, track: u64| {
+            let labels = labels_of(&out, camera, track, 0.0, 20.0);
+            (labels.iter().filter(|l| l.is_some()).count(), labels.len())
+        };
+        let (dan, _) = count(common::CAMERA, 1);
+        let (ana, ana_frames) = count("cam2", 102);
+        assert!(ana_frames > 500, "{ana_frames} frames of Ana");
+        (dan, ana)
+    };
+    assert_eq!(named(&config), (0, 0));
+    // Without the pass over all cameras' assignments, the name goes back and forth.
+    let (dan, ana) = named(&EngineConfig {
+        camera_exclusion_tie: -1.0,
+        ..config
+    });
+    assert!(
+        dan + ana > 100,
+        "named {dan} + {ana} frames without the pass"
+    );
+}
+
+#[test]
 fn two_people_side_by_side_each_seen_by_one_camera_keep_their_own_names() {
     // Ana and Ben stand 0.25 m apart; the first camera sees only Ana, the second only Ben (each
     // hides the other from one camera). Their torsos stay closer than the old 0.3-m pooling

@@ -26,6 +26,17 @@ const SAME_TIME_NS: i64 = 50_000_000;
 /// A wearable that sent something this close before a decision's window end streams, ns.
 const STREAMING_NS: i64 = 5_000_000_000;
 
+/// One camera's assignment at a decision, before it is written to its tracks.
+struct CameraDecision {
+    keys: Vec<TrackKey>,
+    /// Each track's span as the observations before the decision tell.
+    spans: Vec<Option<(i64, i64)>>,
+    labels: Vec<Option<usize>>,
+    rules: Vec<DecisionRule>,
+    /// Rows whose name is withheld while clocks are unknown, with that subject.
+    held_back: Vec<(usize, usize)>,
+}
+
 impl Engine {
     /// The tracks of other cameras that show the same person as each of `active` (see
     /// [`EngineConfig::camera_pair_distance_m`](crate::EngineConfig::camera_pair_distance_m)):
@@ -128,6 +139,7 @@ impl Engine {
             }
         }
         let far_m = self.config.camera_exclusion_distance_m;
+        let mut decisions: Vec<CameraDecision> = Vec::with_capacity(self.cameras.len());
         for c in 0..self.cameras.len() {
             let keys: Vec<TrackKey> = active.iter().filter(|k| k.0 == c).copied().collect();
             if keys.is_empty() || self.subjects.is_empty() {
@@ -143,8 +155,10 @@ impl Engine {
                     .collect();
                 let label = self.tracks.get(key).and_then(|tr| tr.label);
                 let outscored_by = self.tracks.get(key).map(|tr| &tr.outscored_by);
-                // The subjects named on other cameras' tracks far from this one (one person
-                // cannot be in both places), with their scores there.
+                // The subjects named on other cameras' tracks far from this one by the previous
+                // decision (one person cannot be in both places), with their scores there; what
+                // this decision gives every camera is settled after all cameras have assigned
+                // (`keep_each_name_in_one_place`), so no camera's order counts.
                 let held_far: Vec<(usize, f64)> = if far_m > 0.0 {
                     distance
                         .range((*key, (0, TrackId(0)))..)
@@ -258,8 +272,25 @@ impl Engine {
                     },
                 )
                 .collect();
+            decisions.push(CameraDecision {
+                keys,
+                spans,
+                labels,
+                rules,
+                held_back,
+            });
+        }
+        self.keep_each_name_in_one_place(&mut decisions, &distance);
+        let is_warming_up = self.is_warming_up(end);
+        for CameraDecision {
+            keys,
+            spans,
+            labels,
+            rules,
+            held_back,
+        } in decisions
+        {
             self.note_exclusions(&keys, &spans, &labels);
-            let is_warming_up = self.is_warming_up(end);
             for (q, ((key, new_label), rule)) in keys.iter().zip(labels).zip(rules).enumerate() {
                 // Final for the warm-up: named after someone whose clock is known, or anonymous
                 // for another reason than a name withheld for unknown clocks.
@@ -439,6 +470,88 @@ impl Engine {
             Some(_) => (tr.first_t, i64::MAX),
             None => (end, i64::MAX),
         })
+    }
+
+    /// One person, one place, within a decision: a subject that several cameras' assignments give
+    /// to tracks far apart (farther than
+    /// [`EngineConfig::camera_exclusion_distance_m`](crate::EngineConfig::camera_exclusion_distance_m)
+    /// on average over their common frames, `distance`) stays with the best-scoring of them when
+    /// it leads each far rival by more than
+    /// [`EngineConfig::camera_exclusion_tie`](crate::EngineConfig::camera_exclusion_tie); a
+    /// rival more than
+    /// [`EngineConfig::camera_exclusion_margin`](crate::EngineConfig::camera_exclusion_margin)
+    /// below it goes anonymous ([`DecisionRule::HeldFarAway`]). Holders within the tie of each
+    /// other all go anonymous: the evidence cannot tell which is the subject, and most often
+    /// neither is. The rows' own gate sees only the labels of earlier decisions; this pass covers
+    /// a name that two cameras give at once, as at the first decisions of a session.
+    fn keep_each_name_in_one_place(
+        &self,
+        decisions: &mut [CameraDecision],
+        distance: &BTreeMap<(TrackKey, TrackKey), f64>,
+    ) {
+        let far_m = self.config.camera_exclusion_distance_m;
+        let margin = self.config.camera_exclusion_margin;
+        let tie = self.config.camera_exclusion_tie;
+        if far_m <= 0.0 || margin < 0.0 || tie < 0.0 {
+            return;
+        }
+        // Every holder of each subject: (its score, camera decision, row).
+        let mut holders: BTreeMap<usize, Vec<(f64, usize, usize)>> = BTreeMap::new();
+        for (c, decision) in decisions.iter().enumerate() {
+            for (q, (key, label)) in decision.keys.iter().zip(&decision.labels).enumerate() {
+                let Some(s) = *label else {
+                    continue;
+                };
+                let Some(tr) = self.tracks.get(key) else {
+                    continue;
+                };
+                let score = tr.subject_scores.get(&s).copied().unwrap_or(0.0);
+                holders.entry(s).or_default().push((score, c, q));
+            }
+        }
+        let key_of = |c: usize, q: usize| decisions.get(c)?.keys.get(q).copied();
+        let mut unnamed: Vec<(usize, usize)> = Vec::new();
+        for list in holders.values_mut().filter(|list| list.len() > 1) {
+            list.sort_by(|a, b| b.0.total_cmp(&a.0));
+            // Holders kept so far, best first: (score, track, camera decision, row).
+            let mut kept: Vec<(f64, TrackKey, usize, usize)> = Vec::with_capacity(list.len());
+            for &(score, c, q) in list.iter() {
+                let Some(key) = key_of(c, q) else {
+                    continue;
+                };
+                let far: Vec<&(f64, TrackKey, usize, usize)> = kept
+                    .iter()
+                    .filter(|(_, other, _, _)| {
+                        distance
+                            .get(&(key, *other))
+                            .is_some_and(|&apart_m| apart_m > far_m)
+                    })
+                    .collect();
+                let tied: Vec<(usize, usize)> = far
+                    .iter()
+                    .filter(|(held, _, _, _)| held - score <= tie)
+                    .map(|(_, _, fc, fq)| (*fc, *fq))
+                    .collect();
+                let is_below = far.iter().any(|(held, _, _, _)| held - score > margin);
+                if tied.is_empty() && !is_below {
+                    kept.push((score, key, c, q));
+                    continue;
+                }
+                unnamed.push((c, q));
+                unnamed.extend(tied);
+            }
+        }
+        for (c, q) in unnamed {
+            let Some(decision) = decisions.get_mut(c) else {
+                continue;
+            };
+            if let Some(label) = decision.labels.get_mut(q) {
+                *label = None;
+            }
+            if let Some(rule) = decision.rules.get_mut(q) {
+                *rule = DecisionRule::HeldFarAway;
+            }
+        }
     }
 
     /// After a camera's decision: every track that took part alongside the holder of a subject
