@@ -2101,15 +2101,19 @@ fn a_track_keeps_a_view_that_ended_and_takes_the_name_of_the_track_continuing_it
 /// (track 1) and the second camera only the second (track 102).
 fn each_seen_by_one_camera(people: &[Person], duration_s: f64) -> (Registry, Vec<Message>) {
     let (registry, msgs) = with_second_camera(people, &recording(people, duration_s));
-    let msgs = msgs
-        .into_iter()
+    (registry, first_on_one_camera_second_on_the_other(msgs))
+}
+
+/// `msgs` without the skeletons of the first camera's tracks other than 1 and of `cam2`'s other
+/// than 102.
+fn first_on_one_camera_second_on_the_other(msgs: Vec<Message>) -> Vec<Message> {
+    msgs.into_iter()
         .filter(|m| match m {
             Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => s.track == TrackId(1),
             Message::Skeleton(s) => s.track == TrackId(102),
             _ => true,
         })
-        .collect();
-    (registry, msgs)
+        .collect()
 }
 
 #[test]
@@ -2181,14 +2185,7 @@ fn a_name_that_fits_two_tracks_far_apart_equally_stays_off_both() {
         with_second_camera_tracks(&people, &recording(&people, 20.0), |_, _, track| {
             TrackId(100 + track.0)
         });
-    let msgs: Vec<Message> = msgs
-        .into_iter()
-        .filter(|m| match m {
-            Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => s.track == TrackId(1),
-            Message::Skeleton(s) => s.track == TrackId(102),
-            _ => true,
-        })
-        .collect();
+    let msgs = first_on_one_camera_second_on_the_other(msgs);
     let config = EngineConfig {
         open_set_min_score: 0.0,
         ..known_offsets()
