@@ -3,19 +3,12 @@
 //! device with a gyroscope.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
+use common::data_dir;
 use nomen_core::{ImuSample, Message};
 use nomen_sim::{Scenario, load_scenario_clips, simulate};
-use std::path::{Path, PathBuf};
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../../shared/data");
-    if dir.join("mocap/cmu/02_01.bvh").is_file() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: shared data not found at {}", dir.display());
-        None
-    }
-}
+use std::path::Path;
 
 const SCENE: &str = r#"
 name = "watches"

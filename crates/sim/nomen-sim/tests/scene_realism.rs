@@ -2,21 +2,13 @@
 //! noise and loss, and the validation of those fields.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
+use common::data_dir;
 use nomen_core::{DeviceKind, Message, TrackId};
 use nomen_sim::scene::DeviceTruth;
 use nomen_sim::sensors::DeviceClock;
 use nomen_sim::{Scenario, SimOutput, load_scenario_clips, simulate};
-use std::path::{Path, PathBuf};
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../../shared/data");
-    if dir.join("mocap/cmu/02_01.bvh").is_file() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: shared data not found at {}", dir.display());
-        None
-    }
-}
 
 fn run(text: &str, seed: u64) -> Option<SimOutput> {
     let data = data_dir()?;

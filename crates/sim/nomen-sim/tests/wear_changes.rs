@@ -3,19 +3,12 @@
 //! truth says who is whom at every frame.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
+use common::data_dir;
 use nomen_core::{Message, SubjectId};
 use nomen_sim::{Scenario, load_scenario_clips, simulate};
-use std::path::{Path, PathBuf};
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../../shared/data");
-    if dir.join("mocap/cmu/02_01.bvh").is_file() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: shared data not found at {}", dir.display());
-        None
-    }
-}
+use std::path::Path;
 
 /// Ana walks a loop in front of the camera; Bo waves 2 m behind it and wears nothing of his own.
 /// `{change_tag}` and `{change_imu}` are the `change` of Ana's tag and wrist IMU.
