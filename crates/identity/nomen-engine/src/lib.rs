@@ -202,6 +202,10 @@
 //!    a decision: once every camera has assigned, a subject given to tracks far apart stays
 //!    with the best-scoring one if it leads the others by more than
 //!    [`EngineConfig::camera_exclusion_tie`] (0.1), and otherwise none of them keeps it.
+//!    Where all cameras with tracks see people in common (one area) and the room is not known
+//!    to hold people who wear nothing, this pass leaves holders to each camera's own
+//!    assignment, which has weighed the people it sees
+//!    ([`EngineConfig::camera_exclusion_in_shared_view`]).
 //!    While none of a subject's IMUs has an accepted offset, a move of her name from one
 //!    track to another that coexists with it must beat the holder's score by
 //!    [`EngineConfig::unsynced_switch_margin`], or neither track holds her for that decision;

@@ -8,7 +8,8 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use nomen_core::skeleton::{Joint, Joints};
 use nomen_core::{
     CameraId, DecisionRule, DeviceId, IdentifiedSkeleton, Identity, ImuSample, JointObservation,
-    Message, Registry, RigidTransform, SessionTime, SkeletonObservation, TrackId,
+    Message, Registry, RigidTransform, SessionTime, SkeletonObservation, Subject, SubjectId,
+    TrackId,
 };
 use nomen_engine::{
     Engine, EngineConfig, EngineError, EngineStats, GeometricConfig, ModelWeights, run_batch,
@@ -2171,16 +2172,7 @@ fn a_name_that_fits_two_tracks_far_apart_equally_stays_off_both() {
     // moves exactly like her and is seen by the first camera only. Each camera's assignment
     // gives Ana's name to its own track; one person is in one place, and nothing tells which
     // of the two wears the band, so neither track keeps the name.
-    let mut people = ana_and_her_look_alike(1.5);
-    let ana = people[0].clone();
-    for person in &mut people {
-        person.track = 3 - person.track;
-    }
-    if let Some(dan) = people.get_mut(1) {
-        dan.freq_hz = ana.freq_hz;
-        dan.phase_rad = ana.phase_rad;
-        dan.mod_hz = ana.mod_hz;
-    }
+    let people = ana_and_her_exact_look_alike();
     let (registry, msgs) =
         with_second_camera_tracks(&people, &recording(&people, 20.0), |_, _, track| {
             TrackId(100 + track.0)
@@ -2190,17 +2182,10 @@ fn a_name_that_fits_two_tracks_far_apart_equally_stays_off_both() {
         open_set_min_score: 0.0,
         ..known_offsets()
     };
-    // Frames of (Dan, Ana) named, and of Ana's track at all.
+    // Frames of (Dan, Ana) named.
     let named = |config: &EngineConfig| {
         let (out, _) = run_batch(&registry, &msgs, config).unwrap();
-        let count = |camera: &str, track: u64| {
-            let labels = labels_of(&out, camera, track, 0.0, 20.0);
-            (labels.iter().filter(|l| l.is_some()).count(), labels.len())
-        };
-        let (dan, _) = count(common::CAMERA, 1);
-        let (ana, ana_frames) = count("cam2", 102);
-        assert!(ana_frames > 500, "{ana_frames} frames of Ana");
-        (dan, ana)
+        dan_and_ana_named(&out, 0.0, 500)
     };
     assert_eq!(named(&config), (0, 0));
     // Without the pass over all cameras' assignments, the name goes back and forth.
@@ -2212,6 +2197,88 @@ fn a_name_that_fits_two_tracks_far_apart_equally_stays_off_both() {
         dan + ana > 100,
         "named {dan} + {ana} frames without the pass"
     );
+}
+
+/// Frames of Dan (first camera, track 1) and Ana (second camera, track 102) that carry a name
+/// from `from_s` to 20 s; Ana must have more than `min_ana_frames` frames there.
+fn dan_and_ana_named(out: &[Message], from_s: f64, min_ana_frames: usize) -> (usize, usize) {
+    let count = |camera: &str, track: u64| {
+        let labels = labels_of(out, camera, track, from_s, 20.0);
+        (labels.iter().filter(|l| l.is_some()).count(), labels.len())
+    };
+    let (dan, _) = count(common::CAMERA, 1);
+    let (ana, ana_frames) = count("cam2", 102);
+    assert!(ana_frames > min_ana_frames, "{ana_frames} frames of Ana");
+    (dan, ana)
+}
+
+/// Ana (band) on track 2 and Dan (nothing, 1.5 m away) on track 1, moving exactly like her:
+/// nothing in their motion tells them apart.
+fn ana_and_her_exact_look_alike() -> Vec<Person> {
+    let mut people = ana_and_her_look_alike(1.5);
+    let ana = people[0].clone();
+    for person in &mut people {
+        person.track = 3 - person.track;
+    }
+    if let Some(dan) = people.get_mut(1) {
+        dan.freq_hz = ana.freq_hz;
+        dan.phase_rad = ana.phase_rad;
+        dan.mod_hz = ana.mod_hz;
+    }
+    people
+}
+
+#[test]
+fn cameras_that_see_one_person_leave_a_tie_to_their_own_assignments_in_a_room_of_wearers() {
+    // As in `a_name_that_fits_two_tracks_far_apart_equally_stays_off_both`, Ana (band, second camera only) and Dan (first camera only, 1.5 m away, moving
+    // exactly like her) tie for her name; Cid, with a band of his own, walks 3 m further on
+    // and both cameras see him, so the two cameras watch one area.
+    let mut people = ana_and_her_exact_look_alike();
+    people.push(Person {
+        y_m: 4.5,
+        ..Person::new(Some("cid"), 1.3, 0.7, 3)
+    });
+    let (registry, msgs) =
+        with_second_camera_tracks(&people, &recording(&people, 20.0), |_, _, track| {
+            TrackId(100 + track.0)
+        });
+    let msgs: Vec<Message> = msgs
+        .into_iter()
+        .filter(|m| match m {
+            Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => {
+                s.track == TrackId(1) || s.track == TrackId(3)
+            }
+            Message::Skeleton(s) => s.track == TrackId(102) || s.track == TrackId(103),
+            _ => true,
+        })
+        .collect();
+    let config = EngineConfig {
+        open_set_min_score: 0.0,
+        ..known_offsets()
+    };
+    // Frames of (Dan, Ana) named from 5 s on (the room is counted by then).
+    let named = |registry: &Registry, config: &EngineConfig| {
+        let (out, _) = run_batch(registry, &msgs, config).unwrap();
+        dan_and_ana_named(&out, 5.0, 300)
+    };
+    // Dan wears nothing and the room counts three people for two wearers: the pass applies
+    // between every pair of cameras.
+    assert_eq!(named(&registry, &config), (0, 0));
+    // Registered without wearables, Dan may be anyone in view: the room holds nobody who is
+    // known to wear nothing, and the cameras' own assignments keep their names.
+    let mut closed = registry.clone();
+    closed.subjects.push(Subject {
+        id: SubjectId::new("dan"),
+        name: None,
+        wears: Vec::new(),
+    });
+    let (dan, ana) = named(&closed, &config);
+    assert!(dan + ana > 100, "named {dan} + {ana} frames");
+    let everywhere = EngineConfig {
+        camera_exclusion_in_shared_view: true,
+        ..config
+    };
+    assert_eq!(named(&closed, &everywhere), (0, 0));
 }
 
 #[test]

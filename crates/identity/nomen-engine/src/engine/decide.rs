@@ -9,7 +9,7 @@ use super::{
 };
 use nomen_assign::{AssignConfig, CostMatrix, Objective, RowDecision, solve};
 use nomen_core::{DecisionRule, TrackId};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// People are counted this long before a decision's window end (its frames are settled), ns.
 const PRESENT_NS: i64 = 500_000_000;
@@ -280,7 +280,7 @@ impl Engine {
                 held_back,
             });
         }
-        self.keep_each_name_in_one_place(&mut decisions, &distance);
+        self.keep_each_name_in_one_place(&mut decisions, &partners, &distance);
         let is_warming_up = self.is_warming_up(end);
         for CameraDecision {
             keys,
@@ -483,10 +483,15 @@ impl Engine {
     /// below it goes anonymous ([`DecisionRule::HeldFarAway`]). Holders within the tie of each
     /// other all go anonymous: the evidence cannot tell which is the subject, and most often
     /// neither is. The rows' own gate sees only the labels of earlier decisions; this pass covers
-    /// a name that two cameras give at once, as at the first decisions of a session.
+    /// a name that two cameras give at once, as at the first decisions of a session. Two
+    /// cameras that see one person at once (`partners`) are left out of it while all cameras
+    /// with tracks are linked that way and the room is not known to hold people who wear
+    /// nothing
+    /// ([`EngineConfig::camera_exclusion_in_shared_view`](crate::EngineConfig::camera_exclusion_in_shared_view)).
     fn keep_each_name_in_one_place(
         &self,
         decisions: &mut [CameraDecision],
+        partners: &BTreeMap<TrackKey, Vec<TrackKey>>,
         distance: &BTreeMap<(TrackKey, TrackKey), f64>,
     ) {
         let far_m = self.config.camera_exclusion_distance_m;
@@ -494,6 +499,24 @@ impl Engine {
         let tie = self.config.camera_exclusion_tie;
         if far_m <= 0.0 || margin < 0.0 || tie < 0.0 {
             return;
+        }
+        // Two cameras that see one person at once watch one area. While the cameras with
+        // tracks make one area and everyone in view may be a wearer, the pass leaves holders
+        // within it to each camera's own assignment
+        // (`EngineConfig::camera_exclusion_in_shared_view`).
+        let mut shared: BTreeSet<(usize, usize)> = BTreeSet::new();
+        if !self.config.camera_exclusion_in_shared_view && !self.is_open_set {
+            shared = partners
+                .iter()
+                .flat_map(|(a, list)| list.iter().map(move |b| (a.0, b.0)))
+                .collect();
+            let cameras: Vec<usize> = decisions
+                .iter()
+                .filter_map(|d| Some(d.keys.first()?.0))
+                .collect();
+            if !is_one_area(&cameras, &shared) {
+                shared.clear();
+            }
         }
         // Every holder of each subject: (its score, camera decision, row).
         let mut holders: BTreeMap<usize, Vec<(f64, usize, usize)>> = BTreeMap::new();
@@ -522,9 +545,10 @@ impl Engine {
                 let far: Vec<&(f64, TrackKey, usize, usize)> = kept
                     .iter()
                     .filter(|(_, other, _, _)| {
-                        distance
-                            .get(&(key, *other))
-                            .is_some_and(|&apart_m| apart_m > far_m)
+                        !shared.contains(&(key.0, other.0))
+                            && distance
+                                .get(&(key, *other))
+                                .is_some_and(|&apart_m| apart_m > far_m)
                     })
                     .collect();
                 let tied: Vec<(usize, usize)> = far
@@ -811,4 +835,22 @@ pub(super) struct CameraPairs {
     /// The mean torso distance (m) of every pair of active tracks of different cameras with
     /// enough common frames to be compared, both ways round.
     pub(super) distance: BTreeMap<(TrackKey, TrackKey), f64>,
+}
+
+/// Whether `cameras` are all linked by `shared` pairs (directly or through each other).
+fn is_one_area(cameras: &[usize], shared: &BTreeSet<(usize, usize)>) -> bool {
+    let Some(&first) = cameras.first() else {
+        return true;
+    };
+    let mut reached = vec![first];
+    let mut frontier = vec![first];
+    while let Some(c) = frontier.pop() {
+        for &(_, b) in shared.range((c, 0)..=(c, usize::MAX)) {
+            if cameras.contains(&b) && !reached.contains(&b) {
+                reached.push(b);
+                frontier.push(b);
+            }
+        }
+    }
+    cameras.iter().all(|c| reached.contains(c))
 }
