@@ -767,10 +767,10 @@ pub struct EngineConfig {
     /// way (they watch one area) and the room is not known to hold people who wear nothing
     /// ([`EngineConfig::open_set_min_name_probability`]). Default false: each camera's
     /// assignment has already weighed the people it sees, and where every person in one area
-    /// may be a wearer, the pass unnames right names without fewer wrong ones. In a room of
-    /// several areas (a crowd in tiles), where the count of people in view cannot tell an open
-    /// room, and in a room that holds people who wear nothing, the pass applies between every
-    /// pair of cameras. `scenarios/families/sweep.sh camera_exclusion_in_shared_view true false
+    /// may be a wearer, the pass unnames right names for few or no wrong ones (below). In a
+    /// room of several areas (a crowd in tiles), where the count of people in view cannot tell
+    /// an open room, and in a room that holds people who wear nothing, the pass applies between
+    /// every pair of cameras. `scenarios/families/sweep.sh camera_exclusion_in_shared_view true false
     /// -- --count 4` (validation), frames correct / wrong names at true and false: 8 wrist IMUs
     /// 93.94 / 2.98 and 95.37 / 2.92 %; full networks 98.56 / 0.32 and 98.82 / 0.40 %; every
     /// other family unchanged.
