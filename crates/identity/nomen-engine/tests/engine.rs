@@ -2230,9 +2230,10 @@ fn ana_and_her_exact_look_alike() -> Vec<Person> {
 
 #[test]
 fn cameras_that_see_one_person_leave_a_tie_to_their_own_assignments_in_a_room_of_wearers() {
-    // As in `a_name_that_fits_two_tracks_far_apart_equally_stays_off_both`, Ana (band, second camera only) and Dan (first camera only, 1.5 m away, moving
-    // exactly like her) tie for her name; Cid, with a band of his own, walks 3 m further on
-    // and both cameras see him, so the two cameras watch one area.
+    // As in `a_name_that_fits_two_tracks_far_apart_equally_stays_off_both`, Ana (band, second
+    // camera only) and Dan (first camera only, 1.5 m away, moving exactly like her) tie for her
+    // name; Cid, with a band of his own, walks 3 m further on and both cameras see him, so the
+    // two cameras watch one area.
     let mut people = ana_and_her_exact_look_alike();
     people.push(Person {
         y_m: 4.5,
