@@ -2102,16 +2102,18 @@ fn a_track_keeps_a_view_that_ended_and_takes_the_name_of_the_track_continuing_it
 /// (track 1) and the second camera only the second (track 102).
 fn each_seen_by_one_camera(people: &[Person], duration_s: f64) -> (Registry, Vec<Message>) {
     let (registry, msgs) = with_second_camera(people, &recording(people, duration_s));
-    (registry, first_on_one_camera_second_on_the_other(msgs))
+    (registry, only_tracks(msgs, &[1], &[102]))
 }
 
-/// `msgs` without the skeletons of the first camera's tracks other than 1 and of `cam2`'s other
-/// than 102.
-fn first_on_one_camera_second_on_the_other(msgs: Vec<Message>) -> Vec<Message> {
+/// `msgs` with only the skeletons of the first camera's tracks in `first` and of `cam2`'s in
+/// `second`.
+fn only_tracks(msgs: Vec<Message>, first: &[u64], second: &[u64]) -> Vec<Message> {
     msgs.into_iter()
         .filter(|m| match m {
-            Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => s.track == TrackId(1),
-            Message::Skeleton(s) => s.track == TrackId(102),
+            Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => {
+                first.contains(&s.track.0)
+            }
+            Message::Skeleton(s) => second.contains(&s.track.0),
             _ => true,
         })
         .collect()
@@ -2177,7 +2179,7 @@ fn a_name_that_fits_two_tracks_far_apart_equally_stays_off_both() {
         with_second_camera_tracks(&people, &recording(&people, 20.0), |_, _, track| {
             TrackId(100 + track.0)
         });
-    let msgs = first_on_one_camera_second_on_the_other(msgs);
+    let msgs = only_tracks(msgs, &[1], &[102]);
     let config = EngineConfig {
         open_set_min_score: 0.0,
         ..known_offsets()
@@ -2243,16 +2245,7 @@ fn cameras_that_see_one_person_leave_a_tie_to_their_own_assignments_in_a_room_of
         with_second_camera_tracks(&people, &recording(&people, 20.0), |_, _, track| {
             TrackId(100 + track.0)
         });
-    let msgs: Vec<Message> = msgs
-        .into_iter()
-        .filter(|m| match m {
-            Message::Skeleton(s) if s.camera.as_str() == common::CAMERA => {
-                s.track == TrackId(1) || s.track == TrackId(3)
-            }
-            Message::Skeleton(s) => s.track == TrackId(102) || s.track == TrackId(103),
-            _ => true,
-        })
-        .collect();
+    let msgs = only_tracks(msgs, &[1, 3], &[102, 103]);
     let config = EngineConfig {
         open_set_min_score: 0.0,
         ..known_offsets()
