@@ -585,6 +585,11 @@ struct TrackState {
     /// Mean model score per IMU (reported as the evidence behind a label).
     device_evidence: BTreeMap<usize, Accumulator>,
     label: Option<usize>,
+    /// The subject a location tag's or RSSI's evidence has named this track after with at
+    /// least [`EngineConfig::tag_min_name_probability`]: that name is sent again however little
+    /// it leads, any other such name only at that probability (a change of name needs a clear
+    /// lead).
+    confirmed_tag_name: Option<usize>,
     /// The rule behind `label` and the window end of that decision.
     decision: Decided,
     /// A subject whose move from this track to a coexisting one was held back (see
@@ -1508,6 +1513,7 @@ impl Engine {
                 rssi_pairs: BTreeMap::new(),
                 device_evidence: BTreeMap::new(),
                 label: None,
+                confirmed_tag_name: None,
                 decision: Decided {
                     rule: DecisionRule::NoEvidence,
                     end: t,
@@ -2078,20 +2084,19 @@ impl Engine {
         // A name less likely to be right than the run accepts goes out anonymous, with the
         // confidence of an anonymous frame whose best candidate is that subject.
         // The confidence map is fitted on motion evidence: a name that a tag's position or
-        // reads also support (their mean score clears the rejection threshold) keeps the run's
-        // own minimum.
-        let supports = |acc: Option<&Accumulator>| {
-            acc.is_some_and(|a| a.mean >= self.config.rejection_threshold)
-        };
-        let is_motion_only = name.is_some_and(|(s, _)| {
-            !supports(tr.tag_evidence.get(&s)) && !supports(tr.rssi_evidence.get(&s))
-        });
+        // reads also support keeps the run's own minimum if the track has carried it with a
+        // clear lead before, and needs `tag_min_name_probability` if not.
+        let is_motion_only = name.is_some_and(|(s, _)| !self.is_tag_supported(tr, s));
         let min_probability = if self.is_open_set && is_motion_only {
             self.config
                 .min_name_probability
                 .max(self.config.open_set_min_name_probability)
-        } else {
+        } else if is_motion_only || name.map(|(s, _)| s) == tr.confirmed_tag_name {
             self.config.min_name_probability
+        } else {
+            self.config
+                .min_name_probability
+                .max(self.config.tag_min_name_probability)
         };
         // In a room known to hold people who wear nothing, a name that fits poorly is withheld
         // too, however it leads (`open_set_min_score`).
@@ -2150,6 +2155,26 @@ impl Engine {
             runner_up: runner_up.and_then(candidate),
         };
         (identity, confidence, evidence, Some(decision))
+    }
+
+    /// Whether a location tag's or RSSI's evidence supports naming the track after subject `s`
+    /// (its mean score clears [`EngineConfig::rejection_threshold`]).
+    fn is_tag_supported(&self, tr: &TrackState, s: usize) -> bool {
+        let supports = |acc: Option<&Accumulator>| {
+            acc.is_some_and(|a| a.mean >= self.config.rejection_threshold)
+        };
+        supports(tr.tag_evidence.get(&s)) || supports(tr.rssi_evidence.get(&s))
+    }
+
+    /// The calibrated probability that naming the track after subject `s` is right, from its
+    /// latest scores: `s`'s lead over the best other subject, mapped by the confidence map.
+    fn name_probability(&self, tr: &TrackState, s: usize) -> f64 {
+        let Some(&score) = tr.subject_scores.get(&s) else {
+            return 0.0;
+        };
+        let runner_up = best_of(&tr.subject_scores, Some(s)).map_or(0.0, |(_, v)| v.max(0.0));
+        self.confidence_map
+            .apply(true, (score - runner_up).clamp(0.0, 1.0))
     }
 
     /// Drops samples no later window can use and tracks that went away.

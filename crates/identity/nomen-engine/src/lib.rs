@@ -222,6 +222,10 @@
 //!    paired with a wrongly named view stays anonymous.
 //!    Where the name is sent, one last rule: a name whose calibrated probability of being
 //!    right is below [`EngineConfig::min_name_probability`] goes out anonymous (`improbable`).
+//!    A name that a location tag's or RSSI's evidence supports needs
+//!    [`EngineConfig::tag_min_name_probability`] (0.5) the first time its track carries it;
+//!    from then on the track keeps it however little it leads, and only a change of name
+//!    needs the clear lead again (two tagged people walking side by side keep their names).
 //!    Once the room is known to hold people who wear nothing, the minimum is
 //!    [`EngineConfig::open_set_min_name_probability`] (0.5) instead: at each decision the
 //!    engine counts the people in view (every camera's tracks at one time, two cameras'

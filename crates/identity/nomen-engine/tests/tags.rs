@@ -392,7 +392,8 @@ fn rssi_reads_are_checked_and_taken_without_a_calibrated_model() {
 fn two_tagged_walkers_who_pass_a_fifth_of_a_metre_apart_keep_their_names() {
     // Ana and Ben walk lines 0.2 m apart, Ben a little slower: Ana catches up with him and the
     // two walk side by side for seconds, their fixes fitting both alike, before she leaves him
-    // behind.
+    // behind. Each track keeps the name it carried with a clear lead, however thin the lead
+    // becomes.
     let mut walkers = three_walkers();
     walkers[1].y_m = 1.2;
     walkers[1].speed_mps = 1.1;
@@ -400,6 +401,27 @@ fn two_tagged_walkers_who_pass_a_fifth_of_a_metre_apart_keep_their_names() {
     let (out, stats) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
     let acc = accuracy(&walkers, &out, 1.0);
     assert!(acc > 0.98, "accuracy {acc}, stats {stats:?}");
+}
+
+#[test]
+fn a_tag_name_is_sent_only_once_it_has_led_clearly() {
+    // Where no lead is clear enough (a minimum probability of 1), no track ever confirms a tag
+    // name, and the tagged walkers the default names stay anonymous: a name the tags alone give
+    // is sent only after it has led with the probability the configuration asks for.
+    let walkers = three_walkers();
+    let msgs = recording(&walkers, 20.0);
+    let (out, _) = run_batch(&registry(&walkers), &msgs, &EngineConfig::default()).unwrap();
+    assert!(accuracy(&walkers[..2], &out, 1.0) > 0.99);
+    let strict = EngineConfig {
+        tag_min_name_probability: 1.0,
+        ..EngineConfig::default()
+    };
+    let (out, _) = run_batch(&registry(&walkers), &msgs, &strict).unwrap();
+    let named = out
+        .iter()
+        .filter(|m| matches!(m, Message::Identified(id) if id.identity.subject().is_some()))
+        .count();
+    assert_eq!(named, 0);
 }
 
 /// Outputs as comparable values: identified frames (time, track, identity, confidence) and

@@ -77,8 +77,10 @@ pub enum DecisionRule {
     NoEvidence,
     /// Anonymous: a rule gave a name whose calibrated probability of being right is below the
     /// run's minimum (the engine's `min_name_probability`, or `open_set_min_name_probability`
-    /// where more people were seen than subjects whose wearables stream), or there a name
-    /// resting on motion whose score is below the engine's `open_set_min_score`.
+    /// where more people were seen than subjects whose wearables stream, or
+    /// `tag_min_name_probability` for a name a location tag or RSSI supports that the track
+    /// has not carried with that probability before), or a name resting on motion whose score
+    /// is below the engine's `open_set_min_score` where more people were seen.
     Improbable,
 }
 

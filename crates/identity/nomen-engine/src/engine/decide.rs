@@ -291,6 +291,18 @@ impl Engine {
         } in decisions
         {
             self.note_exclusions(&keys, &spans, &labels);
+            // Names a tag's evidence gives with a clear lead (see `confirmed_tag_name`).
+            let is_confirmed: Vec<bool> = keys
+                .iter()
+                .zip(&labels)
+                .map(|(key, label)| {
+                    let Some((tr, s)) = self.tracks.get(key).zip(*label) else {
+                        return false;
+                    };
+                    self.is_tag_supported(tr, s)
+                        && self.name_probability(tr, s) >= self.config.tag_min_name_probability
+                })
+                .collect();
             for (q, ((key, new_label), rule)) in keys.iter().zip(labels).zip(rules).enumerate() {
                 // Final for the warm-up: named after someone whose clock is known, or anonymous
                 // for another reason than a name withheld for unknown clocks.
@@ -303,6 +315,11 @@ impl Engine {
                 };
                 if tr.label.is_some() && new_label.is_some() && tr.label != new_label {
                     self.stats.num_label_switches += 1;
+                }
+                if let Some(s) = new_label
+                    && is_confirmed.get(q).copied().unwrap_or(false)
+                {
+                    tr.confirmed_tag_name = Some(s);
                 }
                 tr.label = new_label;
                 tr.decision = Decided { rule, end };

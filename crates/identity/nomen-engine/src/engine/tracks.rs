@@ -607,6 +607,7 @@ pub(super) fn exchange_people(a: &mut TrackState, b: &mut TrackState) {
     std::mem::swap(&mut a.rssi_pairs, &mut b.rssi_pairs);
     std::mem::swap(&mut a.device_evidence, &mut b.device_evidence);
     std::mem::swap(&mut a.label, &mut b.label);
+    std::mem::swap(&mut a.confirmed_tag_name, &mut b.confirmed_tag_name);
     std::mem::swap(&mut a.subject_scores, &mut b.subject_scores);
     std::mem::swap(&mut a.settled_t, &mut b.settled_t);
     std::mem::swap(&mut a.settled_anchor_world_m, &mut b.settled_anchor_world_m);
