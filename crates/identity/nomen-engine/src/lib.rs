@@ -40,8 +40,9 @@
 //!
 //! A new camera track may continue an ended track of the same camera (stitching) and then
 //! inherits its evidence and label, the motion evidence at
-//! [`EngineConfig::stitch_evidence_weight`] of its weight (the stitch may have picked the wrong
-//! one of two people who were close). The choice is made at the first window end after the new
+//! [`EngineConfig::stitch_evidence_weight`] of its weight and the location-tag evidence at
+//! [`EngineConfig::stitch_tag_evidence_weight`] (the stitch may have picked the wrong one of
+//! two people who were close). The choice is made at the first window end after the new
 //! track's first frame, from settled observations only: when another camera follows the new
 //! track's person, the predecessor is the ended track that this view followed when it ended
 //! ([`EngineConfig::stitch_across_cameras`]); otherwise the ended track (within

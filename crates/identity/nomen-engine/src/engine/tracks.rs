@@ -65,7 +65,10 @@ impl Engine {
             for acc in evidence.values_mut() {
                 acc.weight *= self.config.stitch_evidence_weight;
             }
-            let tag_evidence = old.tag_evidence.clone();
+            let mut tag_evidence = old.tag_evidence.clone();
+            for acc in tag_evidence.values_mut() {
+                acc.weight *= self.config.stitch_tag_evidence_weight;
+            }
             let rssi_evidence = old.rssi_evidence.clone();
             let rssi_pairs = old.rssi_pairs.clone();
             let device_evidence = old.device_evidence.clone();
