@@ -2071,8 +2071,7 @@ impl Engine {
                     .subjects
                     .get(s)
                     .map_or(Identity::Anonymous, |id| Identity::Subject(id.clone()));
-                let lead = score - runner_up.map_or(0.0, |(_, v)| v.max(0.0));
-                (id, lead.clamp(0.0, 1.0), Some(s))
+                (id, lead_over_runner_up(tr, s, score), Some(s))
             }
             (None, Some((s, score))) => {
                 (Identity::Anonymous, (1.0 - score).clamp(0.0, 1.0), Some(s))
@@ -2169,12 +2168,10 @@ impl Engine {
     /// The calibrated probability that naming the track after subject `s` is right, from its
     /// latest scores: `s`'s lead over the best other subject, mapped by the confidence map.
     fn name_probability(&self, tr: &TrackState, s: usize) -> f64 {
-        let Some(&score) = tr.subject_scores.get(&s) else {
-            return 0.0;
-        };
-        let runner_up = best_of(&tr.subject_scores, Some(s)).map_or(0.0, |(_, v)| v.max(0.0));
-        self.confidence_map
-            .apply(true, (score - runner_up).clamp(0.0, 1.0))
+        tr.subject_scores.get(&s).map_or(0.0, |&score| {
+            self.confidence_map
+                .apply(true, lead_over_runner_up(tr, s, score))
+        })
     }
 
     /// Drops samples no later window can use and tracks that went away.
@@ -2584,6 +2581,13 @@ fn accumulate_weighted(acc: &mut Accumulator, score: f64, weight: f64, decay_per
         acc.mean = (acc.mean * w + score * weight) / (w + weight);
     }
     acc.weight = w + weight;
+}
+
+/// How far `score` for subject `s` leads the track's best other subject (a negative score
+/// counting as 0), clamped to `0..=1`: the raw confidence of naming the track after `s`.
+fn lead_over_runner_up(tr: &TrackState, s: usize, score: f64) -> f64 {
+    let runner_up = best_of(&tr.subject_scores, Some(s)).map_or(0.0, |(_, v)| v.max(0.0));
+    (score - runner_up).clamp(0.0, 1.0)
 }
 
 /// A track: its camera's index and its id.
