@@ -1545,6 +1545,20 @@ fn out_of_range_offset_thresholds_are_refused_by_name() {
             },
         ),
         (
+            "tag_min_name_probability",
+            EngineConfig {
+                tag_min_name_probability: 1.5,
+                ..EngineConfig::default()
+            },
+        ),
+        (
+            "stitch_tag_evidence_weight",
+            EngineConfig {
+                stitch_tag_evidence_weight: f64::NAN,
+                ..EngineConfig::default()
+            },
+        ),
+        (
             "unsynced_switch_margin",
             EngineConfig {
                 unsynced_switch_margin: -0.1,
